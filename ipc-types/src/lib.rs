@@ -1,0 +1,157 @@
+//! Every type that crosses a process boundary between the haptic loop and the planner.
+//!
+//! # Conventions (they hold for every type in this crate)
+//!
+//! - Units are SI: metres, newtons, newton-metres, seconds, radians. Field names carry
+//!   the unit (`_m`, `_n`, `_nm`, `_ns`, ...) where it is not obvious.
+//! - Timestamps are `CLOCK_MONOTONIC` nanoseconds of the host. Both processes run on the
+//!   same host (iceoryx2 is host-local), so their timestamps are directly comparable.
+//! - **Quaternions are stored as `[x, y, z, w]`** (vector part first, scalar last), the
+//!   order nalgebra uses internally. This is the only place the order is stated.
+//! - The *scene frame* is right-handed with Z up; scene geometry is in metres.
+//!   The *device frame* is the base frame of the haptic device as its driver reports it,
+//!   also converted to metres.
+//! - Modes and faults are `u32` codes with named constants ([`FaultCode`],
+//!   [`ContactCode`], [`GuidanceMode`]): another process can write any bit pattern into
+//!   shared memory, and every bit pattern of a `u32` is a valid value, whereas an invalid
+//!   Rust `enum` or `bool` would be undefined behaviour. Receivers treat unknown codes as
+//!   faults.
+//! - Every type is `#[repr(C)]`, fixed size, built from fixed-width numbers and arrays,
+//!   and carries a versioned iceoryx2 type name. Sizes are asserted at compile time so a
+//!   layout change cannot go unnoticed.
+
+#![warn(missing_docs)]
+
+mod codes;
+mod guidance;
+mod path;
+pub mod services;
+mod state;
+
+pub use codes::{ContactCode, FaultCode, GuidanceFreshness, GuidanceMode};
+pub use guidance::{Guidance, GuidanceError};
+pub use path::{PATH_CAPACITY, Path};
+pub use state::HapticState;
+
+use iceoryx2::prelude::ZeroCopySend;
+
+/// A rigid pose: position and orientation.
+///
+/// The frame is stated by the field that holds it.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[type_name("hrrtc::Pose.v1")]
+pub struct Pose {
+    /// Position in metres.
+    pub position_m: [f64; 3],
+    /// Orientation as a unit quaternion, `[x, y, z, w]`.
+    pub orientation_xyzw: [f64; 4],
+}
+
+impl Pose {
+    /// The identity pose: origin, no rotation.
+    pub const IDENTITY: Self = Self {
+        position_m: [0.0; 3],
+        orientation_xyzw: [0.0, 0.0, 0.0, 1.0],
+    };
+
+    /// True when every component is finite and the quaternion has unit norm within 1e-6.
+    pub fn is_valid(&self) -> bool {
+        let finite = self.position_m.iter().all(|v| v.is_finite())
+            && self.orientation_xyzw.iter().all(|v| v.is_finite());
+        let norm2: f64 = self.orientation_xyzw.iter().map(|v| v * v).sum();
+        finite && (norm2 - 1.0).abs() < 1e-6
+    }
+}
+
+impl Default for Pose {
+    fn default() -> Self {
+        Self::IDENTITY
+    }
+}
+
+/// A force and a torque.
+///
+/// The frame and the reference point of the torque are stated by the field that holds it.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
+#[type_name("hrrtc::Wrench.v1")]
+pub struct Wrench {
+    /// Force in newtons.
+    pub force_n: [f64; 3],
+    /// Torque in newton-metres.
+    pub torque_nm: [f64; 3],
+}
+
+impl Wrench {
+    /// No force, no torque.
+    pub const ZERO: Self = Self {
+        force_n: [0.0; 3],
+        torque_nm: [0.0; 3],
+    };
+
+    /// True when all six components are finite.
+    pub fn is_finite(&self) -> bool {
+        self.force_n
+            .iter()
+            .chain(&self.torque_nm)
+            .all(|v| v.is_finite())
+    }
+}
+
+/// A linear and an angular velocity.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
+#[type_name("hrrtc::Twist.v1")]
+pub struct Twist {
+    /// Linear velocity in m/s.
+    pub linear_m_s: [f64; 3],
+    /// Angular velocity in rad/s.
+    pub angular_rad_s: [f64; 3],
+}
+
+/// Header of every message: who wrote it and when.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ZeroCopySend)]
+#[type_name("hrrtc::Header.v1")]
+pub struct Header {
+    /// Increments by one per message from one writer. Starts at 1; 0 means "never written".
+    pub sequence: u64,
+    /// `CLOCK_MONOTONIC` time the message was written, ns.
+    pub timestamp_ns: u64,
+    /// Process id of the writer, so a reader can tell a restarted writer apart.
+    pub writer_pid: u32,
+    /// Reserved, zero. Keeps the header 8-byte aligned.
+    pub reserved: u32,
+}
+
+const _: () = {
+    assert!(core::mem::size_of::<Pose>() == 56);
+    assert!(core::mem::size_of::<Wrench>() == 48);
+    assert!(core::mem::size_of::<Twist>() == 48);
+    assert!(core::mem::size_of::<Header>() == 24);
+};
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn identity_pose_is_valid_and_nan_is_not() {
+        assert!(Pose::IDENTITY.is_valid());
+        let mut p = Pose::IDENTITY;
+        p.position_m[1] = f64::NAN;
+        assert!(!p.is_valid());
+        let mut q = Pose::IDENTITY;
+        q.orientation_xyzw = [0.0, 0.0, 0.0, 2.0];
+        assert!(!q.is_valid());
+    }
+
+    #[test]
+    fn wrench_finiteness() {
+        assert!(Wrench::ZERO.is_finite());
+        let mut w = Wrench::ZERO;
+        w.torque_nm[2] = f64::INFINITY;
+        assert!(!w.is_finite());
+    }
+}

@@ -1,0 +1,207 @@
+//! The monotonic clock, absolute-deadline sleeping and real-time thread set-up.
+//!
+//! Only `clock_gettime` and `clock_nanosleep` run per tick; the set-up functions run once
+//! on the RT thread before its first tick.
+
+use std::fmt;
+
+/// `CLOCK_MONOTONIC` now, ns.
+#[inline]
+pub fn monotonic_ns() -> u64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid, writable timespec; CLOCK_MONOTONIC always exists on Linux.
+    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
+    ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
+}
+
+/// Sleeps until `CLOCK_MONOTONIC` reaches `deadline_ns` (absolute, so no drift
+/// accumulates), then spins for the last `spin_ns` if non-zero. Returns the wake-up time.
+#[inline]
+pub fn sleep_until(deadline_ns: u64, spin_ns: u64) -> u64 {
+    let sleep_to = deadline_ns.saturating_sub(spin_ns);
+    let ts = libc::timespec {
+        tv_sec: (sleep_to / 1_000_000_000) as libc::time_t,
+        tv_nsec: (sleep_to % 1_000_000_000) as libc::c_long,
+    };
+    loop {
+        // SAFETY: `ts` is a valid timespec; a null remainder is allowed with TIMER_ABSTIME.
+        let rc = unsafe {
+            libc::clock_nanosleep(
+                libc::CLOCK_MONOTONIC,
+                libc::TIMER_ABSTIME,
+                &ts,
+                std::ptr::null_mut(),
+            )
+        };
+        // EINTR: a signal interrupted the sleep; the absolute deadline is unchanged.
+        if rc != libc::EINTR {
+            break;
+        }
+    }
+    let mut now = monotonic_ns();
+    while now < deadline_ns {
+        std::hint::spin_loop();
+        now = monotonic_ns();
+    }
+    now
+}
+
+/// What [`setup_current_thread`] managed to do; each failure is reported once, then the loop
+/// runs anyway (a desktop without RT permissions still gets a working, if jittery, loop).
+#[derive(Debug, Clone, Default)]
+pub struct RtSetupReport {
+    /// SCHED_FIFO at the requested priority is active.
+    pub fifo: bool,
+    /// The thread is pinned to the requested CPU.
+    pub pinned: bool,
+    /// `mlockall(MCL_CURRENT | MCL_FUTURE)` succeeded.
+    pub memory_locked: bool,
+    /// One line per thing that could not be done, with the reason.
+    pub warnings: Vec<String>,
+}
+
+impl fmt::Display for RtSetupReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "SCHED_FIFO: {}, pinned: {}, memory locked: {}",
+            yes_no(self.fifo),
+            yes_no(self.pinned),
+            yes_no(self.memory_locked)
+        )
+    }
+}
+
+fn yes_no(b: bool) -> &'static str {
+    if b { "yes" } else { "no" }
+}
+
+/// Real-time options for the RT thread.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RtOptions {
+    /// SCHED_FIFO priority 1–99; `None` keeps the normal scheduler.
+    pub fifo_priority: Option<u8>,
+    /// CPU to pin the thread to; `None` leaves affinity alone.
+    pub cpu: Option<usize>,
+    /// Lock all current and future pages in RAM so no page fault stalls a tick.
+    pub lock_memory: bool,
+}
+
+impl Default for RtOptions {
+    fn default() -> Self {
+        Self {
+            fifo_priority: Some(80),
+            cpu: None,
+            lock_memory: true,
+        }
+    }
+}
+
+/// Applies `opts` to the calling thread. Never fails: what cannot be done is listed in the
+/// report's warnings (typically "Operation not permitted" without `CAP_SYS_NICE` /
+/// `rtprio` limits; see README "Real-time permissions").
+pub fn setup_current_thread(opts: &RtOptions) -> RtSetupReport {
+    let mut report = RtSetupReport::default();
+    if let Some(prio) = opts.fifo_priority {
+        use thread_priority::{
+            RealtimeThreadSchedulePolicy, ThreadPriority, ThreadPriorityValue,
+            ThreadSchedulePolicy, set_thread_priority_and_policy, thread_native_id,
+        };
+        match ThreadPriorityValue::try_from(prio) {
+            Ok(value) => match set_thread_priority_and_policy(
+                thread_native_id(),
+                ThreadPriority::Crossplatform(value),
+                ThreadSchedulePolicy::Realtime(RealtimeThreadSchedulePolicy::Fifo),
+            ) {
+                Ok(()) => report.fifo = true,
+                Err(e) => report.warnings.push(format!(
+                    "SCHED_FIFO priority {prio} not permitted ({e:?}); running with the normal scheduler"
+                )),
+            },
+            Err(e) => report
+                .warnings
+                .push(format!("invalid SCHED_FIFO priority {prio}: {e}")),
+        }
+    }
+    if let Some(cpu) = opts.cpu {
+        match pin_to_cpu(cpu) {
+            Ok(()) => report.pinned = true,
+            Err(e) => report
+                .warnings
+                .push(format!("cannot pin to CPU {cpu}: {e}")),
+        }
+    }
+    if opts.lock_memory {
+        // SAFETY: mlockall has no memory-safety preconditions.
+        let rc = unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) };
+        if rc == 0 {
+            report.memory_locked = true;
+        } else {
+            report.warnings.push(format!(
+                "mlockall failed ({}); page faults may stall ticks",
+                std::io::Error::last_os_error()
+            ));
+        }
+    }
+    report
+}
+
+fn pin_to_cpu(cpu: usize) -> std::io::Result<()> {
+    // SAFETY: cpu_set_t is plain data; zeroed is its empty set.
+    let mut set: libc::cpu_set_t = unsafe { std::mem::zeroed() };
+    if cpu >= libc::CPU_SETSIZE as usize {
+        return Err(std::io::Error::other(format!(
+            "CPU index {cpu} out of range"
+        )));
+    }
+    // SAFETY: `cpu` is below CPU_SETSIZE, checked above.
+    unsafe { libc::CPU_SET(cpu, &mut set) };
+    // SAFETY: `set` is a valid cpu_set_t of the size passed; pid 0 is the calling thread.
+    let rc = unsafe { libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set) };
+    if rc == 0 {
+        Ok(())
+    } else {
+        Err(std::io::Error::last_os_error())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sleep_until_never_wakes_early() {
+        for _ in 0..20 {
+            let deadline = monotonic_ns() + 200_000;
+            let woke = sleep_until(deadline, 0);
+            assert!(woke >= deadline, "woke {} ns early", deadline - woke);
+        }
+    }
+
+    #[test]
+    fn spin_reaches_the_deadline() {
+        let deadline = monotonic_ns() + 300_000;
+        let woke = sleep_until(deadline, 100_000);
+        assert!(woke >= deadline);
+    }
+
+    #[test]
+    fn setup_reports_instead_of_failing() {
+        let opts = RtOptions {
+            fifo_priority: Some(10),
+            cpu: Some(0),
+            lock_memory: false,
+        };
+        let r = setup_current_thread(&opts);
+        // Whether FIFO is permitted depends on the machine; either it worked or it said why.
+        assert!(r.fifo || r.warnings.iter().any(|w| w.contains("SCHED_FIFO")));
+        assert!(
+            r.pinned,
+            "pinning to CPU 0 is always permitted: {:?}",
+            r.warnings
+        );
+    }
+}

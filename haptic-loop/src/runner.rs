@@ -1,0 +1,288 @@
+//! The RT thread and its stats thread.
+//!
+//! The RT thread: set up (SCHED_FIFO, affinity, mlockall), then per period: sleep to the
+//! absolute deadline, [`Tick::step`], push a [`TickSample`] into the ring, account for missed
+//! deadlines. After set-up it allocates nothing, takes no lock, logs nothing; the counting
+//! allocator measures that on every run ([`LoopReport::rt_allocations`]).
+
+use crate::alloc_count;
+use crate::rt::{self, RtOptions, RtSetupReport};
+use crate::stats::{Percentiles, SecondSummary, TickSample, TimingHistograms};
+use crate::tick::{GuidanceSource, PrevTiming, StateSink, Tick};
+use devices::HapticDevice;
+use serde::Serialize;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+/// How the RT thread runs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunnerConfig {
+    /// Tick rate, Hz (500–4000).
+    pub rate_hz: f64,
+    /// Priority, affinity, memory locking.
+    pub rt: RtOptions,
+    /// Spin this long before each deadline instead of sleeping, ns (0 = pure sleep).
+    pub spin_ns: u64,
+    /// Stop after this many ticks (`None` = until stopped).
+    pub max_ticks: Option<u64>,
+}
+
+/// Counters the RT thread updates each tick, readable from any thread.
+#[derive(Debug, Default)]
+pub struct LiveCounters {
+    /// Ticks done.
+    pub ticks: AtomicU64,
+    /// Deadlines missed.
+    pub deadline_misses: AtomicU64,
+    /// Samples dropped because the stats ring was full.
+    pub dropped_samples: AtomicU64,
+    /// Set when the RT thread has left its loop.
+    pub finished: AtomicBool,
+}
+
+/// Final figures of a run.
+#[derive(Debug, Clone, Serialize)]
+pub struct LoopReport {
+    /// Ticks done.
+    pub ticks: u64,
+    /// Deadlines missed (a tick that ends after the next deadline misses it, and every
+    /// deadline it overran).
+    pub deadline_misses: u64,
+    /// Heap allocations made by the RT thread after set-up; `None` when the counting
+    /// allocator is not installed in this process.
+    pub rt_allocations: Option<u64>,
+    /// `rt_allocations / ticks`.
+    pub allocations_per_tick: Option<f64>,
+    /// Wake-up latency, µs.
+    pub wake_latency_us: Percentiles,
+    /// Compute time per tick, µs.
+    pub compute_us: Percentiles,
+    /// Period between wake-ups, µs.
+    pub period_us: Percentiles,
+    /// Guidance age at render time, µs.
+    pub guidance_age_us: Percentiles,
+    /// Samples the stats thread missed (they are still counted in `ticks`).
+    pub dropped_samples: u64,
+    /// SCHED_FIFO active.
+    pub fifo: bool,
+    /// Thread pinned.
+    pub pinned: bool,
+    /// Memory locked.
+    pub memory_locked: bool,
+    /// Guidance samples rejected as invalid.
+    pub guidance_rejected: u64,
+    /// Faults latched.
+    pub faults: u64,
+}
+
+/// A running loop.
+pub struct LoopHandle<D, G, S> {
+    stop: Arc<AtomicBool>,
+    counters: Arc<LiveCounters>,
+    rt: JoinHandle<(Tick<D, G, S>, RtSetupReport, Option<u64>)>,
+    stats: JoinHandle<TimingHistograms>,
+}
+
+impl<D, G, S> std::fmt::Debug for LoopHandle<D, G, S> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LoopHandle").finish_non_exhaustive()
+    }
+}
+
+const RING_CAPACITY: usize = 16_384;
+
+/// Starts the RT thread running `tick` and the stats thread calling `on_second` once per
+/// second of loop time (from the stats thread; it may log, allocate, lock).
+pub fn spawn<D, G, S>(
+    tick: Tick<D, G, S>,
+    config: RunnerConfig,
+    mut on_second: impl FnMut(&SecondSummary) + Send + 'static,
+) -> std::io::Result<LoopHandle<D, G, S>>
+where
+    D: HapticDevice + 'static,
+    G: GuidanceSource + Send + 'static,
+    S: StateSink + Send + 'static,
+{
+    let stop = Arc::new(AtomicBool::new(false));
+    let counters = Arc::new(LiveCounters::default());
+    let (producer, mut consumer) = rtrb::RingBuffer::<TickSample>::new(RING_CAPACITY);
+
+    let rt = {
+        let stop = stop.clone();
+        let counters = counters.clone();
+        std::thread::Builder::new()
+            .name("haptic-rt".into())
+            .spawn(move || rt_thread(tick, config, producer, &stop, &counters))?
+    };
+
+    let stats = {
+        let counters = counters.clone();
+        std::thread::Builder::new()
+            .name("haptic-stats".into())
+            .spawn(move || {
+                let mut total = TimingHistograms::default();
+                let mut window = TimingHistograms::default();
+                let start = std::time::Instant::now();
+                let mut next_report = 1.0;
+                loop {
+                    let done = counters.finished.load(Ordering::Acquire);
+                    while let Ok(s) = consumer.pop() {
+                        total.record(&s);
+                        window.record(&s);
+                    }
+                    let elapsed = start.elapsed().as_secs_f64();
+                    if elapsed >= next_report {
+                        let w = window.wake.percentiles_us();
+                        on_second(&SecondSummary {
+                            elapsed_s: elapsed,
+                            ticks: window.ticks,
+                            wake_p99_us: w.p99,
+                            wake_max_us: w.max,
+                            compute_p99_us: window.compute.percentiles_us().p99,
+                            deadline_misses_total: counters.deadline_misses.load(Ordering::Relaxed),
+                            dropped_samples_total: counters.dropped_samples.load(Ordering::Relaxed),
+                        });
+                        window.reset();
+                        next_report += 1.0;
+                    }
+                    if done {
+                        return total;
+                    }
+                    std::thread::sleep(Duration::from_millis(50));
+                }
+            })?
+    };
+
+    Ok(LoopHandle {
+        stop,
+        counters,
+        rt,
+        stats,
+    })
+}
+
+impl<D, G, S> LoopHandle<D, G, S> {
+    /// Live counters of the RT thread.
+    pub fn counters(&self) -> &LiveCounters {
+        &self.counters
+    }
+
+    /// Asks the RT thread to stop after its current tick.
+    pub fn request_stop(&self) {
+        self.stop.store(true, Ordering::Release);
+    }
+
+    /// True once the RT thread has left its loop (stopped or reached `max_ticks`).
+    pub fn is_finished(&self) -> bool {
+        self.counters.finished.load(Ordering::Acquire)
+    }
+
+    /// Stops the loop (if not already) and returns the tick state and the report.
+    pub fn join(self) -> (Tick<D, G, S>, LoopReport)
+    where
+        D: HapticDevice,
+        G: GuidanceSource,
+        S: StateSink,
+    {
+        self.request_stop();
+        let (tick, setup, allocations) = match self.rt.join() {
+            Ok(r) => r,
+            Err(p) => std::panic::resume_unwind(p),
+        };
+        let hist = match self.stats.join() {
+            Ok(h) => h,
+            Err(p) => std::panic::resume_unwind(p),
+        };
+        let ticks = self.counters.ticks.load(Ordering::Relaxed);
+        let report = LoopReport {
+            ticks,
+            deadline_misses: self.counters.deadline_misses.load(Ordering::Relaxed),
+            rt_allocations: allocations,
+            allocations_per_tick: allocations.map(|a| a as f64 / ticks.max(1) as f64),
+            wake_latency_us: hist.wake.percentiles_us(),
+            compute_us: hist.compute.percentiles_us(),
+            period_us: hist.period.percentiles_us(),
+            guidance_age_us: hist.guidance_age.percentiles_us(),
+            dropped_samples: self.counters.dropped_samples.load(Ordering::Relaxed),
+            fifo: setup.fifo,
+            pinned: setup.pinned,
+            memory_locked: setup.memory_locked,
+            guidance_rejected: tick.guidance_rejected(),
+            faults: tick.faults_total(),
+        };
+        (tick, report)
+    }
+}
+
+fn rt_thread<D, G, S>(
+    mut tick: Tick<D, G, S>,
+    config: RunnerConfig,
+    mut ring: rtrb::Producer<TickSample>,
+    stop: &AtomicBool,
+    counters: &LiveCounters,
+) -> (Tick<D, G, S>, RtSetupReport, Option<u64>)
+where
+    D: HapticDevice,
+    G: GuidanceSource,
+    S: StateSink,
+{
+    let setup = rt::setup_current_thread(&config.rt);
+    for w in &setup.warnings {
+        tracing::warn!("{w}");
+    }
+    let counting = alloc_count::is_installed();
+    let period_ns = (1e9 / config.rate_hz).round() as u64;
+    let max_ticks = config.max_ticks.unwrap_or(u64::MAX);
+
+    // From here on: no allocation, no lock, no logging.
+    let allocations_before = alloc_count::counted();
+    alloc_count::count_this_thread(true);
+    let mut deadline = rt::monotonic_ns() + period_ns;
+    let mut prev = PrevTiming::default();
+    let mut last_wake = 0u64;
+    let mut ticks = 0u64;
+    while ticks < max_ticks && !stop.load(Ordering::Acquire) {
+        let wake = rt::sleep_until(deadline, config.spin_ns);
+        tick.step(wake, prev);
+        let guidance_age_ns = tick.guidance_age_ns();
+        let end = rt::monotonic_ns();
+
+        let next = deadline + period_ns;
+        let missed = if end > next {
+            (end - next) / period_ns + 1
+        } else {
+            0
+        };
+        let sample = TickSample {
+            wake_latency_ns: wake - deadline,
+            compute_ns: end - wake,
+            period_ns: if last_wake == 0 { 0 } else { wake - last_wake },
+            guidance_age_ns,
+            missed,
+        };
+        if ring.push(sample).is_err() {
+            counters.dropped_samples.fetch_add(1, Ordering::Relaxed);
+        }
+        prev = PrevTiming {
+            wake_latency_ns: sample.wake_latency_ns,
+            compute_ns: sample.compute_ns,
+            period_ns: sample.period_ns,
+            deadline_misses: prev.deadline_misses + missed,
+        };
+        // Overran: skip the deadlines already past instead of bursting to catch up.
+        deadline = next + missed * period_ns;
+        last_wake = wake;
+        ticks += 1;
+        counters.ticks.store(ticks, Ordering::Relaxed);
+        counters
+            .deadline_misses
+            .store(prev.deadline_misses, Ordering::Relaxed);
+    }
+    alloc_count::count_this_thread(false);
+    let allocations = counting.then(|| alloc_count::counted() - allocations_before);
+    counters.finished.store(true, Ordering::Release);
+    tick.close();
+    (tick, setup, allocations)
+}

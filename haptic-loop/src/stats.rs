@@ -1,0 +1,175 @@
+//! Timing statistics of the RT thread, kept off the RT thread.
+//!
+//! The RT thread pushes one [`TickSample`] per tick into a preallocated lock-free SPSC ring
+//! (`rtrb`); the stats thread drains it into HDR histograms (`hdrhistogram`), keeps a
+//! one-second window for progress lines, and hands the totals to the final report.
+
+use hdrhistogram::Histogram;
+use serde::Serialize;
+
+/// Timing of one tick, as pushed by the RT thread.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct TickSample {
+    /// Actual wake-up minus deadline, ns.
+    pub wake_latency_ns: u64,
+    /// Wake-up to end of the tick's work, ns.
+    pub compute_ns: u64,
+    /// Wake-up minus previous wake-up, ns (0 for the first tick).
+    pub period_ns: u64,
+    /// Age of the guidance sample rendered, ns (0 if none).
+    pub guidance_age_ns: u64,
+    /// Deadlines missed at the end of this tick (0 almost always).
+    pub missed: u64,
+}
+
+/// Percentiles of one quantity, µs.
+#[derive(Debug, Clone, Copy, Default, Serialize, PartialEq)]
+pub struct Percentiles {
+    /// Median.
+    pub p50: f64,
+    /// 90th percentile.
+    pub p90: f64,
+    /// 99th percentile.
+    pub p99: f64,
+    /// 99.9th percentile.
+    pub p999: f64,
+    /// Largest value seen.
+    pub max: f64,
+    /// Number of values.
+    pub count: u64,
+}
+
+/// Histogram of nanosecond values from 1 ns to 100 s with 3 significant digits.
+#[derive(Debug, Clone)]
+pub struct NsHistogram(Histogram<u64>);
+
+impl Default for NsHistogram {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl NsHistogram {
+    /// An empty histogram.
+    pub fn new() -> Self {
+        // Bounds are constants: this cannot fail.
+        Self(Histogram::new_with_bounds(1, 100_000_000_000, 3).expect("valid histogram bounds"))
+    }
+
+    /// Records `ns`, clamped into the histogram's range.
+    pub fn record(&mut self, ns: u64) {
+        self.0.saturating_record(ns.max(1));
+    }
+
+    /// Forgets all values.
+    pub fn reset(&mut self) {
+        self.0.reset();
+    }
+
+    /// Adds all values of `other`.
+    pub fn add(&mut self, other: &Self) {
+        // Same bounds by construction: cannot fail.
+        let _ = self.0.add(&other.0);
+    }
+
+    /// Percentiles in µs.
+    pub fn percentiles_us(&self) -> Percentiles {
+        let h = &self.0;
+        if h.is_empty() {
+            return Percentiles::default();
+        }
+        let us = |ns: u64| ns as f64 / 1000.0;
+        Percentiles {
+            p50: us(h.value_at_quantile(0.5)),
+            p90: us(h.value_at_quantile(0.9)),
+            p99: us(h.value_at_quantile(0.99)),
+            p999: us(h.value_at_quantile(0.999)),
+            max: us(h.max()),
+            count: h.len(),
+        }
+    }
+}
+
+/// The histograms of one run or one window.
+#[derive(Debug, Clone, Default)]
+pub struct TimingHistograms {
+    /// Wake-up latency.
+    pub wake: NsHistogram,
+    /// Compute time.
+    pub compute: NsHistogram,
+    /// Period.
+    pub period: NsHistogram,
+    /// Guidance age at render time.
+    pub guidance_age: NsHistogram,
+    /// Ticks recorded.
+    pub ticks: u64,
+    /// Deadlines missed.
+    pub deadline_misses: u64,
+}
+
+impl TimingHistograms {
+    /// Records one tick.
+    pub fn record(&mut self, s: &TickSample) {
+        self.wake.record(s.wake_latency_ns);
+        self.compute.record(s.compute_ns);
+        if s.period_ns > 0 {
+            self.period.record(s.period_ns);
+        }
+        if s.guidance_age_ns > 0 {
+            self.guidance_age.record(s.guidance_age_ns);
+        }
+        self.ticks += 1;
+        self.deadline_misses += s.missed;
+    }
+
+    /// Forgets everything.
+    pub fn reset(&mut self) {
+        *self = Self::default();
+    }
+}
+
+/// One second of the loop, for progress lines.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SecondSummary {
+    /// Seconds since the loop started.
+    pub elapsed_s: f64,
+    /// Ticks in this window.
+    pub ticks: u64,
+    /// Wake-up latency p99 in this window, µs.
+    pub wake_p99_us: f64,
+    /// Wake-up latency max in this window, µs.
+    pub wake_max_us: f64,
+    /// Compute time p99 in this window, µs.
+    pub compute_p99_us: f64,
+    /// Deadline misses since start.
+    pub deadline_misses_total: u64,
+    /// Samples the stats thread could not take in time (ring full) since start.
+    pub dropped_samples_total: u64,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn percentiles_are_in_microseconds_and_ordered() {
+        let mut h = NsHistogram::new();
+        for i in 1..=1000u64 {
+            h.record(i * 1000);
+        }
+        let p = h.percentiles_us();
+        assert!((p.p50 - 500.0).abs() < 1.0);
+        assert!((p.p99 - 990.0).abs() < 1.0);
+        assert!((p.max - 1000.0).abs() < 1.0);
+        assert!(p.p50 <= p.p90 && p.p90 <= p.p99 && p.p99 <= p.p999 && p.p999 <= p.max);
+        assert_eq!(p.count, 1000);
+    }
+
+    #[test]
+    fn out_of_range_values_are_clamped_not_lost() {
+        let mut h = NsHistogram::new();
+        h.record(0);
+        h.record(u64::MAX);
+        assert_eq!(h.percentiles_us().count, 2);
+    }
+}

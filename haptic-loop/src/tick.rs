@@ -1,0 +1,353 @@
+//! One haptic tick: device → scene → contact → guidance → safety → device → publish.
+//!
+//! [`Tick::new`] may allocate and fail; [`Tick::step`] works on preallocated state only and is
+//! what the RT thread calls once per period (see `runner`). It reads no clock itself: the
+//! tick time is passed in, so tests and benches drive it in lockstep.
+
+use crate::guidance::{GuidanceConfig, GuidanceFilter, RenderedGuidance};
+use crate::mapping::{Mapping, MappingConfig};
+use crate::safety::{Safety, SafetyConfig};
+use crate::wire;
+use devices::{DeviceError, DeviceSpec, DeviceState, HapticDevice, Wrench};
+use ipc_types::{ContactCode, FaultCode, Guidance, HapticState, Header};
+use nalgebra::{Isometry3, Vector3};
+
+/// Where the newest [`Guidance`] comes from. Must not allocate or block.
+pub trait GuidanceSource {
+    /// The newest sample (sequence 0 if none was ever written).
+    fn latest(&mut self) -> Guidance;
+}
+
+/// Where each tick's [`HapticState`] goes. Must not allocate or block.
+pub trait StateSink {
+    /// Publishes one state.
+    fn publish(&mut self, state: &HapticState);
+}
+
+impl GuidanceSource for ipc_types::services::GuidanceReader {
+    fn latest(&mut self) -> Guidance {
+        *self.get()
+    }
+}
+
+impl StateSink for ipc_types::services::StateWriter {
+    fn publish(&mut self, state: &HapticState) {
+        self.update_with_copy(*state);
+    }
+}
+
+/// No planner: never any guidance.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct NoGuidance;
+
+impl GuidanceSource for NoGuidance {
+    fn latest(&mut self) -> Guidance {
+        Guidance::default()
+    }
+}
+
+/// Publishes nowhere.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct NoSink;
+
+impl StateSink for NoSink {
+    fn publish(&mut self, _: &HapticState) {}
+}
+
+/// What shapes the tick; validated by the caller (see `config`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TickConfig {
+    /// Device → scene mapping.
+    pub mapping: MappingConfig,
+    /// Guidance fade and bounds.
+    pub guidance: GuidanceConfig,
+    /// Output limits and fault handling.
+    pub safety: SafetyConfig,
+    /// Nominal tick period, s.
+    pub period_s: f64,
+}
+
+/// Timing facts of the previous tick, published in this tick's state.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct PrevTiming {
+    /// Wake-up latency, ns.
+    pub wake_latency_ns: u64,
+    /// Compute time, ns.
+    pub compute_ns: u64,
+    /// Period between the two previous wake-ups, ns.
+    pub period_ns: u64,
+    /// Deadline misses since start.
+    pub deadline_misses: u64,
+}
+
+/// The loop's state between ticks.
+#[derive(Debug)]
+pub struct Tick<D, G, S> {
+    device: D,
+    spec: DeviceSpec,
+    guidance_source: G,
+    sink: S,
+    mapping: Mapping,
+    guidance: GuidanceFilter,
+    safety: Safety,
+    period_s: f64,
+    sequence: u64,
+    last_proxy: Option<Isometry3<f64>>,
+    last_device_timestamp_ns: u64,
+    state: HapticState,
+    guidance_age_ns: u64,
+    pid: u32,
+}
+
+impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
+    /// Opens the device and builds the tick's state.
+    pub fn new(
+        mut device: D,
+        config: &TickConfig,
+        guidance_source: G,
+        sink: S,
+    ) -> Result<Self, DeviceError> {
+        device.open()?;
+        let spec = device.spec().clone();
+        Ok(Self {
+            mapping: Mapping::new(&config.mapping),
+            guidance: GuidanceFilter::new(config.guidance, spec.max_force_n, spec.max_torque_nm),
+            safety: Safety::new(config.safety, spec.max_force_n, spec.max_torque_nm),
+            spec,
+            device,
+            guidance_source,
+            sink,
+            period_s: config.period_s,
+            sequence: 0,
+            last_proxy: None,
+            last_device_timestamp_ns: 0,
+            state: HapticState::default(),
+            guidance_age_ns: 0,
+            pid: std::process::id(),
+        })
+    }
+
+    /// The device's specification.
+    pub fn spec(&self) -> &DeviceSpec {
+        &self.spec
+    }
+
+    /// The device (e.g. to read a simulator's ground truth in tests).
+    pub fn device(&self) -> &D {
+        &self.device
+    }
+
+    /// Mutable device access (tests inject faults through it).
+    pub fn device_mut(&mut self) -> &mut D {
+        &mut self.device
+    }
+
+    /// The state published by the last [`Tick::step`].
+    pub fn state(&self) -> &HapticState {
+        &self.state
+    }
+
+    /// Age of the guidance sample rendered in the last tick, ns (0 if none).
+    pub fn guidance_age_ns(&self) -> u64 {
+        self.guidance_age_ns
+    }
+
+    /// Guidance samples rejected as invalid so far.
+    pub fn guidance_rejected(&self) -> u64 {
+        self.guidance.rejected()
+    }
+
+    /// Faults latched since start.
+    pub fn faults_total(&self) -> u64 {
+        self.safety.faults_total()
+    }
+
+    /// Closes the device.
+    pub fn close(&mut self) {
+        self.device.close();
+    }
+
+    /// One tick at `now_ns` (CLOCK_MONOTONIC, start of the tick). Allocation-free.
+    pub fn step(&mut self, now_ns: u64, prev: PrevTiming) -> &HapticState {
+        self.sequence += 1;
+        let mut fault = FaultCode::NONE;
+
+        // 1. Device.
+        let reading = match self.device.read(now_ns) {
+            Ok(s) if s.is_finite() => Some(s),
+            Ok(_) => {
+                fault = FaultCode::DEVICE_NON_FINITE;
+                None
+            }
+            Err(DeviceError::Disconnected) => {
+                fault = FaultCode::DEVICE_DISCONNECTED;
+                None
+            }
+            Err(_) => {
+                fault = FaultCode::DEVICE_READ;
+                None
+            }
+        };
+        if let Some(s) = &reading {
+            if s.timestamp_ns <= self.last_device_timestamp_ns {
+                fault = FaultCode::DEVICE_STALE;
+            }
+            self.last_device_timestamp_ns = s.timestamp_ns;
+        }
+        let device = reading.unwrap_or_else(|| self.last_device_state());
+
+        // 2. Map into the scene.
+        let user = self.mapping.to_scene(&device.pose, device.buttons);
+
+        // 3. Contact rendering (voxmap-pointshell + virtual coupling) goes here: it moves
+        //    the proxy out of the obstacles and yields the contact wrench and contact fields.
+        //    Until it is in place the proxy follows the user and the contact wrench is zero.
+        let proxy = user;
+        let contact_force = Vector3::zeros();
+        let contact_torque = Vector3::zeros();
+        let displacement = self.last_proxy.map_or(Vector3::zeros(), |p| {
+            proxy.translation.vector - p.translation.vector
+        });
+        self.last_proxy = Some(proxy);
+
+        // 4. Guidance F_s = k·F_a, faded and bounded.
+        let sample = self.guidance_source.latest();
+        let g: RenderedGuidance = self.guidance.render(&sample, now_ns);
+        self.guidance_age_ns = g.age_ns;
+
+        // 5. Sum in the scene frame, rotate to the device frame, apply safety.
+        let wanted = Wrench {
+            force: self.mapping.vector_to_device(&(contact_force + g.force_n)),
+            torque: self
+                .mapping
+                .vector_to_device(&(contact_torque + g.torque_nm)),
+        };
+        let (out, fault) = self.safety.apply(&wanted, fault, self.period_s);
+
+        // 6. Device.
+        let fault = match (fault, self.device.write(&out)) {
+            (FaultCode::NONE, Err(_)) => FaultCode::DEVICE_WRITE,
+            (f, _) => f,
+        };
+
+        // 7. Publish.
+        let s = &mut self.state;
+        s.header = Header {
+            sequence: self.sequence,
+            timestamp_ns: now_ns,
+            writer_pid: self.pid,
+            reserved: 0,
+        };
+        s.device_pose = wire::pose(&device.pose);
+        s.device_twist = wire::twist(&device.linear_velocity, &device.angular_velocity);
+        s.user_pose = wire::pose(&user);
+        s.proxy_pose = wire::pose(&proxy);
+        s.commanded_wrench = wire::wrench(&out.force, &out.torque);
+        s.contact_wrench = wire::wrench(&contact_force, &contact_torque);
+        s.guidance_wrench = wire::wrench(&g.force_n, &g.torque_nm);
+        s.contact = ContactCode::DISABLED;
+        s.fault = fault;
+        s.buttons = device.buttons;
+        s.guidance_freshness = g.freshness;
+        s.contact_normal = [0.0; 3];
+        s.contact_point_m = [0.0; 3];
+        s.operator_force_n = [0.0; 3];
+        s.displacement_m = displacement.into();
+        s.guidance_sequence = g.sequence;
+        s.prev_wake_latency_ns = prev.wake_latency_ns;
+        s.prev_compute_ns = prev.compute_ns;
+        s.prev_period_ns = prev.period_ns;
+        s.deadline_misses = prev.deadline_misses;
+        self.sink.publish(&self.state);
+        &self.state
+    }
+
+    /// The last good device state, held while the device fails (force is zero then).
+    fn last_device_state(&self) -> DeviceState {
+        let p = &self.state.device_pose;
+        DeviceState::at_rest(wire::isometry(p).unwrap_or_else(Isometry3::identity), 0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use devices::sim::{SimulatedArm, SimulatedArmConfig};
+    use ipc_types::{GuidanceFreshness, GuidanceMode};
+
+    struct Fixed(Guidance);
+    impl GuidanceSource for Fixed {
+        fn latest(&mut self) -> Guidance {
+            self.0
+        }
+    }
+
+    fn config() -> TickConfig {
+        TickConfig {
+            mapping: MappingConfig::default(),
+            guidance: GuidanceConfig::default(),
+            safety: SafetyConfig::default(),
+            period_s: 0.001,
+        }
+    }
+
+    fn arm() -> SimulatedArm {
+        SimulatedArm::new(SimulatedArmConfig::default()).unwrap()
+    }
+
+    const MS: u64 = 1_000_000;
+
+    #[test]
+    fn guidance_reaches_the_device_after_the_ramp() {
+        let g = Guidance {
+            header: Header {
+                sequence: 4,
+                timestamp_ns: 0,
+                writer_pid: 9,
+                reserved: 0,
+            },
+            attractive: [0.0, 0.05, 0.0, 0.0, 0.0, 0.0],
+            gain_n_per_m: 40.0,
+            time_to_live_ns: 10_000 * MS,
+            mode: GuidanceMode::ROADMAP,
+            ..Guidance::default()
+        };
+        let mut t = Tick::new(arm(), &config(), Fixed(g), NoSink).unwrap();
+        for i in 1..=1000 {
+            t.step(i * MS, PrevTiming::default());
+        }
+        let s = *t.state();
+        assert_eq!(s.guidance_freshness, GuidanceFreshness::FRESH);
+        assert_eq!(s.guidance_sequence, 4);
+        assert!((s.guidance_wrench.force_n[1] - 2.0).abs() < 1e-12);
+        // Identity mapping: commanded = guidance once ramped in.
+        assert!((s.commanded_wrench.force_n[1] - 2.0).abs() < 1e-9);
+        assert!((t.device().commanded_wrench().force.y - 2.0).abs() < 1e-9);
+        assert_eq!(s.fault, FaultCode::NONE);
+        assert_eq!(s.header.sequence, 1000);
+    }
+
+    #[test]
+    fn device_fault_zeroes_force_in_the_same_tick() {
+        let g = Guidance {
+            header: Header {
+                sequence: 1,
+                ..Header::default()
+            },
+            attractive: [0.05, 0.0, 0.0, 0.0, 0.0, 0.0],
+            gain_n_per_m: 40.0,
+            time_to_live_ns: 10_000 * MS,
+            mode: GuidanceMode::ROADMAP,
+            ..Guidance::default()
+        };
+        let mut t = Tick::new(arm(), &config(), Fixed(g), NoSink).unwrap();
+        for i in 1..=1000 {
+            t.step(i * MS, PrevTiming::default());
+        }
+        assert!(t.state().commanded_wrench.force_n[0] > 1.9);
+        t.device_mut().inject_fault(Some(DeviceError::ReadFailed));
+        let s = *t.step(1001 * MS, PrevTiming::default());
+        assert_eq!(s.fault, FaultCode::DEVICE_READ);
+        assert_eq!(s.commanded_wrench, ipc_types::Wrench::ZERO);
+    }
+}

@@ -1,0 +1,326 @@
+//! Service names, their semantics, and the one place both processes open them.
+//!
+//! | service | pattern | writer | semantics |
+//! |---|---|---|---|
+//! | [`HAPTIC_STATE`] | blackboard, one entry | haptic loop (RT thread) | latest value; never blocks, never allocates |
+//! | [`GUIDANCE`] | blackboard, one entry | planner | latest value; read by the RT thread without allocation |
+//! | [`PATH`] | publish-subscribe | planner | history 1, safe overflow: late subscribers get the newest path; the planner never blocks |
+//!
+//! Why blackboards for the two 1 kHz-facing services: iceoryx2 0.10 `Publisher::loan_uninit()`
+//! and `send_copy()` allocate one `Arc` per sample, and both `Subscriber::receive()` and
+//! `Notifier::notify()` rebuild their connection lists (allocating) when a peer joins or
+//! leaves. A blackboard entry is a lock-free single-writer, multi-reader cell in shared memory:
+//! `update_with_copy()` and `get()` touch only that memory, whatever the other process does.
+//! The price is latest-value semantics: a reader that wants every tick polls faster than the
+//! loop and uses `header.sequence` to count what it skipped.
+//!
+//! Service names are `hrrtc/<namespace>/<leaf>`; the namespace lets tests and several
+//! independent setups share a host.
+
+use crate::{Guidance, HapticState, Path};
+use core::time::Duration;
+use iceoryx2::port::reader::EntryHandle;
+use iceoryx2::port::writer::EntryHandleMut;
+use iceoryx2::prelude::*;
+use iceoryx2::service::builder::blackboard::{BlackboardCreateError, BlackboardOpenError};
+
+/// Leaf name of the [`HapticState`] blackboard.
+pub const HAPTIC_STATE: &str = "haptic_state";
+/// Leaf name of the [`Guidance`] blackboard.
+pub const GUIDANCE: &str = "guidance";
+/// Leaf name of the [`Path`] publish-subscribe service.
+pub const PATH: &str = "path";
+/// The single key of each blackboard.
+pub const ENTRY_KEY: u64 = 0;
+/// Namespace used when none is given.
+pub const DEFAULT_NAMESPACE: &str = "default";
+/// Most readers per blackboard (loop, planner, viewers, recorders, benchmarks).
+pub const MAX_READERS: usize = 16;
+/// Most nodes that may open one service.
+pub const MAX_NODES: usize = 32;
+/// Subscriber buffer of [`PATH`]: only the newest path matters.
+pub const PATH_SUBSCRIBER_BUFFER: usize = 2;
+
+/// The iceoryx2 transport both processes use.
+pub type Ipc = ipc::Service;
+/// Read handle of the [`HAPTIC_STATE`] entry.
+pub type StateReader = EntryHandle<Ipc, u64, HapticState>;
+/// Write handle of the [`HAPTIC_STATE`] entry.
+pub type StateWriter = EntryHandleMut<Ipc, u64, HapticState>;
+/// Read handle of the [`GUIDANCE`] entry.
+pub type GuidanceReader = EntryHandle<Ipc, u64, Guidance>;
+/// Write handle of the [`GUIDANCE`] entry.
+pub type GuidanceWriter = EntryHandleMut<Ipc, u64, Guidance>;
+/// Publisher of [`PATH`].
+pub type PathPublisher = iceoryx2::port::publisher::Publisher<Ipc, Path, ()>;
+/// Subscriber of [`PATH`].
+pub type PathSubscriber = iceoryx2::port::subscriber::Subscriber<Ipc, Path, ()>;
+
+/// What went wrong opening a service; the message names the service.
+#[derive(Debug)]
+pub struct ServiceError {
+    /// Full iceoryx2 service name.
+    pub service: String,
+    /// What failed.
+    pub what: String,
+}
+
+impl core::fmt::Display for ServiceError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "iceoryx2 service '{}': {}", self.service, self.what)
+    }
+}
+
+impl std::error::Error for ServiceError {}
+
+fn err(service: &str, what: impl core::fmt::Display) -> ServiceError {
+    ServiceError {
+        service: service.to_string(),
+        what: what.to_string(),
+    }
+}
+
+/// Full service name `hrrtc/<namespace>/<leaf>`.
+pub fn service_name(namespace: &str, leaf: &str) -> String {
+    format!("hrrtc/{namespace}/{leaf}")
+}
+
+/// Creates a node named `name` with iceoryx2's own signal handling disabled (the processes
+/// install their own), after removing the resources of dead nodes so that a crashed
+/// predecessor cannot block a service. Returns the node and how many dead nodes were cleaned.
+pub fn create_node(name: &str) -> Result<(Node<Ipc>, usize), ServiceError> {
+    let cleaned = cleanup_dead_nodes();
+    let node_name: NodeName = name
+        .try_into()
+        .map_err(|e| err(name, format!("invalid node name: {e:?}")))?;
+    let node = NodeBuilder::new()
+        .name(&node_name)
+        .signal_handling_mode(SignalHandlingMode::Disabled)
+        .create::<Ipc>()
+        .map_err(|e| err(name, format!("cannot create node: {e:?}")))?;
+    Ok((node, cleaned))
+}
+
+/// Removes the resources of every dead node on this host; returns how many were removed.
+pub fn cleanup_dead_nodes() -> usize {
+    let mut cleaned = 0;
+    let _ = Node::<Ipc>::list(Config::global_config(), |state| {
+        if let NodeState::Dead(view) = state
+            && view.try_remove_stale_resources().is_ok()
+        {
+            cleaned += 1;
+        }
+        CallbackProgression::Continue
+    });
+    cleaned
+}
+
+/// Opens the blackboard `leaf` holding one `T`, creating it with `initial` if nobody has.
+/// Every wire type's `Default` has `header.sequence == 0`: "never written".
+/// Either process may come first.
+fn blackboard<T>(
+    node: &Node<Ipc>,
+    namespace: &str,
+    leaf: &str,
+    initial: T,
+) -> Result<iceoryx2::service::port_factory::blackboard::PortFactory<Ipc, u64>, ServiceError>
+where
+    T: ZeroCopySend + Copy + core::fmt::Debug + 'static,
+{
+    let full = service_name(namespace, leaf);
+    let name: ServiceName = full
+        .as_str()
+        .try_into()
+        .map_err(|e| err(&full, format!("invalid service name: {e:?}")))?;
+    // Open-or-create by hand: blackboards have no open_or_create. Creation races and services
+    // being torn down by their last user are transient, so retry for a short while.
+    let mut last = String::new();
+    for _ in 0..50 {
+        match node
+            .service_builder(&name)
+            .blackboard_opener::<u64>()
+            .max_readers(MAX_READERS)
+            .open()
+        {
+            Ok(f) => return Ok(f),
+            Err(BlackboardOpenError::DoesNotExist) => {}
+            Err(BlackboardOpenError::IsMarkedForDestruction)
+            | Err(BlackboardOpenError::HangsInCreation) => {
+                last = "is being torn down or created".into();
+                std::thread::sleep(Duration::from_millis(10));
+                continue;
+            }
+            Err(e) => return Err(err(&full, format!("cannot open: {e:?}"))),
+        }
+        match node
+            .service_builder(&name)
+            .blackboard_creator::<u64>()
+            .max_readers(MAX_READERS)
+            .max_nodes(MAX_NODES)
+            .add::<T>(ENTRY_KEY, initial)
+            .create()
+        {
+            Ok(f) => return Ok(f),
+            Err(BlackboardCreateError::AlreadyExists)
+            | Err(BlackboardCreateError::IsBeingCreatedByAnotherInstance) => {
+                last = "created concurrently".into();
+                std::thread::sleep(Duration::from_millis(2));
+            }
+            Err(e) => return Err(err(&full, format!("cannot create: {e:?}"))),
+        }
+    }
+    Err(err(&full, format!("gave up opening: {last}")))
+}
+
+/// The write handle of a blackboard entry; fails when another live process already writes it.
+fn writer<T: ZeroCopySend + Copy + Default + core::fmt::Debug + 'static>(
+    node: &Node<Ipc>,
+    namespace: &str,
+    leaf: &str,
+) -> Result<EntryHandleMut<Ipc, u64, T>, ServiceError> {
+    let full = service_name(namespace, leaf);
+    let factory = blackboard::<T>(node, namespace, leaf, T::default())?;
+    let writer = factory.writer_builder().create().map_err(|e| {
+        err(
+            &full,
+            format!("another live process already writes it ({e:?}); stop it first"),
+        )
+    })?;
+    writer
+        .entry::<T>(&ENTRY_KEY)
+        .map_err(|e| err(&full, format!("cannot write its entry: {e:?}")))
+}
+
+fn reader<T: ZeroCopySend + Copy + Default + core::fmt::Debug + 'static>(
+    node: &Node<Ipc>,
+    namespace: &str,
+    leaf: &str,
+) -> Result<EntryHandle<Ipc, u64, T>, ServiceError> {
+    let full = service_name(namespace, leaf);
+    let factory = blackboard::<T>(node, namespace, leaf, T::default())?;
+    let reader = factory
+        .reader_builder()
+        .create()
+        .map_err(|e| err(&full, format!("cannot create reader: {e:?}")))?;
+    reader
+        .entry::<T>(&ENTRY_KEY)
+        .map_err(|e| err(&full, format!("cannot read its entry: {e:?}")))
+}
+
+/// Write handle of [`HAPTIC_STATE`] (for the haptic loop). Fails if another loop is live.
+pub fn state_writer(node: &Node<Ipc>, namespace: &str) -> Result<StateWriter, ServiceError> {
+    writer::<HapticState>(node, namespace, HAPTIC_STATE)
+}
+
+/// Read handle of [`HAPTIC_STATE`].
+pub fn state_reader(node: &Node<Ipc>, namespace: &str) -> Result<StateReader, ServiceError> {
+    reader::<HapticState>(node, namespace, HAPTIC_STATE)
+}
+
+/// Write handle of [`GUIDANCE`] (for the planner). Fails if another planner is live.
+pub fn guidance_writer(node: &Node<Ipc>, namespace: &str) -> Result<GuidanceWriter, ServiceError> {
+    writer::<Guidance>(node, namespace, GUIDANCE)
+}
+
+/// Read handle of [`GUIDANCE`].
+pub fn guidance_reader(node: &Node<Ipc>, namespace: &str) -> Result<GuidanceReader, ServiceError> {
+    reader::<Guidance>(node, namespace, GUIDANCE)
+}
+
+fn path_service(
+    node: &Node<Ipc>,
+    namespace: &str,
+) -> Result<
+    iceoryx2::service::port_factory::publish_subscribe::PortFactory<Ipc, Path, ()>,
+    ServiceError,
+> {
+    let full = service_name(namespace, PATH);
+    let name: ServiceName = full
+        .as_str()
+        .try_into()
+        .map_err(|e| err(&full, format!("invalid service name: {e:?}")))?;
+    node.service_builder(&name)
+        .publish_subscribe::<Path>()
+        .history_size(1)
+        .subscriber_max_buffer_size(PATH_SUBSCRIBER_BUFFER)
+        .enable_safe_overflow(true)
+        .max_publishers(2)
+        .max_subscribers(MAX_READERS)
+        .max_nodes(MAX_NODES)
+        .open_or_create()
+        .map_err(|e| err(&full, format!("cannot open or create: {e:?}")))
+}
+
+/// Publisher of [`PATH`] (for the planner).
+pub fn path_publisher(node: &Node<Ipc>, namespace: &str) -> Result<PathPublisher, ServiceError> {
+    let full = service_name(namespace, PATH);
+    path_service(node, namespace)?
+        .publisher_builder()
+        .create()
+        .map_err(|e| err(&full, format!("cannot create publisher: {e:?}")))
+}
+
+/// Subscriber of [`PATH`].
+pub fn path_subscriber(node: &Node<Ipc>, namespace: &str) -> Result<PathSubscriber, ServiceError> {
+    let full = service_name(namespace, PATH);
+    path_service(node, namespace)?
+        .subscriber_builder()
+        .create()
+        .map_err(|e| err(&full, format!("cannot create subscriber: {e:?}")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{GuidanceMode, Header};
+    use iceoryx2::port::update_connections::UpdateConnections;
+
+    fn unique_namespace(tag: &str) -> String {
+        format!("test_{tag}_{}", std::process::id())
+    }
+
+    #[test]
+    fn blackboard_roundtrip_and_single_writer() {
+        let ns = unique_namespace("bb");
+        let (node, _) = create_node("ipc_types_test").unwrap();
+        let reader = guidance_reader(&node, &ns).unwrap();
+        assert_eq!(reader.get().header.sequence, 0, "initial value is zeroed");
+        let writer = guidance_writer(&node, &ns).unwrap();
+        let g = Guidance {
+            header: Header {
+                sequence: 7,
+                timestamp_ns: 11,
+                writer_pid: 1,
+                reserved: 0,
+            },
+            attractive: [0.1, 0.0, 0.0, 0.0, 0.0, 0.2],
+            mode: GuidanceMode::ROADMAP,
+            ..Guidance::default()
+        };
+        writer.update_with_copy(g);
+        assert_eq!(*reader.get(), g);
+        assert!(
+            guidance_writer(&node, &ns).is_err(),
+            "a second writer must be refused"
+        );
+    }
+
+    #[test]
+    fn path_history_reaches_late_subscriber() {
+        let ns = unique_namespace("path");
+        let (node, _) = create_node("ipc_types_path_test").unwrap();
+        let publisher = path_publisher(&node, &ns).unwrap();
+        let mut p = Path::EMPTY;
+        p.header.sequence = 1;
+        p.len = 2;
+        publisher.send_copy(p).unwrap();
+        let subscriber = path_subscriber(&node, &ns).unwrap();
+        // History reaches a new subscriber when the publisher next updates its connections.
+        publisher.update_connections().unwrap();
+        let sample = subscriber
+            .receive()
+            .unwrap()
+            .expect("history delivers the path");
+        assert_eq!(sample.len, 2);
+    }
+}
