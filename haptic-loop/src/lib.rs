@@ -12,6 +12,7 @@
 #![warn(missing_docs)]
 
 pub mod alloc_count;
+pub mod app;
 pub mod guidance;
 pub mod mapping;
 pub mod rt;

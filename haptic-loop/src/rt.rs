@@ -5,17 +5,7 @@
 
 use std::fmt;
 
-/// `CLOCK_MONOTONIC` now, ns.
-#[inline]
-pub fn monotonic_ns() -> u64 {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: `ts` is a valid, writable timespec; CLOCK_MONOTONIC always exists on Linux.
-    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
-    ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
-}
+pub use ipc_types::monotonic_ns;
 
 /// Sleeps until `CLOCK_MONOTONIC` reaches `deadline_ns` (absolute, so no drift
 /// accumulates), then spins for the last `spin_ns` if non-zero. Returns the wake-up time.

@@ -125,6 +125,18 @@ pub struct Header {
     pub reserved: u32,
 }
 
+/// `CLOCK_MONOTONIC` now, ns: the clock of every timestamp on the wire.
+#[inline]
+pub fn monotonic_ns() -> u64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid, writable timespec; CLOCK_MONOTONIC always exists on Linux.
+    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
+    ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
+}
+
 const _: () = {
     assert!(core::mem::size_of::<Pose>() == 56);
     assert!(core::mem::size_of::<Wrench>() == 48);

@@ -324,3 +324,10 @@ mod tests {
         assert_eq!(sample.len, 2);
     }
 }
+// The haptic loop moves its handles into the RT thread and the planner into its receiver
+// thread: keep them `Send`.
+const fn assert_send<T: Send>() {}
+const _: () = assert_send::<StateWriter>();
+const _: () = assert_send::<StateReader>();
+const _: () = assert_send::<GuidanceReader>();
+const _: () = assert_send::<GuidanceWriter>();

@@ -1,0 +1,37 @@
+//! Core of the interactive motion planner (I-RRT / H-RRT-C): scenes, the SE(3)
+//! configuration space, collision checking with parry, trees with I-RRT labels,
+//! RRT-Connect, and the attractive pseudo-force F_a.
+//!
+//! The core is pure: deterministic for a seed and an input sequence, no I/O except
+//! explicit scene loading (`Scene::load`), no clock reads, no threads. The process shell
+//! (IPC, timing) lives outside these modules.
+//!
+//! Code map:
+//! - [`pose`]: the `Se3` pose type and rotation-vector helpers (shared with [`scene`]).
+//! - [`scene`]: scene description, the embedded I-RRT wall-with-hole scene, TOML files.
+//! - [`space`]: weighted SE(3) distance (I-RRT eq. 2), interpolation, sampling, `delta`.
+//! - [`collision`]: parry compounds, `is_free`, `edge_free` at a stated resolution.
+//! - [`tree`]: tree arena, node labels, nearest / k-nearest, paths.
+//! - [`rrt`]: RRT-Connect with I-RRT Extend, the `Planner` API.
+//! - [`guidance`]: F_a (label-weighted barycenter) and solution-path following.
+//! - [`params`]: `PlannerParams` and `PlannerError`.
+#![warn(missing_docs)]
+#![deny(unsafe_code)]
+
+pub mod cli;
+pub mod collision;
+pub mod guidance;
+pub mod params;
+pub mod pose;
+pub mod rrt;
+pub mod scene;
+pub mod shell;
+pub mod space;
+pub mod tree;
+
+pub use collision::CollisionChecker;
+pub use params::{PlannerError, PlannerParams};
+pub use pose::Se3;
+pub use rrt::{Extend, IterReport, Planner, Stats};
+pub use scene::{Scene, SceneError};
+pub use space::{ConfigSpace, Se3Space, Weights};

@@ -1,0 +1,302 @@
+//! Command line of the planner process: parsed here, validated into a [`ShellConfig`], run by
+//! [`crate::shell`]. Lives in the library so the haptic loop's demo can start the very same
+//! planner as a child process of its own binary.
+
+use crate::shell::{self, ShellConfig};
+use crate::{Planner, PlannerParams, Scene};
+use anyhow::{Context, bail};
+use clap::{Args, Parser, Subcommand};
+use serde::Serialize;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+/// Interactive motion planner (I-RRT / H-RRT-C) paired with the 1 kHz haptic loop.
+#[derive(Debug, Parser)]
+#[command(name = "planner", version, about, long_about = None)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Planner subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run next to a haptic loop: read its state over iceoryx2, grow the trees, publish
+    /// guidance and the solution path. Stops on Ctrl-C / SIGTERM or after --duration-s.
+    Serve(ServeArgs),
+    /// Plan automatically (no operator) with RRT-Connect and report.
+    Solve(SolveArgs),
+}
+
+/// Options shared by every planning command.
+#[derive(Debug, Args, Clone)]
+pub struct CoreArgs {
+    /// Scene: `wall-hole` (alias `default`, the I-RRT §5.3 6-D case) or a TOML scene file.
+    #[arg(long, default_value = "wall-hole")]
+    pub scene: String,
+    /// RNG seed: the same seed and inputs give the same trees.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Extension step, weighted m (I-RRT eq. 2 metric: 1 per m, 0.01 per rad²).
+    #[arg(long, default_value_t = 0.05)]
+    pub step: f64,
+    /// Edge validation resolution, weighted m.
+    #[arg(long, default_value_t = 0.005)]
+    pub edge_resolution: f64,
+    /// p: nearest nodes in F_a's barycenter (I-RRT uses 5).
+    #[arg(long, default_value_t = 5)]
+    pub neighbours: usize,
+}
+
+/// Options of `planner serve`.
+#[derive(Debug, Args, Clone)]
+pub struct ServeArgs {
+    /// Scene, seed and tree parameters.
+    #[command(flatten)]
+    pub core: CoreArgs,
+    /// IPC namespace; must match the haptic loop's.
+    #[arg(long, default_value = ipc_types::services::DEFAULT_NAMESPACE)]
+    pub namespace: String,
+    /// Guidance publish rate, Hz, independent of iteration speed.
+    #[arg(long, default_value_t = 100.0)]
+    pub guidance_rate_hz: f64,
+    /// k for the force part of F_s = k·F_a, N per scene metre.
+    #[arg(long, default_value_t = 20.0)]
+    pub gain_n_per_m: f64,
+    /// k for the torque part of F_s = k·F_a, N·m per rad.
+    #[arg(long, default_value_t = 0.05)]
+    pub gain_nm_per_rad: f64,
+    /// Time-to-live of each guidance sample, ms; the loop fades it out after that.
+    #[arg(long, default_value_t = 100.0)]
+    pub ttl_ms: f64,
+    /// Probability of sampling around the operator's configuration instead of uniformly.
+    #[arg(long, default_value_t = 0.5)]
+    pub user_bias: f64,
+    /// Standard deviation of the Gaussian around the operator, weighted m.
+    #[arg(long, default_value_t = 0.03)]
+    pub user_sigma: f64,
+    /// How often to poll the haptic state, Hz (above the loop rate to see every tick).
+    #[arg(long, default_value_t = 2000.0)]
+    pub poll_hz: f64,
+    /// Stop after this many seconds.
+    #[arg(long)]
+    pub duration_s: Option<f64>,
+    /// Write a JSON report here on exit.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+/// Options of `planner solve`.
+#[derive(Debug, Args, Clone)]
+pub struct SolveArgs {
+    /// Scene, seed and tree parameters.
+    #[command(flatten)]
+    pub core: CoreArgs,
+    /// Give up after this many seconds.
+    #[arg(long, default_value_t = 60.0)]
+    pub time_limit: f64,
+    /// Write the result as JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+fn positive(name: &str, v: f64) -> anyhow::Result<f64> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        bail!("--{name} must be a finite number > 0, got {v}")
+    }
+}
+
+impl CoreArgs {
+    fn load(&self) -> anyhow::Result<(Scene, PlannerParams)> {
+        let scene = Scene::by_name_or_path(&self.scene)?;
+        let params = PlannerParams {
+            step: self.step,
+            edge_resolution: self.edge_resolution,
+            neighbours: self.neighbours,
+            ..PlannerParams::default()
+        };
+        params.validate()?;
+        Ok((scene, params))
+    }
+}
+
+impl ServeArgs {
+    /// Validates the arguments into a [`ShellConfig`] (loads the scene).
+    pub fn to_config(&self) -> anyhow::Result<ShellConfig> {
+        let (scene, mut params) = self.core.load()?;
+        params.user_bias = self.user_bias;
+        params.user_sigma = self.user_sigma;
+        params.validate()?;
+        let gain = |name: &str, v: f64| -> anyhow::Result<f64> {
+            if v.is_finite() && v >= 0.0 {
+                Ok(v)
+            } else {
+                bail!("--{name} must be a finite number >= 0, got {v}")
+            }
+        };
+        if self.namespace.is_empty()
+            || !self
+                .namespace
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+        {
+            bail!(
+                "--namespace must be non-empty ASCII letters, digits, '_' or '-', got {:?}",
+                self.namespace
+            );
+        }
+        Ok(ShellConfig {
+            namespace: self.namespace.clone(),
+            scene,
+            params,
+            seed: self.core.seed,
+            guidance_rate_hz: positive("guidance-rate-hz", self.guidance_rate_hz)?,
+            gain_n_per_m: gain("gain-n-per-m", self.gain_n_per_m)?,
+            gain_nm_per_rad: gain("gain-nm-per-rad", self.gain_nm_per_rad)?,
+            ttl_s: positive("ttl-ms", self.ttl_ms)? / 1000.0,
+            state_poll_hz: positive("poll-hz", self.poll_hz)?,
+            state_timeout_s: 0.5,
+            duration_s: self
+                .duration_s
+                .map(|d| positive("duration-s", d))
+                .transpose()?,
+        })
+    }
+}
+
+/// Result of `planner solve`.
+#[derive(Debug, Serialize)]
+pub struct SolveReport {
+    /// Scene name.
+    pub scene: String,
+    /// Seed.
+    pub seed: u64,
+    /// Solved within the time limit.
+    pub solved: bool,
+    /// Seconds spent (to the solution, or the limit).
+    pub time_s: f64,
+    /// Iterations.
+    pub iterations: u64,
+    /// Nodes in all trees.
+    pub nodes: u64,
+    /// Collision checks.
+    pub collision_checks: u64,
+    /// Weighted length of the solution path (I-RRT eq. 2), if solved.
+    pub path_length: Option<f64>,
+    /// Waypoints of the solution path, if solved.
+    pub path_waypoints: Option<usize>,
+}
+
+/// Runs `planner solve`.
+pub fn solve(args: &SolveArgs) -> anyhow::Result<SolveReport> {
+    let (scene, params) = args.core.load()?;
+    let limit = positive("time-limit", args.time_limit)?;
+    let mut planner = Planner::new(&scene, params, args.core.seed)?;
+    let started = Instant::now();
+    while !planner.solved() && started.elapsed().as_secs_f64() < limit {
+        planner.iterate(None);
+    }
+    let time_s = started.elapsed().as_secs_f64();
+    let s = planner.stats();
+    let space = planner.space();
+    let path_length = planner.solution().map(|p| {
+        p.windows(2)
+            .map(|w| crate::space::ConfigSpace::distance(space, &w[0], &w[1]))
+            .sum()
+    });
+    Ok(SolveReport {
+        scene: scene.name.clone(),
+        seed: args.core.seed,
+        solved: planner.solved(),
+        time_s,
+        iterations: s.iterations,
+        nodes: s.nodes as u64,
+        collision_checks: s.collision_checks,
+        path_length,
+        path_waypoints: planner.solution().map(<[_]>::len),
+    })
+}
+
+fn write_json(path: &std::path::Path, value: &impl Serialize) -> anyhow::Result<()> {
+    let text = serde_json::to_string_pretty(value)?;
+    std::fs::write(path, text + "\n").with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// Sets up logging to stderr (`RUST_LOG` overrides `info`).
+pub fn init_logging() {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .try_init();
+}
+
+/// Parses `args` (the first is the program name) and runs the command. Returns the process
+/// exit code: 0 on success (for `solve`: solved), 1 when `solve` did not solve in time.
+pub fn main_with_args<I, T>(args: I) -> anyhow::Result<i32>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let cli = match Cli::try_parse_from(args) {
+        Ok(c) => c,
+        Err(e) => {
+            // --help and --version are not errors.
+            let code = if e.use_stderr() { 2 } else { 0 };
+            let _ = e.print();
+            return Ok(code);
+        }
+    };
+    init_logging();
+    match cli.command {
+        Command::Serve(a) => {
+            let config = a.to_config()?;
+            let stop = Arc::new(AtomicBool::new(false));
+            {
+                let stop = stop.clone();
+                ctrlc::set_handler(move || stop.store(true, Ordering::Release))
+                    .context("cannot install the SIGINT/SIGTERM handler")?;
+            }
+            tracing::info!(
+                "planner serving scene '{}' in namespace '{}' (seed {})",
+                config.scene.name,
+                config.namespace,
+                config.seed
+            );
+            let report = shell::run(&config, stop)?;
+            tracing::info!(
+                "planner done: solved {}, {} iterations, {} nodes, states {:.0} Hz",
+                report.solved,
+                report.iterations,
+                report.nodes,
+                report.state_rate_hz
+            );
+            if let Some(p) = &a.json {
+                write_json(p, &report)?;
+            }
+            Ok(0)
+        }
+        Command::Solve(a) => {
+            let report = solve(&a)?;
+            println!(
+                "{}: solved {} in {:.3} s, {} iterations, {} nodes, {} collision checks",
+                report.scene,
+                report.solved,
+                report.time_s,
+                report.iterations,
+                report.nodes,
+                report.collision_checks
+            );
+            if let Some(p) = &a.json {
+                write_json(p, &report)?;
+            }
+            Ok(if report.solved { 0 } else { 1 })
+        }
+    }
+}

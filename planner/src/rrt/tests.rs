@@ -1,0 +1,211 @@
+//! Tests of the RRT-Connect planner (kept beside `rrt.rs` for length).
+
+use super::*;
+use std::time::Instant;
+
+/// Runs until solved or `max_iter`; returns the iterations used.
+fn run(planner: &mut Planner, max_iter: u64, user: Option<&Se3>) -> Option<u64> {
+    for _ in 0..max_iter {
+        if planner.iterate(user).solved {
+            return Some(planner.stats().iterations);
+        }
+    }
+    None
+}
+
+fn easy() -> Scene {
+    Scene::wall_with_square_hole(0.30)
+}
+
+#[test]
+fn solves_an_easy_scene_with_valid_path() {
+    let scene = easy();
+    for seed in 1..=4 {
+        let mut p = Planner::new(&scene, PlannerParams::default(), seed).expect("planner");
+        let iters = run(&mut p, 2_000, None).unwrap_or_else(|| panic!("seed {seed} unsolved"));
+        let path = p.solution().expect("solution");
+        assert_eq!(path.first(), Some(&scene.start));
+        assert_eq!(path.last(), Some(&scene.goal));
+        for w in path.windows(2) {
+            assert!(p.checker().edge_free(&w[0], &w[1]), "seed {seed}: bad edge");
+            assert!(p.space().distance(&w[0], &w[1]) <= p.params().step + 1e-12);
+        }
+        let s = p.stats();
+        assert_eq!(
+            (s.iterations, s.trees, s.best_distance_to_goal),
+            (iters, 2, 0.0)
+        );
+        assert!(s.collision_checks > 0 && s.nodes >= path.len());
+        // Solved: further iterations do nothing.
+        let r = p.iterate(None);
+        assert!(r.solved && r.sample.is_none() && r.nodes_added == 0);
+    }
+}
+
+#[test]
+fn same_seed_same_trees_different_seed_differs() {
+    let scene = easy();
+    let grow = |seed| {
+        let mut p = Planner::new(&scene, PlannerParams::default(), seed).expect("planner");
+        for _ in 0..30 {
+            p.iterate(None);
+        }
+        p
+    };
+    let (a, b, c) = (grow(11), grow(11), grow(12));
+    assert_eq!(a.trees(), b.trees());
+    assert_eq!(a.stats(), b.stats());
+    assert_eq!(a.solution(), b.solution());
+    assert_ne!(a.trees(), c.trees());
+}
+
+#[test]
+fn extend_labels_and_reports() {
+    let scene = Scene::wall_with_hole();
+    let mut p = Planner::new(&scene, PlannerParams::default(), 5).expect("planner");
+    // Extending the start tree straight into the wall: partial progress, then blocked.
+    let (e, last, added) = p.extend(START, &Se3::from_xyz(0.0, 0.2, 0.0));
+    assert_eq!(e, Extend::Obstacle);
+    assert!(added >= 1 && last != NodeId(0));
+    let l = p.trees()[START].node(NodeId(0)).labels;
+    assert_eq!((l.extension_attempts, l.collisions), (1, 0));
+    assert!(l.covered_distance > 0.0);
+    // Again from the blocked tip: nothing added.
+    let (e, _, added) = p.extend(START, &Se3::from_xyz(0.0, 0.2, 0.0));
+    assert_eq!((e, added), (Extend::Collision, 0));
+    let l = p.trees()[START].node(last).labels;
+    assert_eq!((l.extension_attempts, l.collisions), (1, 1));
+    // Reaching a free nearby target.
+    let (e, _, added) = p.extend(GOAL, &Se3::from_xyz(0.2, 0.07, 0.0));
+    assert_eq!((e, added), (Extend::Success, 2));
+    let r = p.iterate(None);
+    assert_eq!((r.iteration, r.a_is_start), (1, true));
+    assert_eq!(r.connect.is_some(), r.extend != Some(Extend::Collision));
+}
+
+#[test]
+fn user_bias_samples_around_the_user() {
+    let scene = easy();
+    let params = PlannerParams {
+        user_bias: 1.0,
+        ..Default::default()
+    };
+    let mut p = Planner::new(&scene, params, 3).expect("planner");
+    let user = Se3::from_xyz(0.1, 0.1, 0.0);
+    for _ in 0..50 {
+        let r = p.iterate(Some(&user));
+        if r.solved {
+            break;
+        }
+        assert!(r.from_user);
+        let q = r.sample.expect("sample");
+        assert!((q.pos - user.pos).norm() < 0.2, "{q:?}");
+    }
+    // Non-finite user input is ignored.
+    let mut p = Planner::new(&scene, p.params().clone(), 3).expect("planner");
+    let r = p.iterate(Some(&Se3::from_xyz(f64::NAN, 0.0, 0.0)));
+    assert!(!r.from_user);
+}
+
+#[test]
+fn attractive_force_before_and_after_solution() {
+    let scene = easy();
+    let mut p = Planner::new(&scene, PlannerParams::default(), 2).expect("planner");
+    // Only the roots exist: F_a points to the root of the nearer tree.
+    let f = p.attractive_force(&Se3::from_xyz(-0.15, 0.0, 0.1));
+    assert!(
+        (f - Vector6::new(-0.05, 0.0, -0.1, 0.0, 0.0, 0.0)).norm() < 1e-12,
+        "{f}"
+    );
+    let f = p.attractive_force(&Se3::from_xyz(0.25, 0.0, 0.0));
+    assert!((f.x + 0.05).abs() < 1e-12);
+    assert_eq!(
+        p.attractive_force(&Se3::from_xyz(f64::NAN, 0.0, 0.0)),
+        Vector6::zeros()
+    );
+    run(&mut p, 2_000, None).expect("solved");
+    // On the path: F_a leads forward along it, with the lookahead length.
+    let path = p.solution().expect("path").to_vec();
+    let mid = path[path.len() / 2];
+    let f = p.attractive_force(&mid);
+    let next = path[path.len() / 2 + 1];
+    let towards = p.space().delta(&mid, &next);
+    assert!(f.dot(&towards) > 0.0, "{f} vs {towards}");
+    let w = p.params().weights;
+    let len = (w.translation * f.fixed_rows::<3>(0).norm_squared()
+        + w.rotation * f.fixed_rows::<3>(3).norm_squared())
+    .sqrt();
+    assert!(len > 0.0 && len <= p.params().lookahead + 0.011, "{len}");
+    assert!(p.attractive_force(&scene.goal).norm() < 1e-12);
+}
+
+#[test]
+fn rejects_colliding_start_and_bad_params() {
+    let mut scene = Scene::wall_with_hole();
+    scene.start = Se3::identity();
+    assert!(matches!(
+        Planner::new(&scene, PlannerParams::default(), 1),
+        Err(PlannerError::StartInCollision(_))
+    ));
+    let params = PlannerParams {
+        neighbours: 0,
+        ..Default::default()
+    };
+    assert!(Planner::new(&Scene::wall_with_hole(), params, 1).is_err());
+}
+
+/// Measures the cost of one collision check in the default scene (both argument orders)
+/// and prints it. Run in release: `cargo test -p planner --lib --release -- --ignored
+/// collision_check_cost --nocapture`.
+#[test]
+#[ignore = "timing report, run in release"]
+fn collision_check_cost() {
+    use crate::collision::to_parry;
+    use parry3d_f64::math::Pose;
+    use parry3d_f64::query::intersection_test;
+    use parry3d_f64::shape::{Compound, SharedShape};
+    use rand::SeedableRng;
+    let scene = Scene::wall_with_hole();
+    let checker = CollisionChecker::new(&scene);
+    let mut rng = ChaCha8Rng::seed_from_u64(9);
+    // Configurations near the wall (|x| < 0.1) are the expensive ones.
+    let space = Se3Space::new(
+        crate::scene::Bounds {
+            min_m: nalgebra::Vector3::new(-0.1, -0.25, -0.25),
+            max_m: nalgebra::Vector3::new(0.1, 0.25, 0.25),
+        },
+        Default::default(),
+    );
+    let qs: Vec<Se3> = (0..200_000)
+        .map(|_| space.sample_uniform(&mut rng))
+        .collect();
+    let t0 = Instant::now();
+    let free = qs.iter().filter(|q| checker.is_free(q)).count();
+    let per = t0.elapsed().as_secs_f64() / qs.len() as f64;
+    println!(
+        "is_free (object first): {:.3} us/check, {free} free of {}",
+        per * 1e6,
+        qs.len()
+    );
+    let part = |p: &crate::scene::Part| {
+        let crate::scene::Primitive::Box { half_extents_m: h } = p.primitive else {
+            unreachable!()
+        };
+        (to_parry(&p.pose), SharedShape::cuboid(h.x, h.y, h.z))
+    };
+    let obj = Compound::new(scene.moving_object.iter().map(part).collect());
+    let obs = Compound::new(scene.obstacles.iter().map(part).collect());
+    let t0 = Instant::now();
+    let mut hits = 0;
+    for q in &qs {
+        let r = intersection_test(&Pose::IDENTITY, &obs, &to_parry(q), &obj);
+        hits += usize::from(r.map(|r| r.intersecting).unwrap_or(true));
+    }
+    let per2 = t0.elapsed().as_secs_f64() / qs.len() as f64;
+    println!(
+        "obstacles first: {:.3} us/check, {} free",
+        per2 * 1e6,
+        qs.len() - hits
+    );
+    assert_eq!(qs.len() - hits, free);
+}

@@ -1,0 +1,297 @@
+//! TOML scene format. Example (`planner/scenes/wall-hole.toml`):
+//!
+//! ```toml
+//! name = "wall-hole"            # optional
+//! [bounds]                      # reference point bounds, scene frame (m)
+//! min_m = [-0.30, -0.25, -0.25]
+//! max_m = [0.30, 0.25, 0.25]
+//! [start]                       # and [goal]: position (m), roll-pitch-yaw (rad)
+//! position_m = [-0.2, 0.0, 0.0]
+//! rpy_rad = [0.0, 0.0, 0.0]     # optional, Rz(yaw)·Ry(pitch)·Rx(roll)
+//! [[obstacles]]                 # pose in the scene frame
+//! shape = "box"                 # "box" needs half_extents_m, "sphere" needs radius_m
+//! half_extents_m = [0.01, 0.35, 0.155]
+//! position_m = [0.0, 0.0, 0.195]
+//! [[moving_object]]             # pose relative to the object's reference point
+//! shape = "sphere"
+//! radius_m = 0.02
+//! ```
+//!
+//! Unknown keys are rejected. Bad numbers (non-finite, non-positive sizes) are reported
+//! with toml's line and column; semantic errors name the field and the line of its table.
+
+use super::{Bounds, Part, Primitive, Scene, SceneError};
+use crate::pose::Se3;
+use nalgebra::Vector3;
+use serde::Deserialize;
+use toml::Spanned;
+
+/// A finite number; rejected during deserialisation so toml reports the value's span.
+#[derive(Clone, Copy, Debug, Default, Deserialize)]
+#[serde(try_from = "f64")]
+struct Finite(f64);
+
+impl TryFrom<f64> for Finite {
+    type Error = String;
+    fn try_from(v: f64) -> Result<Self, String> {
+        if v.is_finite() {
+            Ok(Finite(v))
+        } else {
+            Err(format!("number must be finite, got {v}"))
+        }
+    }
+}
+
+/// A finite, strictly positive size (m).
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(try_from = "f64")]
+struct Positive(f64);
+
+impl TryFrom<f64> for Positive {
+    type Error = String;
+    fn try_from(v: f64) -> Result<Self, String> {
+        if v.is_finite() && v > 0.0 {
+            Ok(Positive(v))
+        } else {
+            Err(format!("size must be finite and > 0, got {v}"))
+        }
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    name: Option<String>,
+    bounds: Spanned<BoundsFile>,
+    start: Spanned<PoseFile>,
+    goal: Spanned<PoseFile>,
+    #[serde(default)]
+    obstacles: Vec<Spanned<PartFile>>,
+    moving_object: Vec<Spanned<PartFile>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BoundsFile {
+    min_m: [Finite; 3],
+    max_m: [Finite; 3],
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PoseFile {
+    position_m: [Finite; 3],
+    #[serde(default)]
+    rpy_rad: [Finite; 3],
+}
+
+#[derive(Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum ShapeKind {
+    Box,
+    Sphere,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PartFile {
+    shape: ShapeKind,
+    half_extents_m: Option<[Positive; 3]>,
+    radius_m: Option<Positive>,
+    #[serde(default)]
+    position_m: [Finite; 3],
+    #[serde(default)]
+    rpy_rad: [Finite; 3],
+}
+
+fn vec3(v: &[Finite; 3]) -> Vector3<f64> {
+    Vector3::new(v[0].0, v[1].0, v[2].0)
+}
+
+fn pose(position_m: &[Finite; 3], rpy_rad: &[Finite; 3]) -> Se3 {
+    Se3::from_rpy(vec3(position_m), rpy_rad[0].0, rpy_rad[1].0, rpy_rad[2].0)
+}
+
+/// 1-based line number of byte `offset` in `text`.
+fn line_of(text: &str, offset: usize) -> usize {
+    let end = offset.min(text.len());
+    text.as_bytes()[..end]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
+}
+
+pub(super) fn parse(text: &str, origin: &str) -> Result<Scene, SceneError> {
+    let raw: SceneFile = toml::from_str(text).map_err(|e| SceneError::Parse {
+        origin: origin.to_owned(),
+        message: e.to_string(),
+    })?;
+    // Spans of the top-level tables, to give semantic errors a line.
+    let mut spans: Vec<(String, usize)> = vec![
+        ("bounds".into(), raw.bounds.span().start),
+        ("start".into(), raw.start.span().start),
+        ("goal".into(), raw.goal.span().start),
+    ];
+    let mut convert = |list: &str, items: &[Spanned<PartFile>]| -> Result<Vec<Part>, SceneError> {
+        let mut out = Vec::with_capacity(items.len());
+        for (i, item) in items.iter().enumerate() {
+            let field = format!("{list}[{i}]");
+            spans.push((field.clone(), item.span().start));
+            let p = item.get_ref();
+            let primitive = match (&p.shape, &p.half_extents_m, &p.radius_m) {
+                (ShapeKind::Box, Some(h), None) => Primitive::Box {
+                    half_extents_m: Vector3::new(h[0].0, h[1].0, h[2].0),
+                },
+                (ShapeKind::Sphere, None, Some(r)) => Primitive::Sphere { radius_m: r.0 },
+                _ => {
+                    return Err(SceneError::Invalid {
+                        origin: origin.to_owned(),
+                        line: Some(line_of(text, item.span().start)),
+                        field,
+                        reason: "a box needs exactly `half_extents_m`, a sphere exactly `radius_m`"
+                            .into(),
+                    });
+                }
+            };
+            out.push(Part {
+                primitive,
+                pose: pose(&p.position_m, &p.rpy_rad),
+            });
+        }
+        Ok(out)
+    };
+    let obstacles = convert("obstacles", &raw.obstacles)?;
+    let moving_object = convert("moving_object", &raw.moving_object)?;
+    let (start, goal) = (raw.start.get_ref(), raw.goal.get_ref());
+    let scene = Scene {
+        name: raw.name.clone().unwrap_or_else(|| default_name(origin)),
+        obstacles,
+        moving_object,
+        bounds: Bounds {
+            min_m: vec3(&raw.bounds.get_ref().min_m),
+            max_m: vec3(&raw.bounds.get_ref().max_m),
+        },
+        start: pose(&start.position_m, &start.rpy_rad),
+        goal: pose(&goal.position_m, &goal.rpy_rad),
+    };
+    scene.validate(origin).map_err(|e| match e {
+        SceneError::Invalid {
+            origin,
+            field,
+            reason,
+            ..
+        } => {
+            let table = field.split('.').next().unwrap_or(&field);
+            let line = spans
+                .iter()
+                .find(|(name, _)| name == table)
+                .map(|(_, off)| line_of(text, *off));
+            SceneError::Invalid {
+                origin,
+                line,
+                field,
+                reason,
+            }
+        }
+        other => other,
+    })?;
+    Ok(scene)
+}
+
+/// The file stem of `origin`, or `origin` itself.
+fn default_name(origin: &str) -> String {
+    std::path::Path::new(origin)
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| origin.to_owned())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SHIPPED: &str = include_str!("../../scenes/wall-hole.toml");
+
+    fn close(a: &Se3, b: &Se3) -> bool {
+        (a.pos - b.pos).norm() < 1e-12 && a.rot.angle_to(&b.rot) < 1e-12
+    }
+
+    #[test]
+    fn shipped_file_equals_embedded_scene() {
+        let f = Scene::from_toml_str(SHIPPED, "scenes/wall-hole.toml").expect("parses");
+        let e = Scene::wall_with_hole();
+        assert_eq!(f.name, e.name);
+        assert_eq!(f.bounds, e.bounds);
+        assert!(close(&f.start, &e.start) && close(&f.goal, &e.goal));
+        for (a, b) in [
+            (&f.obstacles, &e.obstacles),
+            (&f.moving_object, &e.moving_object),
+        ] {
+            assert_eq!(a.len(), b.len());
+            for (pa, pb) in a.iter().zip(b) {
+                assert!(close(&pa.pose, &pb.pose), "{pa:?} vs {pb:?}");
+                let (Primitive::Box { half_extents_m: ha }, Primitive::Box { half_extents_m: hb }) =
+                    (&pa.primitive, &pb.primitive)
+                else {
+                    panic!("not boxes");
+                };
+                assert!((ha - hb).norm() < 1e-12);
+            }
+        }
+    }
+
+    const MINIMAL: &str = r#"
+[bounds]
+min_m = [-1, -1, -1]
+max_m = [1, 1, 1]
+[start]
+position_m = [0, 0, 0]
+[goal]
+position_m = [0.5, 0, 0]
+[[moving_object]]
+shape = "sphere"
+radius_m = 0.1
+"#;
+
+    #[test]
+    fn minimal_file_parses_with_defaults() {
+        let s = Scene::from_toml_str(MINIMAL, "dir/mini.toml").expect("parses");
+        assert_eq!(s.name, "mini");
+        assert!(s.obstacles.is_empty());
+        assert_eq!(
+            s.moving_object[0].primitive,
+            Primitive::Sphere { radius_m: 0.1 }
+        );
+    }
+
+    fn err(text: &str) -> String {
+        Scene::from_toml_str(text, "f.toml")
+            .unwrap_err()
+            .to_string()
+    }
+
+    #[test]
+    fn errors_name_file_field_and_line() {
+        let e = err(&MINIMAL.replace("radius_m = 0.1", "radius_m = -0.1"));
+        assert!(
+            e.starts_with("f.toml") && e.contains("line 11") && e.contains("> 0"),
+            "{e}"
+        );
+        let e = err(&MINIMAL.replace("[0.5, 0, 0]", "[nan, 0, 0]"));
+        assert!(e.contains("finite") && e.contains("line 8"), "{e}");
+        let e = err(&MINIMAL.replace("[0.5, 0, 0]", "[2, 0, 0]"));
+        assert!(
+            e.contains("f.toml:7") && e.contains("`goal`") && e.contains("outside"),
+            "{e}"
+        );
+        let e = err(&MINIMAL.replace("radius_m = 0.1", "half_extents_m = [0.1, 0.1, 0.1]"));
+        assert!(e.contains("moving_object[0]"), "{e}");
+        let e = err(&MINIMAL.replace("shape =", "shpe ="));
+        assert!(e.contains("shpe"), "{e}");
+        let e = err("this is = = not toml");
+        assert!(e.starts_with("f.toml"), "{e}");
+        let e = err(&MINIMAL.replace("[[moving_object]]\nshape = \"sphere\"\nradius_m = 0.1", ""));
+        assert!(e.contains("moving_object"), "{e}");
+    }
+}

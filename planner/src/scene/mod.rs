@@ -1,0 +1,323 @@
+//! Scene description: static obstacles, the moving object, the bounds of its reference
+//! point, and the start and goal configurations.
+//!
+//! Frames and units: the scene frame is right-handed with Z up, lengths in metres, angles
+//! in radians. Obstacle poses are in the scene frame; moving-object part poses are in the
+//! object frame, whose origin is the object's *reference point* (the point that
+//! configurations and the bounds talk about).
+//!
+//! This module depends only on [`crate::pose`] (no planner internals) so that the haptic
+//! loop can share it. Validation here covers numbers, sizes and bounds; whether start and
+//! goal are collision free is checked by the caller that owns a collision checker
+//! (`Planner::new` does it).
+
+mod file;
+
+use crate::pose::Se3;
+use nalgebra::Vector3;
+use std::path::Path;
+
+/// A geometric primitive in its own local frame (centred on the local origin).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Primitive {
+    /// A box (cuboid) with the given half extents along its local x, y, z axes (m, > 0).
+    Box {
+        /// Half extents (m), each strictly positive.
+        half_extents_m: Vector3<f64>,
+    },
+    /// A sphere (m, radius > 0).
+    Sphere {
+        /// Radius (m), strictly positive.
+        radius_m: f64,
+    },
+}
+
+/// A primitive placed by a pose (obstacles: in the scene frame; object parts: in the
+/// object frame).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Part {
+    /// The shape.
+    pub primitive: Primitive,
+    /// Pose of the primitive's local frame in the parent frame.
+    pub pose: Se3,
+}
+
+impl Part {
+    /// Largest distance from the parent frame's origin to a point of the part (m).
+    pub fn reach_m(&self) -> f64 {
+        match &self.primitive {
+            Primitive::Box { half_extents_m: h } => {
+                let mut r: f64 = 0.0;
+                for corner in 0..8 {
+                    let sign = |bit: u32| if corner & (1 << bit) == 0 { -1.0 } else { 1.0 };
+                    let c = Vector3::new(sign(0) * h.x, sign(1) * h.y, sign(2) * h.z);
+                    r = r.max(self.pose.transform_point(&c).norm());
+                }
+                r
+            }
+            Primitive::Sphere { radius_m } => self.pose.pos.norm() + radius_m,
+        }
+    }
+
+    /// A box of half extents `(hx, hy, hz)` (m) centred at `(x, y, z)` (m), axis aligned.
+    pub fn axis_box(half: [f64; 3], centre: [f64; 3]) -> Self {
+        Part {
+            primitive: Primitive::Box {
+                half_extents_m: Vector3::from(half),
+            },
+            pose: Se3::from_xyz(centre[0], centre[1], centre[2]),
+        }
+    }
+}
+
+/// Axis-aligned box for the reference point of the moving object, scene frame (m).
+/// `min_m[i] <= max_m[i]` (equal pins that coordinate).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bounds {
+    /// Lower corner (m).
+    pub min_m: Vector3<f64>,
+    /// Upper corner (m).
+    pub max_m: Vector3<f64>,
+}
+
+impl Bounds {
+    /// True when `p` (m, scene frame) lies inside the closed box.
+    pub fn contains(&self, p: &Vector3<f64>) -> bool {
+        (0..3).all(|i| p[i] >= self.min_m[i] && p[i] <= self.max_m[i])
+    }
+}
+
+/// A complete planning scene. See the module docs for frames.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    /// Human-readable name (e.g. `wall-hole`).
+    pub name: String,
+    /// Static obstacles, poses in the scene frame. May be empty.
+    pub obstacles: Vec<Part>,
+    /// Parts of the moving object, poses relative to its reference point. Not empty.
+    pub moving_object: Vec<Part>,
+    /// Bounds of the reference point (m, scene frame).
+    pub bounds: Bounds,
+    /// Start configuration of the object (scene frame).
+    pub start: Se3,
+    /// Goal configuration of the object (scene frame).
+    pub goal: Se3,
+}
+
+/// Why a scene could not be loaded or is invalid. Every variant names its origin (a file
+/// path or `<embedded>`).
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// The file could not be read.
+    #[error("{origin}: cannot read scene file: {source}")]
+    Io {
+        /// File path.
+        origin: String,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The TOML text is malformed or has a bad value; the message carries line and column.
+    #[error("{origin}: {message}")]
+    Parse {
+        /// File path or label.
+        origin: String,
+        /// toml's message, with line, column and a snippet.
+        message: String,
+    },
+    /// The scene parsed but a field is invalid.
+    #[error("{origin}{}: field `{field}`: {reason}", line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Invalid {
+        /// File path or label.
+        origin: String,
+        /// 1-based line of the offending table, when known.
+        line: Option<usize>,
+        /// Dotted field path, e.g. `obstacles[2].half_extents_m`.
+        field: String,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+/// Built-in scene names accepted by [`Scene::by_name_or_path`].
+pub const BUILTIN_NAMES: [&str; 2] = ["wall-hole", "default"];
+
+impl Scene {
+    /// The embedded default scene, I-RRT §5.3 "Simple 6D case".
+    ///
+    /// A 700 × 700 × 20 mm wall in the y–z plane at x = 0 (x ∈ [−0.01, 0.01] m) with an
+    /// 80 × 80 mm square hole at its centre, built from 4 boxes. The moving object is an
+    /// S of three 20 × 20 × 100 mm sticks lying inside a virtual 100 mm cube centred on
+    /// the reference point, along three consecutive, mutually perpendicular edges:
+    /// an x-edge at (y, z) = (−, −), a y-edge at (x, z) = (+, −), a z-edge at
+    /// (x, y) = (+, +). Bounds keep the reference point in x ∈ [−0.30, 0.30],
+    /// y, z ∈ [−0.25, 0.25] m: the object reaches at most √3·0.05 ≈ 0.087 m from it, so it
+    /// can never pass around the wall (0.35 m half size). Start (−0.2, 0, 0) and goal
+    /// (+0.2, 0, 0), identity orientation.
+    pub fn wall_with_hole() -> Scene {
+        Self::wall_with_square_hole(0.08)
+    }
+
+    /// [`Scene::wall_with_hole`] with a square hole of side `hole_side_m` (m, in
+    /// (0, 0.7)) instead of 80 mm; named `wall-hole-<side in mm>` unless the side is 80 mm.
+    /// Larger holes give easier scenes for tests.
+    pub fn wall_with_square_hole(hole_side_m: f64) -> Scene {
+        // Wall half thickness, half size, hole half size (m).
+        let (t, w, h) = (0.01, 0.35, 0.5 * hole_side_m);
+        let side = 0.5 * (w - h); // half extent of a frame box across the hole
+        let mid = 0.5 * (w + h); // centre offset of a frame box
+        let obstacles = vec![
+            Part::axis_box([t, w, side], [0.0, 0.0, mid]),
+            Part::axis_box([t, w, side], [0.0, 0.0, -mid]),
+            Part::axis_box([t, side, h], [0.0, mid, 0.0]),
+            Part::axis_box([t, side, h], [0.0, -mid, 0.0]),
+        ];
+        let (s, e) = (0.01, 0.04); // stick half width, offset of a stick axis from centre
+        let moving_object = vec![
+            Part::axis_box([0.05, s, s], [0.0, -e, -e]),
+            Part::axis_box([s, 0.05, s], [e, 0.0, -e]),
+            Part::axis_box([s, s, 0.05], [e, e, 0.0]),
+        ];
+        Scene {
+            name: if hole_side_m == 0.08 {
+                "wall-hole".to_owned()
+            } else {
+                format!("wall-hole-{:.0}", hole_side_m * 1000.0)
+            },
+            obstacles,
+            moving_object,
+            bounds: Bounds {
+                min_m: Vector3::new(-0.30, -0.25, -0.25),
+                max_m: Vector3::new(0.30, 0.25, 0.25),
+            },
+            start: Se3::from_xyz(-0.20, 0.0, 0.0),
+            goal: Se3::from_xyz(0.20, 0.0, 0.0),
+        }
+    }
+
+    /// `"wall-hole"` or `"default"` give [`Scene::wall_with_hole`]; anything else is read
+    /// as a TOML file path.
+    pub fn by_name_or_path(s: &str) -> Result<Scene, SceneError> {
+        if BUILTIN_NAMES.contains(&s) {
+            Ok(Scene::wall_with_hole())
+        } else {
+            Scene::load(Path::new(s))
+        }
+    }
+
+    /// Reads and validates a TOML scene file (format: see `planner/scenes/wall-hole.toml`).
+    pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        let origin = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+            origin: origin.clone(),
+            source,
+        })?;
+        Scene::from_toml_str(&text, &origin)
+    }
+
+    /// Parses and validates TOML scene text; `origin` names it in errors (a path).
+    pub fn from_toml_str(text: &str, origin: &str) -> Result<Scene, SceneError> {
+        file::parse(text, origin)
+    }
+
+    /// Largest distance from the reference point to any point of the object (m).
+    pub fn object_radius_m(&self) -> f64 {
+        self.moving_object
+            .iter()
+            .map(Part::reach_m)
+            .fold(0.0, f64::max)
+    }
+
+    /// Checks finiteness, positive sizes, a non-empty object, ordered bounds, and start
+    /// and goal inside the bounds. Does not check collisions. `origin` labels errors.
+    pub fn validate(&self, origin: &str) -> Result<(), SceneError> {
+        let bad = |field: String, reason: &str| SceneError::Invalid {
+            origin: origin.to_owned(),
+            line: None,
+            field,
+            reason: reason.to_owned(),
+        };
+        let parts = [
+            ("obstacles", &self.obstacles),
+            ("moving_object", &self.moving_object),
+        ];
+        for (list, items) in parts {
+            for (i, part) in items.iter().enumerate() {
+                if !part.pose.is_finite() {
+                    return Err(bad(format!("{list}[{i}].pose"), "must be finite"));
+                }
+                let ok = match &part.primitive {
+                    Primitive::Box { half_extents_m } => {
+                        half_extents_m.iter().all(|v| v.is_finite() && *v > 0.0)
+                    }
+                    Primitive::Sphere { radius_m } => radius_m.is_finite() && *radius_m > 0.0,
+                };
+                if !ok {
+                    return Err(bad(format!("{list}[{i}]"), "sizes must be finite and > 0"));
+                }
+            }
+        }
+        if self.moving_object.is_empty() {
+            return Err(bad("moving_object".into(), "needs at least one part"));
+        }
+        let b = &self.bounds;
+        let finite = b.min_m.iter().chain(b.max_m.iter()).all(|v| v.is_finite());
+        if !finite || (0..3).any(|i| b.min_m[i] > b.max_m[i]) {
+            return Err(bad("bounds".into(), "must be finite with min_m <= max_m"));
+        }
+        for (field, q) in [("start", &self.start), ("goal", &self.goal)] {
+            if !q.is_finite() {
+                return Err(bad(field.into(), "must be finite"));
+            }
+            if !b.contains(&q.pos) {
+                return Err(bad(field.into(), "position_m is outside bounds"));
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_scene_is_valid_and_cannot_be_bypassed() {
+        let s = Scene::wall_with_hole();
+        s.validate("<embedded>").expect("valid");
+        // The object's reach from the bound edge stays inside the wall's 0.35 m half size.
+        let reach = s.object_radius_m();
+        assert!((reach - 0.05 * 3f64.sqrt()).abs() < 1e-12, "reach {reach}");
+        assert!(s.bounds.max_m.y + reach < 0.35 && s.bounds.max_m.z + reach < 0.35);
+        assert!(-s.bounds.min_m.y + reach < 0.35 && -s.bounds.min_m.z + reach < 0.35);
+    }
+
+    #[test]
+    fn by_name_aliases_and_missing_file() {
+        assert_eq!(
+            Scene::by_name_or_path("default").ok(),
+            Some(Scene::wall_with_hole())
+        );
+        assert_eq!(
+            Scene::by_name_or_path("wall-hole").ok(),
+            Some(Scene::wall_with_hole())
+        );
+        let err = Scene::by_name_or_path("/nonexistent/x.toml").unwrap_err();
+        assert!(matches!(err, SceneError::Io { .. }));
+        assert!(err.to_string().contains("/nonexistent/x.toml"));
+    }
+
+    #[test]
+    fn validate_rejects_bad_values() {
+        let mut s = Scene::wall_with_hole();
+        s.goal.pos.x = 0.5;
+        let e = s.validate("x").unwrap_err().to_string();
+        assert!(e.contains("goal"), "{e}");
+        let mut s = Scene::wall_with_hole();
+        s.obstacles[1].primitive = Primitive::Sphere { radius_m: 0.0 };
+        let e = s.validate("x").unwrap_err().to_string();
+        assert!(e.contains("obstacles[1]"), "{e}");
+        let mut s = Scene::wall_with_hole();
+        s.start.pos.y = f64::NAN;
+        assert!(s.validate("x").is_err());
+    }
+}

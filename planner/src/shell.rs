@@ -1,0 +1,349 @@
+//! The planner process: IPC and timing around the pure [`Planner`] core.
+//!
+//! Threads:
+//! - *receiver*: polls the [`HapticState`] blackboard at `state_poll_hz` with absolute-deadline
+//!   sleeps, counts every new tick it sees (and those it skipped, from sequence gaps), and
+//!   keeps the newest operator pose for the planning thread. Polling rather than an event:
+//!   the haptic loop must not call `notify()` from its RT thread (see `ipc_types::services`).
+//! - *main*: runs planner iterations as fast as they go and, independently of their speed,
+//!   publishes [`Guidance`] at `guidance_rate_hz` and the [`Path`] once solved. Never waits
+//!   for the haptic loop.
+
+use crate::{Planner, PlannerParams, Scene, Se3};
+use ipc_types::services::{self, GuidanceWriter, StateReader};
+use ipc_types::{Guidance, GuidanceMode, HapticState, Header, PATH_CAPACITY, Path, Pose};
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use serde::Serialize;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// Everything the planner process needs, validated.
+#[derive(Debug, Clone)]
+pub struct ShellConfig {
+    /// IPC namespace shared with the haptic loop.
+    pub namespace: String,
+    /// The scene to plan in.
+    pub scene: Scene,
+    /// Core parameters.
+    pub params: PlannerParams,
+    /// RNG seed.
+    pub seed: u64,
+    /// Guidance publish rate, Hz.
+    pub guidance_rate_hz: f64,
+    /// k for the translational part of F_s, N/m.
+    pub gain_n_per_m: f64,
+    /// k for the rotational part of F_s, N·m/rad.
+    pub gain_nm_per_rad: f64,
+    /// Time-to-live written into each guidance sample, s.
+    pub ttl_s: f64,
+    /// How often the receiver thread polls the haptic state, Hz.
+    pub state_poll_hz: f64,
+    /// A haptic state older than this counts as "no operator", s.
+    pub state_timeout_s: f64,
+    /// Stop after this long (`None` = until SIGINT/SIGTERM).
+    pub duration_s: Option<f64>,
+}
+
+/// What a planner run did; written as JSON by `--json`.
+#[derive(Debug, Clone, Serialize, Default)]
+pub struct ShellReport {
+    /// Seconds the process ran.
+    pub run_s: f64,
+    /// A solution was found.
+    pub solved: bool,
+    /// Seconds from start to solution.
+    pub time_to_solve_s: Option<f64>,
+    /// Planner iterations.
+    pub iterations: u64,
+    /// Nodes in all trees.
+    pub nodes: u64,
+    /// Collision checks.
+    pub collision_checks: u64,
+    /// Waypoints of the published path (0 if unsolved).
+    pub path_waypoints: u64,
+    /// Distinct haptic states received.
+    pub states_received: u64,
+    /// Haptic states the loop published that this process did not see (sequence gaps).
+    pub states_skipped: u64,
+    /// Received states per second, between the first and the last one received.
+    pub state_rate_hz: f64,
+    /// Guidance samples published.
+    pub guidance_published: u64,
+    /// Haptic states rejected as invalid (non-finite or non-unit pose).
+    pub states_rejected: u64,
+}
+
+/// The newest operator state as seen by the receiver thread.
+#[derive(Debug, Default, Clone, Copy)]
+struct Operator {
+    state: Option<HapticState>,
+    /// `Instant` of the last new state, for staleness.
+    seen_at: Option<Instant>,
+    received: u64,
+    skipped: u64,
+    rejected: u64,
+    first_at: Option<Instant>,
+    last_at: Option<Instant>,
+}
+
+/// Runs the planner process until `stop` is set or the duration elapses.
+pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellReport> {
+    let started = Instant::now();
+    let node_name = format!("planner_{}", std::process::id());
+    let (node, cleaned) = services::create_node(&node_name)?;
+    if cleaned > 0 {
+        tracing::info!("removed resources of {cleaned} dead iceoryx2 node(s)");
+    }
+    let guidance = services::guidance_writer(&node, &config.namespace)?;
+    let path_pub = services::path_publisher(&node, &config.namespace)?;
+    let state_reader = services::state_reader(&node, &config.namespace)?;
+    let mut planner = Planner::new(&config.scene, config.params.clone(), config.seed)?;
+
+    let operator = Arc::new(Mutex::new(Operator::default()));
+    let receiver = {
+        let operator = operator.clone();
+        let stop = stop.clone();
+        let poll_ns = (1e9 / config.state_poll_hz) as u64;
+        std::thread::Builder::new()
+            .name("planner-rx".into())
+            .spawn(move || receive_states(state_reader, operator, &stop, poll_ns))?
+    };
+
+    let guidance_period = Duration::from_secs_f64(1.0 / config.guidance_rate_hz);
+    let mut next_guidance = Instant::now();
+    let mut report = ShellReport::default();
+    let mut guidance_seq = 0u64;
+    let mut path_seq = 0u64;
+    let pid = std::process::id();
+    let mut last_connection_update = Instant::now();
+    let mut announced_operator = false;
+
+    while !stop.load(Ordering::Acquire) {
+        if config
+            .duration_s
+            .is_some_and(|d| started.elapsed().as_secs_f64() >= d)
+        {
+            break;
+        }
+        let op = *lock(&operator);
+        let fresh = op
+            .seen_at
+            .is_some_and(|t| t.elapsed().as_secs_f64() < config.state_timeout_s);
+        let q_user = op.state.filter(|_| fresh).and_then(|s| se3(&s.user_pose));
+        if fresh != announced_operator {
+            if fresh {
+                tracing::info!("haptic loop present: following the operator");
+            } else {
+                tracing::info!("no fresh haptic state: planning without the operator");
+            }
+            announced_operator = fresh;
+        }
+
+        if !planner.solved() {
+            planner.iterate(q_user.as_ref());
+            if planner.solved() {
+                let t = started.elapsed().as_secs_f64();
+                report.time_to_solve_s = Some(t);
+                if let Some(sol) = planner.solution() {
+                    path_seq += 1;
+                    let path = to_wire_path(sol, &planner, path_seq, pid);
+                    report.path_waypoints = path.len;
+                    if let Err(e) = path_pub.send_copy(path) {
+                        tracing::warn!("cannot publish path: {e:?}");
+                    }
+                }
+                let s = planner.stats();
+                tracing::info!(
+                    "solved after {t:.2} s: {} iterations, {} nodes, {} waypoints",
+                    s.iterations,
+                    s.nodes,
+                    report.path_waypoints
+                );
+            }
+        } else {
+            // Solved: nothing to grow; wake for the next guidance publication only.
+            std::thread::sleep(next_guidance.saturating_duration_since(Instant::now()));
+        }
+
+        let now = Instant::now();
+        if now >= next_guidance {
+            next_guidance += guidance_period;
+            if next_guidance < now {
+                next_guidance = now + guidance_period;
+            }
+            guidance_seq += 1;
+            let g = make_guidance(config, &planner, q_user.as_ref(), &op, guidance_seq, pid);
+            publish_guidance(&guidance, g);
+            report.guidance_published += 1;
+        }
+        if last_connection_update.elapsed() > Duration::from_millis(200) {
+            // Delivers the path history to subscribers that joined late.
+            use iceoryx2::port::update_connections::UpdateConnections;
+            let _ = path_pub.update_connections();
+            last_connection_update = Instant::now();
+        }
+    }
+
+    stop.store(true, Ordering::Release);
+    let _ = receiver.join();
+    let op = *lock(&operator);
+    let s = planner.stats();
+    report.run_s = started.elapsed().as_secs_f64();
+    report.solved = planner.solved();
+    report.iterations = s.iterations;
+    report.nodes = s.nodes as u64;
+    report.collision_checks = s.collision_checks;
+    report.states_received = op.received;
+    report.states_skipped = op.skipped;
+    report.states_rejected = op.rejected;
+    report.state_rate_hz = match (op.first_at, op.last_at) {
+        (Some(a), Some(b)) if b > a => (op.received - 1) as f64 / (b - a).as_secs_f64(),
+        _ => 0.0,
+    };
+    Ok(report)
+}
+
+fn lock(m: &Mutex<Operator>) -> std::sync::MutexGuard<'_, Operator> {
+    // The receiver never panics while holding the lock; recover the data if it ever did.
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+fn receive_states(
+    reader: StateReader,
+    operator: Arc<Mutex<Operator>>,
+    stop: &AtomicBool,
+    poll_ns: u64,
+) {
+    let mut last_seq = 0u64;
+    let mut last_pid = 0u32;
+    let mut next = Instant::now();
+    while !stop.load(Ordering::Acquire) {
+        let s = *reader.get();
+        let seq = s.header.sequence;
+        let restarted = s.header.writer_pid != last_pid;
+        if seq != 0 && (seq != last_seq || restarted) {
+            let now = Instant::now();
+            let mut op = lock(&operator);
+            if !restarted && seq > last_seq + 1 && last_seq != 0 {
+                op.skipped += seq - last_seq - 1;
+            }
+            if s.user_pose.is_valid() {
+                op.state = Some(s);
+                op.seen_at = Some(now);
+            } else {
+                op.rejected += 1;
+            }
+            op.received += 1;
+            op.first_at.get_or_insert(now);
+            op.last_at = Some(now);
+            last_seq = seq;
+            last_pid = s.header.writer_pid;
+        }
+        next += Duration::from_nanos(poll_ns);
+        let now = Instant::now();
+        if next > now {
+            std::thread::sleep(next - now);
+        } else {
+            next = now;
+        }
+    }
+}
+
+fn make_guidance(
+    config: &ShellConfig,
+    planner: &Planner,
+    q_user: Option<&Se3>,
+    op: &Operator,
+    seq: u64,
+    pid: u32,
+) -> Guidance {
+    let s = planner.stats();
+    let (attractive, mode) = match q_user {
+        Some(q) => {
+            let fa = planner.attractive_force(q);
+            let mode = if planner.solved() {
+                GuidanceMode::PATH
+            } else {
+                GuidanceMode::ROADMAP
+            };
+            (fa.into(), mode)
+        }
+        None => ([0.0; 6], GuidanceMode::NONE),
+    };
+    Guidance {
+        header: Header {
+            sequence: seq,
+            timestamp_ns: ipc_types::monotonic_ns(),
+            writer_pid: pid,
+            reserved: 0,
+        },
+        attractive,
+        gain_n_per_m: config.gain_n_per_m,
+        gain_nm_per_rad: config.gain_nm_per_rad,
+        time_to_live_ns: (config.ttl_s * 1e9) as u64,
+        state_sequence: op.state.map_or(0, |s| s.header.sequence),
+        mode,
+        solved: u32::from(planner.solved()),
+        iterations: s.iterations,
+        nodes: s.nodes as u64,
+        trees: s.trees as u32,
+        reserved: 0,
+        distance_to_goal: s.best_distance_to_goal,
+        collision_checks: s.collision_checks,
+    }
+}
+
+fn publish_guidance(writer: &GuidanceWriter, g: Guidance) {
+    writer.update_with_copy(g);
+}
+
+/// The planner's pose type from a wire pose; `None` if invalid.
+pub fn se3(p: &Pose) -> Option<Se3> {
+    if !p.is_valid() {
+        return None;
+    }
+    let [x, y, z, w] = p.orientation_xyzw;
+    Some(Se3::new(
+        Vector3::from(p.position_m),
+        UnitQuaternion::new_normalize(Quaternion::new(w, x, y, z)),
+    ))
+}
+
+/// The wire pose of a planner pose.
+pub fn pose(q: &Se3) -> Pose {
+    let c = q.rot.coords;
+    Pose {
+        position_m: q.pos.into(),
+        orientation_xyzw: [c.x, c.y, c.z, c.w],
+    }
+}
+
+/// The solution as a wire [`Path`], resampled to at most [`PATH_CAPACITY`] waypoints by
+/// keeping evenly spaced ones (always the first and the last).
+fn to_wire_path(sol: &[Se3], planner: &Planner, seq: u64, pid: u32) -> Path {
+    let mut path = Path::EMPTY;
+    let n = sol.len();
+    let keep = n.min(PATH_CAPACITY);
+    for i in 0..keep {
+        let src = if keep <= 1 {
+            0
+        } else {
+            i * (n - 1) / (keep - 1)
+        };
+        path.waypoints[i] = pose(&sol[src]);
+    }
+    path.len = keep as u64;
+    let space = planner.space();
+    path.length = sol
+        .windows(2)
+        .map(|w| crate::space::ConfigSpace::distance(space, &w[0], &w[1]))
+        .sum();
+    path.header = Header {
+        sequence: seq,
+        timestamp_ns: ipc_types::monotonic_ns(),
+        writer_pid: pid,
+        reserved: 0,
+    };
+    path
+}

@@ -1,0 +1,295 @@
+//! Configuration space of a free-flying rigid object: SE(3) with the weighted distance of
+//! I-RRT eq. 2, interpolation, sampling, steering and 6-vector differences.
+//!
+//! The weighted distance between `a` and `b` is
+//! `d = sqrt(w_t·|p_b − p_a|² + w_r·θ²)`, with `θ ∈ [0, π]` the angle of `a.rot⁻¹·b.rot`.
+//! `d` is in "weighted metres". Defaults: `w_t = 1` (per m²) and `w_r = 0.01` m²/rad²,
+//! i.e. one radian weighs like 0.1 m, the characteristic radius of the I-RRT object
+//! (its farthest point is 0.087 m from the reference point). With `w_r = r²` and every
+//! object point within `r` of the reference point, no point moves farther than
+//! `|Δp| + r·θ ≤ √2·d`: resolutions stated as weighted distances bound point motion.
+//!
+//! A planar (x, y, θ) space can be added later as another [`ConfigSpace`] whose
+//! configurations are `Se3` with fixed z and rotations about z.
+
+use crate::pose::{Se3, angle_between, exp_rotation, rotation_vector};
+use crate::scene::Bounds;
+use nalgebra::{Quaternion, UnitQuaternion, Vector3, Vector6};
+use rand::{Rng, RngCore};
+use rand_distr::StandardNormal;
+
+/// Weights of the distance (I-RRT eq. 2, generalised to SE(3)).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Weights {
+    /// Weight of squared translation (1/m² · weighted m², default 1).
+    pub translation: f64,
+    /// Weight of squared rotation angle (weighted m² per rad², default 0.01 = (0.1 m)²).
+    pub rotation: f64,
+}
+
+impl Default for Weights {
+    fn default() -> Self {
+        Weights {
+            translation: 1.0,
+            rotation: 0.01,
+        }
+    }
+}
+
+impl Weights {
+    /// `w_t = 1`, `w_r = radius_m²`: one radian weighs like a point at `radius_m` moves.
+    pub fn for_object_radius(radius_m: f64) -> Self {
+        Weights {
+            translation: 1.0,
+            rotation: radius_m * radius_m,
+        }
+    }
+}
+
+/// What the planner needs from a configuration space. Configurations are [`Se3`];
+/// lower-dimensional spaces constrain which `Se3` they produce.
+pub trait ConfigSpace {
+    /// Weighted distance (weighted m), symmetric, zero on equal configurations.
+    fn distance(&self, a: &Se3, b: &Se3) -> f64;
+    /// The configuration at fraction `t ∈ [0, 1]` along the geodesic from `a` to `b`.
+    fn interpolate(&self, a: &Se3, b: &Se3, t: f64) -> Se3;
+    /// A uniformly distributed configuration.
+    fn sample_uniform(&self, rng: &mut dyn RngCore) -> Se3;
+    /// A Gaussian sample around `centre`; `sigma` is the per-axis standard deviation in
+    /// weighted m (translation σ/√w_t in m, rotation σ/√w_r in rad), kept in bounds.
+    fn sample_near(&self, centre: &Se3, sigma: f64, rng: &mut dyn RngCore) -> Se3;
+    /// True when the reference point lies in the bounds.
+    fn contains(&self, q: &Se3) -> bool;
+    /// `(Δp (m), Δr (rad))`, scene frame: `Δp = to.pos − from.pos` and `Δr` the rotation
+    /// vector of `from.rot⁻¹·to.rot` expressed in the scene frame. Pseudo-forces use it.
+    fn delta(&self, from: &Se3, to: &Se3) -> Vector6<f64>;
+
+    /// `Some(distance(a, b))` when it is below `bound`, else `None` (weighted m). Lets
+    /// nearest-neighbour scans skip the costly part of the metric; the default computes
+    /// the full distance.
+    fn distance_below(&self, a: &Se3, b: &Se3, bound: f64) -> Option<f64> {
+        let d = self.distance(a, b);
+        (d < bound).then_some(d)
+    }
+
+    /// Moves from `from` towards `to` by at most `step` (weighted m); returns `to` itself
+    /// when it is within `step`.
+    fn steer(&self, from: &Se3, to: &Se3, step: f64) -> Se3 {
+        let d = self.distance(from, to);
+        if d <= step {
+            *to
+        } else {
+            self.interpolate(from, to, step / d)
+        }
+    }
+}
+
+/// SE(3) with a box for the reference point. See the module docs for the metric.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Se3Space {
+    /// Bounds of the reference point (m, scene frame).
+    pub bounds: Bounds,
+    /// Distance weights.
+    pub weights: Weights,
+}
+
+impl Se3Space {
+    /// A space over `bounds` with `weights`.
+    pub fn new(bounds: Bounds, weights: Weights) -> Self {
+        Se3Space { bounds, weights }
+    }
+
+    fn clamp(&self, p: Vector3<f64>) -> Vector3<f64> {
+        p.zip_zip_map(&self.bounds.min_m, &self.bounds.max_m, |v, lo, hi| {
+            v.clamp(lo, hi)
+        })
+    }
+}
+
+/// A uniformly distributed rotation (Shoemake 1992, "Uniform random rotations").
+pub fn uniform_rotation(rng: &mut dyn RngCore) -> UnitQuaternion<f64> {
+    let (u1, u2, u3): (f64, f64, f64) = (rng.random(), rng.random(), rng.random());
+    let tau = std::f64::consts::TAU;
+    let (a, b) = ((1.0 - u1).sqrt(), u1.sqrt());
+    UnitQuaternion::from_quaternion(Quaternion::new(
+        b * (tau * u3).cos(),
+        a * (tau * u2).sin(),
+        a * (tau * u2).cos(),
+        b * (tau * u3).sin(),
+    ))
+}
+
+fn normal3(rng: &mut dyn RngCore) -> Vector3<f64> {
+    Vector3::new(
+        rng.sample(StandardNormal),
+        rng.sample(StandardNormal),
+        rng.sample(StandardNormal),
+    )
+}
+
+impl ConfigSpace for Se3Space {
+    fn distance(&self, a: &Se3, b: &Se3) -> f64 {
+        let dp2 = (b.pos - a.pos).norm_squared();
+        let th = angle_between(&a.rot, &b.rot);
+        (self.weights.translation * dp2 + self.weights.rotation * th * th).sqrt()
+    }
+
+    fn distance_below(&self, a: &Se3, b: &Se3, bound: f64) -> Option<f64> {
+        // The translation term alone is a lower bound: skip the angle when it suffices.
+        let t2 = self.weights.translation * (b.pos - a.pos).norm_squared();
+        if t2 >= bound * bound {
+            return None;
+        }
+        let th = angle_between(&a.rot, &b.rot);
+        let d = (t2 + self.weights.rotation * th * th).sqrt();
+        (d < bound).then_some(d)
+    }
+
+    fn interpolate(&self, a: &Se3, b: &Se3, t: f64) -> Se3 {
+        let rel = rotation_vector(&(a.rot.inverse() * b.rot));
+        Se3 {
+            pos: a.pos.lerp(&b.pos, t),
+            rot: a.rot * exp_rotation(&(rel * t)),
+        }
+    }
+
+    fn sample_uniform(&self, rng: &mut dyn RngCore) -> Se3 {
+        let (lo, hi) = (&self.bounds.min_m, &self.bounds.max_m);
+        let mut pos = Vector3::zeros();
+        for i in 0..3 {
+            let u: f64 = rng.random();
+            pos[i] = lo[i] + u * (hi[i] - lo[i]);
+        }
+        Se3 {
+            pos,
+            rot: uniform_rotation(rng),
+        }
+    }
+
+    fn sample_near(&self, centre: &Se3, sigma: f64, rng: &mut dyn RngCore) -> Se3 {
+        let st = sigma / self.weights.translation.sqrt();
+        let sr = sigma / self.weights.rotation.sqrt();
+        let dp = normal3(rng) * st;
+        let dr = normal3(rng) * sr;
+        Se3 {
+            pos: self.clamp(centre.pos + dp),
+            rot: exp_rotation(&dr) * centre.rot,
+        }
+    }
+
+    fn contains(&self, q: &Se3) -> bool {
+        self.bounds.contains(&q.pos)
+    }
+
+    fn delta(&self, from: &Se3, to: &Se3) -> Vector6<f64> {
+        let dp = to.pos - from.pos;
+        let dr = from.rot * rotation_vector(&(from.rot.inverse() * to.rot));
+        Vector6::new(dp.x, dp.y, dp.z, dr.x, dr.y, dr.z)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Scene;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+    use std::f64::consts::PI;
+
+    fn space() -> Se3Space {
+        Se3Space::new(Scene::wall_with_hole().bounds, Weights::default())
+    }
+
+    #[test]
+    fn metric_properties() {
+        let s = space();
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        for _ in 0..200 {
+            let (a, b, c) = (
+                s.sample_uniform(&mut rng),
+                s.sample_uniform(&mut rng),
+                s.sample_uniform(&mut rng),
+            );
+            assert_eq!(s.distance(&a, &a), 0.0);
+            let d = s.distance(&a, &b);
+            assert_eq!(s.distance_below(&a, &b, d + 1e-9), Some(d));
+            assert_eq!(s.distance_below(&a, &b, d), None);
+            assert!((s.distance(&a, &b) - s.distance(&b, &a)).abs() < 1e-12);
+            // Both parts are metrics, so their weighted l2 combination is one too.
+            assert!(s.distance(&a, &c) <= s.distance(&a, &b) + s.distance(&b, &c) + 1e-12);
+            assert!(s.distance(&a, &b) <= (0.6f64.powi(2) + 0.5 + 0.01 * PI * PI).sqrt());
+        }
+    }
+
+    #[test]
+    fn rotation_weighting() {
+        let s = space();
+        let a = Se3::identity();
+        let rot = Se3::new(
+            Vector3::zeros(),
+            UnitQuaternion::from_euler_angles(0.0, 0.0, 1.0),
+        );
+        // One radian weighs like 0.1 m.
+        assert!((s.distance(&a, &rot) - 0.1).abs() < 1e-12);
+        assert!((s.distance(&a, &Se3::from_xyz(0.1, 0.0, 0.0)) - 0.1).abs() < 1e-12);
+        // Angles are folded into [0, π]: 1.5π about z is 0.5π.
+        let far = Se3::new(
+            Vector3::zeros(),
+            UnitQuaternion::from_euler_angles(0.0, 0.0, 1.5 * PI),
+        );
+        assert!((s.distance(&a, &far) - 0.05 * PI).abs() < 1e-9);
+        let both = Se3::new(Vector3::new(0.3, 0.0, 0.4), rot.rot);
+        assert!((s.distance(&a, &both) - (0.25f64 + 0.01).sqrt()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn interpolation_endpoints_and_midpoint() {
+        let s = space();
+        let a = Se3::from_rpy(Vector3::new(-0.1, 0.0, 0.2), 0.3, 0.2, -1.0);
+        let b = Se3::from_rpy(Vector3::new(0.1, 0.1, -0.2), -0.5, 1.0, 2.5);
+        assert!(s.distance(&s.interpolate(&a, &b, 0.0), &a) < 1e-12);
+        assert!(s.distance(&s.interpolate(&a, &b, 1.0), &b) < 1e-9);
+        let m = s.interpolate(&a, &b, 0.5);
+        let (da, db) = (s.distance(&a, &m), s.distance(&m, &b));
+        assert!((da - db).abs() < 1e-9 && (da + db - s.distance(&a, &b)).abs() < 1e-9);
+        let st = s.steer(&a, &b, 0.05);
+        assert!((s.distance(&a, &st) - 0.05).abs() < 1e-9);
+        assert_eq!(s.steer(&a, &st, 1.0), st);
+    }
+
+    #[test]
+    fn delta_is_scene_frame_rotation_vector() {
+        let s = space();
+        let from = Se3::new(
+            Vector3::new(0.1, 0.0, 0.0),
+            UnitQuaternion::from_euler_angles(0.0, 0.0, 0.5 * PI),
+        );
+        // Rotating further about scene x, applied in the scene frame.
+        let extra = UnitQuaternion::from_euler_angles(0.2, 0.0, 0.0);
+        let to = Se3::new(Vector3::new(0.1, 0.2, 0.0), extra * from.rot);
+        let d = s.delta(&from, &to);
+        assert!(
+            (d - Vector6::new(0.0, 0.2, 0.0, 0.2, 0.0, 0.0)).norm() < 1e-12,
+            "{d}"
+        );
+    }
+
+    #[test]
+    fn samples_stay_in_bounds_and_are_seeded() {
+        let s = space();
+        let (mut r1, mut r2) = (ChaCha8Rng::seed_from_u64(7), ChaCha8Rng::seed_from_u64(7));
+        let c = Se3::from_xyz(0.29, 0.0, 0.0);
+        for _ in 0..100 {
+            let (u, v) = (s.sample_uniform(&mut r1), s.sample_uniform(&mut r2));
+            assert_eq!(u, v);
+            assert!(s.contains(&u));
+            assert!((u.rot.norm() - 1.0).abs() < 1e-12);
+            let (n1, n2) = (
+                s.sample_near(&c, 0.05, &mut r1),
+                s.sample_near(&c, 0.05, &mut r2),
+            );
+            assert_eq!(n1, n2);
+            assert!(s.contains(&n1));
+        }
+    }
+}

@@ -1,0 +1,232 @@
+//! Tree arena for RRT-style planners: nodes with configuration, parent and I-RRT labels
+//! ("Node labelling"), nearest and k-nearest queries, and paths to the root.
+//!
+//! Nearest-neighbour search is a linear scan over the weighted distance, kept in the single
+//! function [`Tree::k_nearest_into`] (and [`Tree::nearest`]) so that a spatial index can
+//! replace it later.
+
+use crate::pose::Se3;
+use crate::space::ConfigSpace;
+
+/// Index of a node in its tree.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct NodeId(pub u32);
+
+impl NodeId {
+    /// The index as `usize`.
+    pub fn index(self) -> usize {
+        self.0 as usize
+    }
+}
+
+/// I-RRT node labels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Labels {
+    /// Distance label: weighted distance from the node to the goal (weighted m).
+    pub distance_to_goal: f64,
+    /// Collision label input: extensions attempted from this node.
+    pub extension_attempts: u32,
+    /// Collision label input: attempts from this node that added nothing (Collision).
+    pub collisions: u32,
+    /// Collision label input: total distance covered by extensions from this node
+    /// (weighted m).
+    pub covered_distance: f64,
+}
+
+impl Labels {
+    /// Fresh labels for a node at `distance_to_goal` (weighted m).
+    pub fn new(distance_to_goal: f64) -> Self {
+        Labels {
+            distance_to_goal,
+            extension_attempts: 0,
+            collisions: 0,
+            covered_distance: 0.0,
+        }
+    }
+
+    /// Laplace-smoothed share of extension attempts that made progress, in (0, 1]:
+    /// `(attempts − collisions + 1) / (attempts + 1)`; 1 for an untried node, falling
+    /// towards 0 as collisions accumulate.
+    pub fn freedom(&self) -> f64 {
+        let a = f64::from(self.extension_attempts);
+        let c = f64::from(self.collisions.min(self.extension_attempts));
+        (a - c + 1.0) / (a + 1.0)
+    }
+}
+
+/// One node.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Node {
+    /// Configuration (scene frame).
+    pub config: Se3,
+    /// Parent node; `None` for the root.
+    pub parent: Option<NodeId>,
+    /// I-RRT labels.
+    pub labels: Labels,
+}
+
+/// A rooted tree stored as an arena (nodes are never removed).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Tree {
+    nodes: Vec<Node>,
+}
+
+impl Tree {
+    /// A tree with a single root at `root`, labelled with `distance_to_goal` (weighted m).
+    pub fn new(root: Se3, distance_to_goal: f64) -> Self {
+        Tree {
+            nodes: vec![Node {
+                config: root,
+                parent: None,
+                labels: Labels::new(distance_to_goal),
+            }],
+        }
+    }
+
+    /// Number of nodes (≥ 1).
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Always false: a tree has its root.
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    /// All nodes, in insertion order (index = `NodeId`).
+    pub fn nodes(&self) -> &[Node] {
+        &self.nodes
+    }
+
+    /// The node `id`. Panics on an id from another tree that is out of range.
+    pub fn node(&self, id: NodeId) -> &Node {
+        &self.nodes[id.index()]
+    }
+
+    /// Mutable labels of node `id`.
+    pub fn labels_mut(&mut self, id: NodeId) -> &mut Labels {
+        &mut self.nodes[id.index()].labels
+    }
+
+    /// Adds a child of `parent` at `config`; returns its id.
+    pub fn add(&mut self, parent: NodeId, config: Se3, distance_to_goal: f64) -> NodeId {
+        let id = NodeId(self.nodes.len() as u32);
+        self.nodes.push(Node {
+            config,
+            parent: Some(parent),
+            labels: Labels::new(distance_to_goal),
+        });
+        id
+    }
+
+    /// The node nearest to `q` under the space's weighted distance, and that distance.
+    /// Ties go to the oldest node.
+    pub fn nearest(&self, space: &dyn ConfigSpace, q: &Se3) -> (NodeId, f64) {
+        let mut best = (NodeId(0), f64::INFINITY);
+        for (i, n) in self.nodes.iter().enumerate() {
+            if let Some(d) = space.distance_below(&n.config, q, best.1) {
+                best = (NodeId(i as u32), d);
+            }
+        }
+        best
+    }
+
+    /// Fills `out` with the `k` nodes nearest to `q`, sorted by increasing distance
+    /// (weighted m); ties go to the oldest node. `out` is cleared first (reuse it).
+    pub fn k_nearest_into(
+        &self,
+        space: &dyn ConfigSpace,
+        q: &Se3,
+        k: usize,
+        out: &mut Vec<(NodeId, f64)>,
+    ) {
+        out.clear();
+        if k == 0 {
+            return;
+        }
+        for (i, n) in self.nodes.iter().enumerate() {
+            let bound = if out.len() == k {
+                out[k - 1].1
+            } else {
+                f64::INFINITY
+            };
+            let Some(d) = space.distance_below(&n.config, q, bound) else {
+                continue;
+            };
+            let at = out.partition_point(|&(_, e)| e <= d);
+            if out.len() == k {
+                out.pop();
+            }
+            out.insert(at, (NodeId(i as u32), d));
+        }
+    }
+
+    /// The configurations from `id` up to the root, `id` first.
+    pub fn path_to_root(&self, id: NodeId) -> Vec<Se3> {
+        let mut out = Vec::new();
+        let mut cur = Some(id);
+        while let Some(c) = cur {
+            let n = self.node(c);
+            out.push(n.config);
+            cur = n.parent;
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Scene;
+    use crate::space::{Se3Space, Weights};
+
+    fn space() -> Se3Space {
+        Se3Space::new(Scene::wall_with_hole().bounds, Weights::default())
+    }
+
+    fn line_tree() -> Tree {
+        // Root at x = 0, then 0.1, 0.2, 0.3 in a chain, and a branch at y = 0.05 off node 1.
+        let mut t = Tree::new(Se3::from_xyz(0.0, 0.0, 0.0), 0.3);
+        let a = t.add(NodeId(0), Se3::from_xyz(0.1, 0.0, 0.0), 0.2);
+        let b = t.add(a, Se3::from_xyz(0.2, 0.0, 0.0), 0.1);
+        t.add(b, Se3::from_xyz(0.3, 0.0, 0.0), 0.0);
+        t.add(a, Se3::from_xyz(0.1, 0.05, 0.0), 0.2);
+        t
+    }
+
+    #[test]
+    fn nearest_and_k_nearest_agree_with_brute_force() {
+        let (s, t) = (space(), line_tree());
+        let q = Se3::from_xyz(0.12, 0.04, 0.0);
+        assert_eq!(t.nearest(&s, &q).0, NodeId(4));
+        let mut out = Vec::new();
+        t.k_nearest_into(&s, &q, 3, &mut out);
+        let ids: Vec<u32> = out.iter().map(|(i, _)| i.0).collect();
+        assert_eq!(ids, vec![4, 1, 2]);
+        assert!(out.windows(2).all(|w| w[0].1 <= w[1].1));
+        t.k_nearest_into(&s, &q, 10, &mut out);
+        assert_eq!(out.len(), 5);
+        t.k_nearest_into(&s, &q, 0, &mut out);
+        assert!(out.is_empty());
+    }
+
+    #[test]
+    fn path_to_root_walks_parents() {
+        let t = line_tree();
+        let p = t.path_to_root(NodeId(3));
+        let xs: Vec<f64> = p.iter().map(|q| q.pos.x).collect();
+        assert_eq!(xs, vec![0.3, 0.2, 0.1, 0.0]);
+        assert_eq!(t.path_to_root(NodeId(0)).len(), 1);
+    }
+
+    #[test]
+    fn freedom_falls_with_collisions() {
+        let mut l = Labels::new(1.0);
+        assert_eq!(l.freedom(), 1.0);
+        l.extension_attempts = 3;
+        l.collisions = 3;
+        assert_eq!(l.freedom(), 0.25);
+        l.collisions = 0;
+        assert_eq!(l.freedom(), 1.0);
+    }
+}
