@@ -4,6 +4,7 @@
 
 use crate::guidance::GuidanceConfig;
 use crate::mapping::{Mapping, MappingConfig};
+use crate::relay::Relay;
 use crate::rt::RtOptions;
 use crate::runner::{self, LoopReport, RunnerConfig};
 use crate::safety::SafetyConfig;
@@ -12,12 +13,14 @@ use crate::tick::{Tick, TickConfig};
 use anyhow::{Context, bail};
 use clap::Args;
 use devices::sim::{ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmConfig, Waypoint};
-use ipc_types::services::{self, GuidanceReader, PathSubscriber, StateReader};
+use ipc_types::Guidance;
+use ipc_types::services::{self, PathSubscriber, StateReader};
 use nalgebra::{Isometry3, Translation3};
 use planner::Scene;
 use serde::Serialize;
 use std::path::PathBuf;
 use std::sync::Arc;
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
@@ -329,7 +332,7 @@ fn install_stop_handler() -> anyhow::Result<Arc<AtomicBool>> {
 
 /// What the main thread watches: the planner's guidance and path.
 struct Watch {
-    guidance: GuidanceReader,
+    relay: Relay,
     path: PathSubscriber,
     /// Keeps this process's iceoryx2 node alive as long as its ports.
     _node: iceoryx2::node::Node<services::Ipc>,
@@ -348,13 +351,13 @@ impl Watch {
 
 /// What the stats thread reads for its progress line.
 struct Progress {
-    guidance: GuidanceReader,
+    guidance: Arc<Mutex<Guidance>>,
     state: StateReader,
 }
 
 impl Progress {
     fn line(&self, s: &SecondSummary) -> String {
-        let g = *self.guidance.get();
+        let g = *self.guidance.lock().unwrap_or_else(|p| p.into_inner());
         let st = *self.state.get();
         let f = st.guidance_wrench.force_n;
         let fs = (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt();
@@ -392,18 +395,18 @@ fn run_loop(
     }
     let state_writer = services::state_writer(&node, &setup.namespace)
         .context("is another haptic loop running on this namespace?")?;
-    let guidance_reader = services::guidance_reader(&node, &setup.namespace)?;
+    let (relay, guidance_source) = Relay::spawn(&setup.namespace, Duration::from_millis(1))?;
     let progress = Progress {
-        guidance: services::guidance_reader(&node, &setup.namespace)?,
+        guidance: relay.observer(),
         state: services::state_reader(&node, &setup.namespace)?,
     };
     let watch = Watch {
-        guidance: services::guidance_reader(&node, &setup.namespace)?,
+        relay,
         path: services::path_subscriber(&node, &setup.namespace)?,
         _node: node,
     };
     let arm = simulated_arm(setup, &demo_route(&setup.scene))?;
-    let tick = Tick::new(arm, &setup.tick, guidance_reader, state_writer)
+    let tick = Tick::new(arm, &setup.tick, guidance_source, state_writer)
         .map_err(|e| anyhow::anyhow!("cannot open the simulated arm: {e}"))?;
     let started = Instant::now();
     let handle = runner::spawn(tick, setup.runner, move |s| {
@@ -450,7 +453,7 @@ pub fn run(args: &RunArgs) -> anyhow::Result<i32> {
     let (report, run_s, watch) = run_loop(&setup, &stop, |_| {
         duration.is_some_and(|d| started.elapsed() >= d)
     })?;
-    let g = *watch.guidance.get();
+    let g = watch.relay.newest();
     let summary = Summary {
         solved: g.solved == 1,
         time_to_solve_s: None,
@@ -523,7 +526,7 @@ pub fn demo(args: &DemoArgs) -> anyhow::Result<i32> {
         if let Some(p) = watch.newest_path() {
             path = Some(p);
         }
-        if solved_at.is_none() && watch.guidance.get().solved == 1 {
+        if solved_at.is_none() && watch.relay.newest().solved == 1 {
             solved_at = Some(elapsed);
             tracing::info!("demo: planner solved after {:.2} s", elapsed.as_secs_f64());
         }
@@ -557,7 +560,7 @@ pub fn demo(args: &DemoArgs) -> anyhow::Result<i32> {
     }
     let (report, run_s, watch) = result?;
 
-    let g = *watch.guidance.get();
+    let g = watch.relay.newest();
     if let Some(p) = watch.newest_path() {
         path = Some(p);
     }

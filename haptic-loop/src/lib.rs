@@ -15,6 +15,7 @@ pub mod alloc_count;
 pub mod app;
 pub mod guidance;
 pub mod mapping;
+pub mod relay;
 pub mod rt;
 pub mod runner;
 pub mod safety;

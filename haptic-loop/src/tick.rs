@@ -24,12 +24,6 @@ pub trait StateSink {
     fn publish(&mut self, state: &HapticState);
 }
 
-impl GuidanceSource for ipc_types::services::GuidanceReader {
-    fn latest(&mut self) -> Guidance {
-        *self.get()
-    }
-}
-
 impl StateSink for ipc_types::services::StateWriter {
     fn publish(&mut self, state: &HapticState) {
         self.update_with_copy(*state);

@@ -3,16 +3,23 @@
 //! | service | pattern | writer | semantics |
 //! |---|---|---|---|
 //! | [`HAPTIC_STATE`] | blackboard, one entry | haptic loop (RT thread) | latest value; never blocks, never allocates |
-//! | [`GUIDANCE`] | blackboard, one entry | planner | latest value; read by the RT thread without allocation |
+//! | [`GUIDANCE`] | publish-subscribe | planner | history 1, safe overflow: latest value; a restarted planner simply publishes again |
 //! | [`PATH`] | publish-subscribe | planner | history 1, safe overflow: late subscribers get the newest path; the planner never blocks |
 //!
-//! Why blackboards for the two 1 kHz-facing services: iceoryx2 0.10 `Publisher::loan_uninit()`
-//! and `send_copy()` allocate one `Arc` per sample, and both `Subscriber::receive()` and
-//! `Notifier::notify()` rebuild their connection lists (allocating) when a peer joins or
-//! leaves. A blackboard entry is a lock-free single-writer, multi-reader cell in shared memory:
-//! `update_with_copy()` and `get()` touch only that memory, whatever the other process does.
-//! The price is latest-value semantics: a reader that wants every tick polls faster than the
-//! loop and uses `header.sequence` to count what it skipped.
+//! Why a blackboard for the state: iceoryx2 0.10 `Publisher::loan_uninit()` and `send_copy()`
+//! allocate one `Arc` per sample, and `Notifier::notify()` rebuilds its connection list
+//! (allocating) when a listener joins. A blackboard entry is a lock-free single-writer,
+//! multi-reader cell in shared memory: `update_with_copy()` and `get()` touch only that
+//! memory, whatever the other process does. The price is latest-value semantics: a reader
+//! that wants every tick polls faster than the loop and uses `header.sequence` to count what
+//! it skipped.
+//!
+//! Why not a blackboard for guidance: the writer of a blackboard entry holds a producer flag
+//! in shared memory that iceoryx2 0.10 does not release when the writer's process dies, so a
+//! planner restarted after `kill -9` could never write again. Guidance therefore goes over
+//! publish-subscribe; the haptic loop receives it on a non-RT relay thread (where
+//! `receive()` may allocate while it reconnects to a new planner) and hands the newest
+//! sample to the RT thread through an in-process triple buffer.
 //!
 //! Service names are `hrrtc/<namespace>/<leaf>`; the namespace lets tests and several
 //! independent setups share a host.
@@ -38,8 +45,11 @@ pub const DEFAULT_NAMESPACE: &str = "default";
 pub const MAX_READERS: usize = 16;
 /// Most nodes that may open one service.
 pub const MAX_NODES: usize = 32;
-/// Subscriber buffer of [`PATH`]: only the newest path matters.
-pub const PATH_SUBSCRIBER_BUFFER: usize = 2;
+/// Subscriber buffer of [`PATH`] and [`GUIDANCE`]: only the newest sample matters.
+pub const LATEST_SUBSCRIBER_BUFFER: usize = 2;
+/// Most publishers of [`PATH`] and [`GUIDANCE`]: a planner and its restarted successor
+/// while the dead one's port is not yet cleaned up.
+pub const MAX_PLANNER_PUBLISHERS: usize = 4;
 
 /// The iceoryx2 transport both processes use.
 pub type Ipc = ipc::Service;
@@ -47,10 +57,10 @@ pub type Ipc = ipc::Service;
 pub type StateReader = EntryHandle<Ipc, u64, HapticState>;
 /// Write handle of the [`HAPTIC_STATE`] entry.
 pub type StateWriter = EntryHandleMut<Ipc, u64, HapticState>;
-/// Read handle of the [`GUIDANCE`] entry.
-pub type GuidanceReader = EntryHandle<Ipc, u64, Guidance>;
-/// Write handle of the [`GUIDANCE`] entry.
-pub type GuidanceWriter = EntryHandleMut<Ipc, u64, Guidance>;
+/// Publisher of [`GUIDANCE`].
+pub type GuidancePublisher = iceoryx2::port::publisher::Publisher<Ipc, Guidance, ()>;
+/// Subscriber of [`GUIDANCE`].
+pub type GuidanceSubscriber = iceoryx2::port::subscriber::Subscriber<Ipc, Guidance, ()>;
 /// Publisher of [`PATH`].
 pub type PathPublisher = iceoryx2::port::publisher::Publisher<Ipc, Path, ()>;
 /// Subscriber of [`PATH`].
@@ -217,117 +227,91 @@ pub fn state_reader(node: &Node<Ipc>, namespace: &str) -> Result<StateReader, Se
     reader::<HapticState>(node, namespace, HAPTIC_STATE)
 }
 
-/// Write handle of [`GUIDANCE`] (for the planner). Fails if another planner is live.
-pub fn guidance_writer(node: &Node<Ipc>, namespace: &str) -> Result<GuidanceWriter, ServiceError> {
-    writer::<Guidance>(node, namespace, GUIDANCE)
-}
-
-/// Read handle of [`GUIDANCE`].
-pub fn guidance_reader(node: &Node<Ipc>, namespace: &str) -> Result<GuidanceReader, ServiceError> {
-    reader::<Guidance>(node, namespace, GUIDANCE)
-}
-
-fn path_service(
+/// A latest-value publish-subscribe service: history 1, small buffers, safe overflow (a
+/// full subscriber loses its oldest sample; the publisher never blocks).
+fn latest_value_service<T: ZeroCopySend + core::fmt::Debug + 'static>(
     node: &Node<Ipc>,
     namespace: &str,
-) -> Result<
-    iceoryx2::service::port_factory::publish_subscribe::PortFactory<Ipc, Path, ()>,
-    ServiceError,
-> {
-    let full = service_name(namespace, PATH);
+    leaf: &str,
+) -> Result<iceoryx2::service::port_factory::publish_subscribe::PortFactory<Ipc, T, ()>, ServiceError>
+{
+    let full = service_name(namespace, leaf);
     let name: ServiceName = full
         .as_str()
         .try_into()
         .map_err(|e| err(&full, format!("invalid service name: {e:?}")))?;
     node.service_builder(&name)
-        .publish_subscribe::<Path>()
+        .publish_subscribe::<T>()
         .history_size(1)
-        .subscriber_max_buffer_size(PATH_SUBSCRIBER_BUFFER)
+        .subscriber_max_buffer_size(LATEST_SUBSCRIBER_BUFFER)
         .enable_safe_overflow(true)
-        .max_publishers(2)
+        .max_publishers(MAX_PLANNER_PUBLISHERS)
         .max_subscribers(MAX_READERS)
         .max_nodes(MAX_NODES)
         .open_or_create()
         .map_err(|e| err(&full, format!("cannot open or create: {e:?}")))
 }
 
-/// Publisher of [`PATH`] (for the planner).
-pub fn path_publisher(node: &Node<Ipc>, namespace: &str) -> Result<PathPublisher, ServiceError> {
-    let full = service_name(namespace, PATH);
-    path_service(node, namespace)?
+fn publisher<T: ZeroCopySend + core::fmt::Debug + 'static>(
+    node: &Node<Ipc>,
+    namespace: &str,
+    leaf: &str,
+) -> Result<iceoryx2::port::publisher::Publisher<Ipc, T, ()>, ServiceError> {
+    latest_value_service::<T>(node, namespace, leaf)?
         .publisher_builder()
         .create()
-        .map_err(|e| err(&full, format!("cannot create publisher: {e:?}")))
+        .map_err(|e| {
+            err(
+                &service_name(namespace, leaf),
+                format!("cannot create publisher: {e:?}"),
+            )
+        })
+}
+
+fn subscriber<T: ZeroCopySend + core::fmt::Debug + 'static>(
+    node: &Node<Ipc>,
+    namespace: &str,
+    leaf: &str,
+) -> Result<iceoryx2::port::subscriber::Subscriber<Ipc, T, ()>, ServiceError> {
+    latest_value_service::<T>(node, namespace, leaf)?
+        .subscriber_builder()
+        .create()
+        .map_err(|e| {
+            err(
+                &service_name(namespace, leaf),
+                format!("cannot create subscriber: {e:?}"),
+            )
+        })
+}
+
+/// Publisher of [`GUIDANCE`] (for the planner).
+pub fn guidance_publisher(
+    node: &Node<Ipc>,
+    namespace: &str,
+) -> Result<GuidancePublisher, ServiceError> {
+    publisher::<Guidance>(node, namespace, GUIDANCE)
+}
+
+/// Subscriber of [`GUIDANCE`].
+pub fn guidance_subscriber(
+    node: &Node<Ipc>,
+    namespace: &str,
+) -> Result<GuidanceSubscriber, ServiceError> {
+    subscriber::<Guidance>(node, namespace, GUIDANCE)
+}
+
+/// Publisher of [`PATH`] (for the planner).
+pub fn path_publisher(node: &Node<Ipc>, namespace: &str) -> Result<PathPublisher, ServiceError> {
+    publisher::<Path>(node, namespace, PATH)
 }
 
 /// Subscriber of [`PATH`].
 pub fn path_subscriber(node: &Node<Ipc>, namespace: &str) -> Result<PathSubscriber, ServiceError> {
-    let full = service_name(namespace, PATH);
-    path_service(node, namespace)?
-        .subscriber_builder()
-        .create()
-        .map_err(|e| err(&full, format!("cannot create subscriber: {e:?}")))
+    subscriber::<Path>(node, namespace, PATH)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::{GuidanceMode, Header};
-    use iceoryx2::port::update_connections::UpdateConnections;
-
-    fn unique_namespace(tag: &str) -> String {
-        format!("test_{tag}_{}", std::process::id())
-    }
-
-    #[test]
-    fn blackboard_roundtrip_and_single_writer() {
-        let ns = unique_namespace("bb");
-        let (node, _) = create_node("ipc_types_test").unwrap();
-        let reader = guidance_reader(&node, &ns).unwrap();
-        assert_eq!(reader.get().header.sequence, 0, "initial value is zeroed");
-        let writer = guidance_writer(&node, &ns).unwrap();
-        let g = Guidance {
-            header: Header {
-                sequence: 7,
-                timestamp_ns: 11,
-                writer_pid: 1,
-                reserved: 0,
-            },
-            attractive: [0.1, 0.0, 0.0, 0.0, 0.0, 0.2],
-            mode: GuidanceMode::ROADMAP,
-            ..Guidance::default()
-        };
-        writer.update_with_copy(g);
-        assert_eq!(*reader.get(), g);
-        assert!(
-            guidance_writer(&node, &ns).is_err(),
-            "a second writer must be refused"
-        );
-    }
-
-    #[test]
-    fn path_history_reaches_late_subscriber() {
-        let ns = unique_namespace("path");
-        let (node, _) = create_node("ipc_types_path_test").unwrap();
-        let publisher = path_publisher(&node, &ns).unwrap();
-        let mut p = Path::EMPTY;
-        p.header.sequence = 1;
-        p.len = 2;
-        publisher.send_copy(p).unwrap();
-        let subscriber = path_subscriber(&node, &ns).unwrap();
-        // History reaches a new subscriber when the publisher next updates its connections.
-        publisher.update_connections().unwrap();
-        let sample = subscriber
-            .receive()
-            .unwrap()
-            .expect("history delivers the path");
-        assert_eq!(sample.len, 2);
-    }
-}
 // The haptic loop moves its handles into the RT thread and the planner into its receiver
 // thread: keep them `Send`.
 const fn assert_send<T: Send>() {}
 const _: () = assert_send::<StateWriter>();
 const _: () = assert_send::<StateReader>();
-const _: () = assert_send::<GuidanceReader>();
-const _: () = assert_send::<GuidanceWriter>();

@@ -81,6 +81,17 @@ fn main() {
             }
         }
         let el = t0.elapsed().as_secs_f64();
+        // Re-validate the solution at 1 mm / 0.01 rad with a fresh checker.
+        let fine = planner::CollisionChecker::with_params(&scene, params.weights, 0.001);
+        if let Some(path) = p.solution() {
+            let bad = path
+                .windows(2)
+                .filter(|w| !fine.edge_free(&w[0], &w[1]))
+                .count();
+            if bad > 0 {
+                println!("seed {seed}: {bad} edges collide at 1 mm resolution");
+            }
+        }
         let s = p.stats();
         let len = p.solution().map_or(0, <[_]>::len);
         println!(

@@ -10,7 +10,7 @@
 //!   for the haptic loop.
 
 use crate::{Planner, PlannerParams, Scene, Se3};
-use ipc_types::services::{self, GuidanceWriter, StateReader};
+use ipc_types::services::{self, GuidancePublisher, StateReader};
 use ipc_types::{Guidance, GuidanceMode, HapticState, Header, PATH_CAPACITY, Path, Pose};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use serde::Serialize;
@@ -95,7 +95,7 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
     if cleaned > 0 {
         tracing::info!("removed resources of {cleaned} dead iceoryx2 node(s)");
     }
-    let guidance = services::guidance_writer(&node, &config.namespace)?;
+    let guidance = services::guidance_publisher(&node, &config.namespace)?;
     let path_pub = services::path_publisher(&node, &config.namespace)?;
     let state_reader = services::state_reader(&node, &config.namespace)?;
     let mut planner = Planner::new(&config.scene, config.params.clone(), config.seed)?;
@@ -294,8 +294,10 @@ fn make_guidance(
     }
 }
 
-fn publish_guidance(writer: &GuidanceWriter, g: Guidance) {
-    writer.update_with_copy(g);
+fn publish_guidance(publisher: &GuidancePublisher, g: Guidance) {
+    if let Err(e) = publisher.send_copy(g) {
+        tracing::warn!("cannot publish guidance: {e:?}");
+    }
 }
 
 /// The planner's pose type from a wire pose; `None` if invalid.

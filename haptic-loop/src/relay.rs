@@ -1,0 +1,130 @@
+//! The guidance relay: a non-RT thread that receives [`Guidance`] from the planner over
+//! iceoryx2 publish-subscribe and hands the newest sample to the RT thread through a
+//! lock-free triple buffer.
+//!
+//! Why a relay: `Subscriber::receive()` rebuilds its connections, allocating, when a
+//! publisher appears or vanishes, i.e. whenever a planner (re)starts. That must not happen on
+//! the RT thread. The relay absorbs it; the RT thread only swaps a triple-buffer index.
+//! The relay polls every `poll` (default 1 ms), which adds at most that to the guidance age,
+//! negligible against a time-to-live of ~100 ms.
+
+use crate::tick::GuidanceSource;
+use ipc_types::Guidance;
+use ipc_types::services;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+/// The RT side of the relay: reads the newest sample without allocating or blocking.
+#[derive(Debug)]
+pub struct RelayOutput(triple_buffer::Output<Guidance>);
+
+impl GuidanceSource for RelayOutput {
+    #[inline]
+    fn latest(&mut self) -> Guidance {
+        *self.0.read()
+    }
+}
+
+/// The non-RT side: the relay thread and what it shares with observers.
+#[derive(Debug)]
+pub struct Relay {
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+    newest: Arc<Mutex<Guidance>>,
+    received: Arc<AtomicU64>,
+}
+
+impl Relay {
+    /// Starts the relay thread on `namespace`. Fails if the iceoryx2 subscriber cannot be
+    /// created (the error names the service).
+    pub fn spawn(namespace: &str, poll: Duration) -> anyhow::Result<(Relay, RelayOutput)> {
+        let (mut input, output) = triple_buffer::triple_buffer(&Guidance::default());
+        let stop = Arc::new(AtomicBool::new(false));
+        let newest = Arc::new(Mutex::new(Guidance::default()));
+        let received = Arc::new(AtomicU64::new(0));
+        let (ready_tx, ready_rx) = std::sync::mpsc::channel();
+        let thread = {
+            let namespace = namespace.to_string();
+            let stop = stop.clone();
+            let newest = newest.clone();
+            let received = received.clone();
+            std::thread::Builder::new()
+                .name("guidance-relay".into())
+                .spawn(move || {
+                    // iceoryx2 ports are not Send: create them on this thread.
+                    let sub =
+                        services::create_node(&format!("haptic_relay_{}", std::process::id()))
+                            .and_then(|(node, _)| {
+                                Ok((services::guidance_subscriber(&node, &namespace)?, node))
+                            });
+                    let (sub, _node) = match sub {
+                        Ok(s) => {
+                            let _ = ready_tx.send(Ok(()));
+                            s
+                        }
+                        Err(e) => {
+                            let _ = ready_tx.send(Err(e));
+                            return;
+                        }
+                    };
+                    while !stop.load(Ordering::Acquire) {
+                        let mut latest = None;
+                        loop {
+                            match sub.receive() {
+                                Ok(Some(sample)) => latest = Some(*sample),
+                                Ok(None) => break,
+                                Err(e) => {
+                                    tracing::warn!("guidance relay: receive failed: {e:?}");
+                                    break;
+                                }
+                            }
+                        }
+                        if let Some(g) = latest {
+                            input.write(g);
+                            *newest.lock().unwrap_or_else(|p| p.into_inner()) = g;
+                            received.fetch_add(1, Ordering::Relaxed);
+                        }
+                        std::thread::sleep(poll);
+                    }
+                })?
+        };
+        ready_rx
+            .recv()
+            .map_err(|_| anyhow::anyhow!("guidance relay thread died during set-up"))??;
+        Ok((
+            Relay {
+                stop,
+                thread: Some(thread),
+                newest,
+                received,
+            },
+            RelayOutput(output),
+        ))
+    }
+
+    /// The newest sample the relay has seen (for progress lines and summaries).
+    pub fn newest(&self) -> Guidance {
+        *self.newest.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// A handle observers on other threads can read the newest sample from.
+    pub fn observer(&self) -> Arc<Mutex<Guidance>> {
+        self.newest.clone()
+    }
+
+    /// Batches of samples relayed so far.
+    pub fn received(&self) -> u64 {
+        self.received.load(Ordering::Relaxed)
+    }
+}
+
+impl Drop for Relay {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Release);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}

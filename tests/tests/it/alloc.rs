@@ -1,0 +1,114 @@
+//! Invariant 1: the RT thread allocates nothing after init, with IPC live on both sides.
+
+use devices::sim::{ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmConfig, Waypoint};
+use haptic_loop::guidance::GuidanceConfig;
+use haptic_loop::mapping::MappingConfig;
+use haptic_loop::rt::RtOptions;
+use haptic_loop::runner::{self, RunnerConfig};
+use haptic_loop::safety::SafetyConfig;
+use haptic_loop::tick::{Tick, TickConfig};
+use ipc_types::services;
+use ipc_types::{Guidance, GuidanceMode, Header};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+#[test]
+fn rt_thread_allocates_nothing_over_6000_ticks_with_ipc_attached() {
+    assert!(
+        haptic_loop::alloc_count::is_installed(),
+        "the counting allocator must be the global allocator of this test binary"
+    );
+    let ns = tests::unique_namespace("alloc");
+    let (node, _) = services::create_node("it_alloc_loop").unwrap();
+    let state_writer = services::state_writer(&node, &ns).unwrap();
+    let (_relay, guidance_source) =
+        haptic_loop::relay::Relay::spawn(&ns, Duration::from_millis(1)).unwrap();
+
+    // A "planner" on another node and thread: reads every state, writes guidance at 200 Hz.
+    let stop = Arc::new(AtomicBool::new(false));
+    let peer = {
+        let ns = ns.clone();
+        let stop = stop.clone();
+        std::thread::spawn(move || {
+            let (node, _) = services::create_node("it_alloc_peer").unwrap();
+            let reader = services::state_reader(&node, &ns).unwrap();
+            let publisher = services::guidance_publisher(&node, &ns).unwrap();
+            let mut seen = 0u64;
+            let mut seq = 0u64;
+            while !stop.load(Ordering::Acquire) {
+                let s = *reader.get();
+                seen = seen.max(s.header.sequence);
+                seq += 1;
+                publisher
+                    .send_copy(Guidance {
+                        header: Header {
+                            sequence: seq,
+                            timestamp_ns: ipc_types::monotonic_ns(),
+                            writer_pid: std::process::id(),
+                            reserved: 0,
+                        },
+                        attractive: [0.01, -0.02, 0.0, 0.0, 0.1, 0.0],
+                        gain_n_per_m: 20.0,
+                        gain_nm_per_rad: 0.05,
+                        time_to_live_ns: 100_000_000,
+                        mode: GuidanceMode::ROADMAP,
+                        ..Guidance::default()
+                    })
+                    .unwrap();
+                std::thread::sleep(Duration::from_millis(5));
+            }
+            seen
+        })
+    };
+
+    let user = ScriptedUser::new(
+        ScriptedUserConfig::default(),
+        [Waypoint::at(-0.05, 0.0, 0.0), Waypoint::at(0.05, 0.02, 0.0)],
+    )
+    .unwrap();
+    let arm = SimulatedArm::with_user(SimulatedArmConfig::default(), user).unwrap();
+    let config = TickConfig {
+        mapping: MappingConfig::default(),
+        guidance: GuidanceConfig::default(),
+        safety: SafetyConfig::default(),
+        period_s: 1.0 / 2000.0,
+    };
+    let tick = Tick::new(arm, &config, guidance_source, state_writer).unwrap();
+    let handle = runner::spawn(
+        tick,
+        RunnerConfig {
+            rate_hz: 2000.0,
+            rt: RtOptions {
+                fifo_priority: None,
+                cpu: None,
+                lock_memory: false,
+            },
+            spin_ns: 0,
+            max_ticks: Some(6000),
+        },
+        |_| {},
+    )
+    .unwrap();
+    while !handle.is_finished() {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let (tick, report) = handle.join();
+    stop.store(true, Ordering::Release);
+    let seen = peer.join().unwrap();
+
+    assert_eq!(report.ticks, 6000);
+    assert_eq!(
+        report.rt_allocations,
+        Some(0),
+        "RT thread allocated: {report:?}"
+    );
+    assert!(
+        seen > 1000,
+        "the peer read the published states (saw up to {seen})"
+    );
+    assert!(
+        tick.state().guidance_sequence > 0,
+        "the loop rendered the peer's guidance"
+    );
+}

@@ -1,0 +1,10 @@
+//! All integration tests, one binary (the counting allocator below is global to it; it only
+//! counts threads that mark themselves, i.e. the haptic loop's RT thread).
+
+use haptic_loop::alloc_count::CountingAllocator;
+
+#[global_allocator]
+static ALLOCATOR: CountingAllocator = CountingAllocator;
+
+mod alloc;
+mod two_process;

@@ -1,0 +1,143 @@
+//! The two real processes, `haptic-loop run` and `planner serve`, on the simulated arm.
+
+use ipc_types::services;
+use ipc_types::{GuidanceFreshness, HapticState};
+use std::time::{Duration, Instant};
+use tests::{Proc, bin, norm, unique_namespace, wait_for};
+
+fn start_loop(ns: &str) -> Proc {
+    Proc::spawn(
+        &bin("haptic-loop"),
+        &[
+            "run",
+            "--namespace",
+            ns,
+            "--priority",
+            "0",
+            "--no-mlock",
+            "--duration-s",
+            "60",
+        ],
+    )
+}
+
+fn start_planner(ns: &str, extra: &[&str]) -> Proc {
+    let mut args = vec!["serve", "--namespace", ns];
+    args.extend_from_slice(extra);
+    Proc::spawn(&bin("planner"), &args)
+}
+
+/// (a) the planner receives HapticState at >= 900 Hz over 2 s and more.
+#[test]
+fn planner_receives_haptic_state_at_loop_rate() {
+    let ns = unique_namespace("rate");
+    let report = std::env::temp_dir().join(format!("{ns}.json"));
+    let mut lp = start_loop(&ns);
+    let (node, _) = services::create_node("it_rate_watch").unwrap();
+    let state = services::state_reader(&node, &ns).unwrap();
+    wait_for("the loop publishes", Duration::from_secs(30), || {
+        (state.get().header.sequence > 100).then_some(())
+    });
+    let report_arg = report.to_str().unwrap().to_string();
+    let mut planner = start_planner(&ns, &["--duration-s", "3", "--json", &report_arg]);
+    let status = planner
+        .wait_timeout(Duration::from_secs(60))
+        .expect("planner stops after --duration-s");
+    assert!(status.success(), "planner exit status {status}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let rate = json["state_rate_hz"].as_f64().unwrap();
+    let received = json["states_received"].as_u64().unwrap();
+    assert!(
+        rate >= 900.0,
+        "planner saw {rate:.0} Hz of HapticState: {json}"
+    );
+    assert!(received >= 1800, "over >= 2 s: {received} states");
+    assert!(lp.is_running(), "the loop is unaffected");
+    let _ = std::fs::remove_file(report);
+}
+
+fn guidance_seen(s: &HapticState) -> bool {
+    s.guidance_sequence > 0
+        && s.guidance_freshness == GuidanceFreshness::FRESH
+        && norm(s.guidance_wrench.force_n) > 1e-6
+}
+
+/// (b) guidance reaches the loop and is in the commanded wrench; (c) kill -9 of the
+/// planner: the loop keeps ticking, F_s decays to zero within time-to-live + fade, and a
+/// restarted planner restores guidance.
+#[test]
+fn guidance_reaches_the_arm_fades_on_planner_death_and_returns() {
+    let ns = unique_namespace("kill");
+    let mut lp = start_loop(&ns);
+    let (node, _) = services::create_node("it_kill_watch").unwrap();
+    let state = services::state_reader(&node, &ns).unwrap();
+    let mut planner = start_planner(&ns, &["--ttl-ms", "100"]);
+
+    // (b) After the start-up ramp, commanded = F_s: the arm's frame is the scene frame
+    // rotated by the start orientation (identity in the default scene) and there is no
+    // contact yet, so they agree within the force-rate limit's lag.
+    let s = wait_for("fresh guidance, ramped in", Duration::from_secs(30), || {
+        let s = *state.get();
+        (guidance_seen(&s) && s.header.sequence > 1500).then_some(s)
+    });
+    let diff: Vec<f64> = (0..3)
+        .map(|i| s.commanded_wrench.force_n[i] - s.guidance_wrench.force_n[i])
+        .collect();
+    assert!(
+        norm([diff[0], diff[1], diff[2]]) < 0.05 + 0.1 * norm(s.guidance_wrench.force_n),
+        "commanded {:?} vs F_s {:?}",
+        s.commanded_wrench.force_n,
+        s.guidance_wrench.force_n
+    );
+    let first_pid = planner.child.id();
+
+    // (c) kill -9.
+    planner.signal(libc::SIGKILL);
+    planner
+        .wait_timeout(Duration::from_secs(10))
+        .expect("planner died");
+    let killed_at = Instant::now();
+    let killed_seq = state.get().header.sequence;
+    // ttl 100 ms + fade 200 ms: wait 0.5 s of loop time (by its own tick count), then F_s = 0.
+    wait_for("500 more ticks", Duration::from_secs(30), || {
+        (state.get().header.sequence > killed_seq + 500).then_some(())
+    });
+    let s = *state.get();
+    assert_eq!(s.guidance_freshness, GuidanceFreshness::LOST);
+    assert_eq!(norm(s.guidance_wrench.force_n), 0.0);
+    assert_eq!(norm(s.guidance_wrench.torque_nm), 0.0);
+    // The loop kept ticking at its rate meanwhile (by sequence, not by wall-clock budget).
+    let before = state.get().header.sequence;
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(
+        state.get().header.sequence > before + 100,
+        "loop still ticking"
+    );
+    assert!(lp.is_running());
+    assert!(killed_at.elapsed() < Duration::from_secs(60));
+
+    // Restart: guidance returns, from the new process.
+    let mut planner2 = start_planner(&ns, &["--ttl-ms", "100"]);
+    let s = wait_for(
+        "guidance from the restarted planner",
+        Duration::from_secs(30),
+        || {
+            let s = *state.get();
+            guidance_seen(&s).then_some(s)
+        },
+    );
+    assert!(s.guidance_sequence > 0);
+    assert_ne!(planner2.child.id(), first_pid);
+    assert!(planner2.is_running());
+    planner2.signal(libc::SIGTERM);
+    let st = planner2
+        .wait_timeout(Duration::from_secs(10))
+        .expect("planner stops on SIGTERM");
+    assert!(st.success(), "clean exit on SIGTERM: {st}");
+    lp.signal(libc::SIGTERM);
+    let st = lp
+        .wait_timeout(Duration::from_secs(10))
+        .expect("loop stops on SIGTERM");
+    assert!(st.success(), "clean exit on SIGTERM: {st}");
+}
