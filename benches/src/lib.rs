@@ -1,1 +1,1 @@
-
+//! Benchmarks live in `benches/` (criterion); this library is empty on purpose.

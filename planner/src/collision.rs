@@ -13,7 +13,7 @@ use crate::pose::Se3;
 use crate::scene::{Bounds, Part, Primitive, Scene};
 use crate::space::{ConfigSpace, Se3Space, Weights};
 use parry3d_f64::math::{Pose, Rot3, Vector};
-use parry3d_f64::query::intersection_test;
+use parry3d_f64::query::{contact, intersection_test};
 use parry3d_f64::shape::{Compound, SharedShape};
 use std::cell::Cell;
 use std::collections::VecDeque;
@@ -113,6 +113,19 @@ impl CollisionChecker {
             .unwrap_or(false) // An unsupported pair is treated as a collision.
     }
 
+    /// Deepest penetration of the object into an obstacle at `q` (m, ≥ 0; 0 when
+    /// separated or touching). Diagnostics only: costlier than [`Self::is_free`], not
+    /// counted, and ignores the bounds.
+    pub fn penetration_m(&self, q: &Se3) -> f64 {
+        let (Some(object), Some(obstacles)) = (&self.object, &self.obstacles) else {
+            return 0.0;
+        };
+        match contact(&to_parry(q), object, &Pose::IDENTITY, obstacles, 0.0) {
+            Ok(Some(c)) => (-c.dist).max(0.0),
+            _ => 0.0,
+        }
+    }
+
     /// True when `a`, `b` and the straight segment between them (see
     /// [`ConfigSpace::interpolate`]) are free, checked every `resolution` (weighted m).
     pub fn edge_free(&self, a: &Se3, b: &Se3) -> bool {
@@ -173,6 +186,10 @@ mod tests {
         assert!(!c.is_free(&Se3::from_xyz(0.0595, 0.0, 0.0)));
         assert!(c.is_free(&Se3::from_xyz(0.0605, 0.0, 0.0)));
         assert!(c.is_free(&Se3::from_xyz(0.25, 0.2, -0.2)));
+        // The cube's x-min face 0.5 mm inside the wall face.
+        let depth = c.penetration_m(&Se3::from_xyz(0.0595, 0.0, 0.0));
+        assert!((depth - 0.0005).abs() < 1e-9, "{depth}");
+        assert_eq!(c.penetration_m(&scene.start), 0.0);
         // Out of bounds is never free.
         assert!(!c.is_free(&Se3::from_xyz(0.31, 0.0, 0.0)));
         assert!(c.collision_checks() > 0);
