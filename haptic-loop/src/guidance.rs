@@ -209,7 +209,7 @@ mod tests {
     fn invalid_sample_is_rejected_and_last_valid_kept() {
         let mut f = filter();
         f.render(&sample(1, 0), 0);
-        let mut bad = sample(2, 1 * MS);
+        let mut bad = sample(2, MS);
         bad.attractive[0] = f64::NAN;
         let r = f.render(&bad, 2 * MS);
         assert_eq!(r.sequence, 1, "kept the last valid sample");

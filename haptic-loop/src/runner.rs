@@ -77,11 +77,15 @@ pub struct LoopReport {
     pub faults: u64,
 }
 
+/// What the RT thread hands back when it ends: the tick (device included), what its
+/// real-time set-up achieved, and its allocation count (`None` if not measured).
+type RtOutcome<D, G, S> = (Tick<D, G, S>, RtSetupReport, Option<u64>);
+
 /// A running loop.
 pub struct LoopHandle<D, G, S> {
     stop: Arc<AtomicBool>,
     counters: Arc<LiveCounters>,
-    rt: JoinHandle<(Tick<D, G, S>, RtSetupReport, Option<u64>)>,
+    rt: JoinHandle<RtOutcome<D, G, S>>,
     stats: JoinHandle<TimingHistograms>,
 }
 
@@ -222,7 +226,7 @@ fn rt_thread<D, G, S>(
     mut ring: rtrb::Producer<TickSample>,
     stop: &AtomicBool,
     counters: &LiveCounters,
-) -> (Tick<D, G, S>, RtSetupReport, Option<u64>)
+) -> RtOutcome<D, G, S>
 where
     D: HapticDevice,
     G: GuidanceSource,

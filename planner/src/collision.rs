@@ -141,8 +141,9 @@ impl CollisionChecker {
         }
         let d = self.space.distance(a, b);
         let n = (d / self.resolution).ceil();
-        if !(n > 1.0) {
-            return true; // NaN-safe: also covers d == 0.
+        // NaN-safe: a NaN distance compares as "not greater", like d == 0.
+        if n.partial_cmp(&1.0) != Some(std::cmp::Ordering::Greater) {
+            return true;
         }
         let n = n as u64;
         let mut queue = VecDeque::with_capacity(n as usize / 2 + 1);

@@ -157,14 +157,14 @@ impl Planner {
     }
 
     fn sample(&mut self, user: Option<&Se3>) -> (Se3, bool) {
-        if let Some(u) = user.filter(|u| u.is_finite() && self.params.user_bias > 0.0) {
-            if self.rng.random::<f64>() < self.params.user_bias {
-                return (
-                    self.space
-                        .sample_near(u, self.params.user_sigma, &mut self.rng),
-                    true,
-                );
-            }
+        if let Some(u) = user.filter(|u| u.is_finite() && self.params.user_bias > 0.0)
+            && self.rng.random::<f64>() < self.params.user_bias
+        {
+            return (
+                self.space
+                    .sample_near(u, self.params.user_sigma, &mut self.rng),
+                true,
+            );
         }
         (self.space.sample_uniform(&mut self.rng), false)
     }
