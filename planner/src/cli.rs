@@ -76,7 +76,7 @@ pub struct ServeArgs {
     #[arg(long, default_value_t = 0.5)]
     pub user_bias: f64,
     /// Standard deviation of the Gaussian around the operator, weighted m.
-    #[arg(long, default_value_t = 0.03)]
+    #[arg(long, default_value_t = 0.05)]
     pub user_sigma: f64,
     /// How often to poll the haptic state, Hz (above the loop rate to see every tick).
     #[arg(long, default_value_t = 2000.0)]

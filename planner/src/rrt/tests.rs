@@ -209,3 +209,9 @@ fn collision_check_cost() {
     );
     assert_eq!(qs.len() - hits, free);
 }
+
+#[test]
+fn planner_can_move_to_a_worker_thread() {
+    fn assert_send<T: Send>() {}
+    assert_send::<Planner>();
+}
