@@ -153,17 +153,8 @@ impl LoopArgs {
         if self.spin_us * 1000 >= (1e9 / self.rate_hz) as u64 {
             bail!("--spin-us {} is not shorter than the period", self.spin_us);
         }
-        if self.namespace.is_empty()
-            || !self
-                .namespace
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
-        {
-            bail!(
-                "--namespace must be non-empty ASCII letters, digits, '_' or '-', got {:?}",
-                self.namespace
-            );
-        }
+        services::validate_namespace(&self.namespace)
+            .map_err(|e| anyhow::anyhow!("--namespace: {e}"))?;
         let arm = SimulatedArmConfig::default();
         // Scene origin of the device: the middle of start and goal, so both are reachable.
         let mid = (scene.start.pos + scene.goal.pos) / 2.0;

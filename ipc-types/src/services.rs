@@ -90,6 +90,22 @@ fn err(service: &str, what: impl core::fmt::Display) -> ServiceError {
     }
 }
 
+/// Checks that `namespace` can be part of a service name: non-empty ASCII letters, digits,
+/// `_` or `-`. The error says what is wrong.
+pub fn validate_namespace(namespace: &str) -> Result<(), String> {
+    let ok = !namespace.is_empty()
+        && namespace
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
+    if ok {
+        Ok(())
+    } else {
+        Err(format!(
+            "must be non-empty ASCII letters, digits, '_' or '-', got {namespace:?}"
+        ))
+    }
+}
+
 /// Full service name `hrrtc/<namespace>/<leaf>`.
 pub fn service_name(namespace: &str, leaf: &str) -> String {
     format!("hrrtc/{namespace}/{leaf}")
@@ -315,3 +331,91 @@ pub fn path_subscriber(node: &Node<Ipc>, namespace: &str) -> Result<PathSubscrib
 const fn assert_send<T: Send>() {}
 const _: () = assert_send::<StateWriter>();
 const _: () = assert_send::<StateReader>();
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{GuidanceMode, Header};
+    use iceoryx2::port::update_connections::UpdateConnections;
+
+    fn unique_namespace(tag: &str) -> String {
+        format!("test_{tag}_{}", std::process::id())
+    }
+
+    #[test]
+    fn namespaces_are_validated() {
+        assert!(validate_namespace("it_rate-3").is_ok());
+        assert!(validate_namespace("").is_err());
+        assert!(validate_namespace("a/b").unwrap_err().contains("a/b"));
+    }
+
+    #[test]
+    fn blackboard_roundtrip_and_single_writer() {
+        let ns = unique_namespace("bb");
+        let (node, _) = create_node("ipc_types_test").unwrap();
+        let reader = state_reader(&node, &ns).unwrap();
+        assert_eq!(reader.get().header.sequence, 0, "initial value is zeroed");
+        let writer = state_writer(&node, &ns).unwrap();
+        let s = HapticState {
+            header: Header {
+                sequence: 7,
+                timestamp_ns: 11,
+                writer_pid: 1,
+                reserved: 0,
+            },
+            buttons: 3,
+            ..HapticState::default()
+        };
+        writer.update_with_copy(s);
+        assert_eq!(*reader.get(), s);
+        assert!(
+            state_writer(&node, &ns).is_err(),
+            "a second writer must be refused"
+        );
+    }
+
+    #[test]
+    fn guidance_latest_value_survives_a_publisher_restart() {
+        let ns = unique_namespace("guid");
+        let (node, _) = create_node("ipc_types_guidance_test").unwrap();
+        let sub = guidance_subscriber(&node, &ns).unwrap();
+        let g = |seq| Guidance {
+            header: Header {
+                sequence: seq,
+                ..Header::default()
+            },
+            mode: GuidanceMode::ROADMAP,
+            ..Guidance::default()
+        };
+        {
+            let first = guidance_publisher(&node, &ns).unwrap();
+            first.send_copy(g(1)).unwrap();
+        }
+        let second = guidance_publisher(&node, &ns).unwrap();
+        second.send_copy(g(2)).unwrap();
+        let mut newest = 0;
+        while let Some(s) = sub.receive().unwrap() {
+            newest = s.header.sequence;
+        }
+        assert_eq!(newest, 2, "the new publisher's sample arrives");
+    }
+
+    #[test]
+    fn path_history_reaches_late_subscriber() {
+        let ns = unique_namespace("path");
+        let (node, _) = create_node("ipc_types_path_test").unwrap();
+        let publisher = path_publisher(&node, &ns).unwrap();
+        let mut p = Path::EMPTY;
+        p.header.sequence = 1;
+        p.len = 2;
+        publisher.send_copy(p).unwrap();
+        let subscriber = path_subscriber(&node, &ns).unwrap();
+        // History reaches a new subscriber when the publisher next updates its connections.
+        publisher.update_connections().unwrap();
+        let sample = subscriber
+            .receive()
+            .unwrap()
+            .expect("history delivers the path");
+        assert_eq!(sample.len, 2);
+    }
+}

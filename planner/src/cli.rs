@@ -6,6 +6,7 @@ use crate::shell::{self, ShellConfig};
 use crate::{Planner, PlannerParams, Scene};
 use anyhow::{Context, bail};
 use clap::{Args, Parser, Subcommand};
+use ipc_types::services;
 use serde::Serialize;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -139,17 +140,8 @@ impl ServeArgs {
                 bail!("--{name} must be a finite number >= 0, got {v}")
             }
         };
-        if self.namespace.is_empty()
-            || !self
-                .namespace
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
-        {
-            bail!(
-                "--namespace must be non-empty ASCII letters, digits, '_' or '-', got {:?}",
-                self.namespace
-            );
-        }
+        services::validate_namespace(&self.namespace)
+            .map_err(|e| anyhow::anyhow!("--namespace: {e}"))?;
         Ok(ShellConfig {
             namespace: self.namespace.clone(),
             scene,
