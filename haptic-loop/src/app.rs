@@ -274,6 +274,34 @@ pub struct Summary {
     pub planner_nodes: u64,
 }
 
+impl Summary {
+    /// The summary of a run: `report` from the loop, `guidance` the newest planner sample,
+    /// `solved_at` when a solution was first seen, `path` = (waypoints, length) received.
+    fn new(
+        report: LoopReport,
+        run_s: f64,
+        guidance: &Guidance,
+        solved: bool,
+        solved_at: Option<Duration>,
+        path: Option<(u64, f64)>,
+    ) -> Self {
+        Self {
+            solved,
+            time_to_solve_s: solved_at.map(|d| d.as_secs_f64()),
+            path_waypoints: path.map_or(0, |p| p.0),
+            path_length: path.map(|p| p.1),
+            run_s,
+            ticks: report.ticks,
+            deadline_misses: report.deadline_misses,
+            allocations_per_tick: report.allocations_per_tick,
+            wake_latency_us: report.wake_latency_us,
+            planner_iterations: guidance.iterations,
+            planner_nodes: guidance.nodes,
+            loop_report: report,
+        }
+    }
+}
+
 fn print_summary(s: &Summary) {
     let w = &s.wake_latency_us;
     let c = &s.loop_report.compute_us;
@@ -445,20 +473,7 @@ pub fn run(args: &RunArgs) -> anyhow::Result<i32> {
         duration.is_some_and(|d| started.elapsed() >= d)
     })?;
     let g = watch.relay.newest();
-    let summary = Summary {
-        solved: g.solved == 1,
-        time_to_solve_s: None,
-        path_waypoints: 0,
-        path_length: None,
-        run_s,
-        ticks: report.ticks,
-        deadline_misses: report.deadline_misses,
-        allocations_per_tick: report.allocations_per_tick,
-        wake_latency_us: report.wake_latency_us,
-        planner_iterations: g.iterations,
-        planner_nodes: g.nodes,
-        loop_report: report,
-    };
+    let summary = Summary::new(report, run_s, &g, g.solved == 1, None, None);
     finish(&summary, args.common.summary_json.as_ref())?;
     Ok(0)
 }
@@ -555,21 +570,7 @@ pub fn demo(args: &DemoArgs) -> anyhow::Result<i32> {
     if let Some(p) = watch.newest_path() {
         path = Some(p);
     }
-    let (path_waypoints, path_length) = path.map_or((0, None), |(n, l)| (n, Some(l)));
-    let summary = Summary {
-        solved: solved_at.is_some(),
-        time_to_solve_s: solved_at.map(|d| d.as_secs_f64()),
-        path_waypoints,
-        path_length,
-        run_s,
-        ticks: report.ticks,
-        deadline_misses: report.deadline_misses,
-        allocations_per_tick: report.allocations_per_tick,
-        wake_latency_us: report.wake_latency_us,
-        planner_iterations: g.iterations,
-        planner_nodes: g.nodes,
-        loop_report: report,
-    };
+    let summary = Summary::new(report, run_s, &g, solved_at.is_some(), solved_at, path);
     finish(&summary, args.common.summary_json.as_ref())?;
     if stop.load(Ordering::Acquire) && !summary.solved {
         return Ok(130);

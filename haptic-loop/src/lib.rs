@@ -21,4 +21,3 @@ pub mod runner;
 pub mod safety;
 pub mod stats;
 pub mod tick;
-pub mod wire;

@@ -11,7 +11,7 @@
 use crate::tick::GuidanceSource;
 use ipc_types::Guidance;
 use ipc_types::services;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
@@ -33,7 +33,6 @@ pub struct Relay {
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
     newest: Arc<Mutex<Guidance>>,
-    received: Arc<AtomicU64>,
 }
 
 impl Relay {
@@ -43,13 +42,11 @@ impl Relay {
         let (mut input, output) = triple_buffer::triple_buffer(&Guidance::default());
         let stop = Arc::new(AtomicBool::new(false));
         let newest = Arc::new(Mutex::new(Guidance::default()));
-        let received = Arc::new(AtomicU64::new(0));
         let (ready_tx, ready_rx) = std::sync::mpsc::channel();
         let thread = {
             let namespace = namespace.to_string();
             let stop = stop.clone();
             let newest = newest.clone();
-            let received = received.clone();
             std::thread::Builder::new()
                 .name("guidance-relay".into())
                 .spawn(move || {
@@ -84,7 +81,6 @@ impl Relay {
                         if let Some(g) = latest {
                             input.write(g);
                             *newest.lock().unwrap_or_else(|p| p.into_inner()) = g;
-                            received.fetch_add(1, Ordering::Relaxed);
                         }
                         std::thread::sleep(poll);
                     }
@@ -98,7 +94,6 @@ impl Relay {
                 stop,
                 thread: Some(thread),
                 newest,
-                received,
             },
             RelayOutput(output),
         ))
@@ -112,11 +107,6 @@ impl Relay {
     /// A handle observers on other threads can read the newest sample from.
     pub fn observer(&self) -> Arc<Mutex<Guidance>> {
         self.newest.clone()
-    }
-
-    /// Batches of samples relayed so far.
-    pub fn received(&self) -> u64 {
-        self.received.load(Ordering::Relaxed)
     }
 }
 

@@ -3,8 +3,6 @@
 //! Only `clock_gettime` and `clock_nanosleep` run per tick; the set-up functions run once
 //! on the RT thread before its first tick.
 
-use std::fmt;
-
 pub use ipc_types::monotonic_ns;
 
 /// Sleeps until `CLOCK_MONOTONIC` reaches `deadline_ns` (absolute, so no drift
@@ -51,22 +49,6 @@ pub struct RtSetupReport {
     pub memory_locked: bool,
     /// One line per thing that could not be done, with the reason.
     pub warnings: Vec<String>,
-}
-
-impl fmt::Display for RtSetupReport {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "SCHED_FIFO: {}, pinned: {}, memory locked: {}",
-            yes_no(self.fifo),
-            yes_no(self.pinned),
-            yes_no(self.memory_locked)
-        )
-    }
-}
-
-fn yes_no(b: bool) -> &'static str {
-    if b { "yes" } else { "no" }
 }
 
 /// Real-time options for the RT thread.

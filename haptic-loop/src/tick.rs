@@ -7,10 +7,10 @@
 use crate::guidance::{GuidanceConfig, GuidanceFilter, RenderedGuidance};
 use crate::mapping::{Mapping, MappingConfig};
 use crate::safety::{Safety, SafetyConfig};
-use crate::wire;
 use devices::{DeviceError, DeviceSpec, DeviceState, HapticDevice, Wrench};
 use ipc_types::{ContactCode, FaultCode, Guidance, HapticState, Header};
 use nalgebra::{Isometry3, Vector3};
+use planner::wire;
 
 /// Where the newest [`Guidance`] comes from. Must not allocate or block.
 pub trait GuidanceSource {
@@ -291,21 +291,26 @@ mod tests {
 
     const MS: u64 = 1_000_000;
 
-    #[test]
-    fn guidance_reaches_the_device_after_the_ramp() {
-        let g = Guidance {
+    /// A sample stamped at t = 0, fresh for 10 s, with F_a = `fa` (m) and k = 40 N/m.
+    fn guidance(sequence: u64, fa: [f64; 3]) -> Guidance {
+        Guidance {
             header: Header {
-                sequence: 4,
+                sequence,
                 timestamp_ns: 0,
                 writer_pid: 9,
                 reserved: 0,
             },
-            attractive: [0.0, 0.05, 0.0, 0.0, 0.0, 0.0],
+            attractive: [fa[0], fa[1], fa[2], 0.0, 0.0, 0.0],
             gain_n_per_m: 40.0,
             time_to_live_ns: 10_000 * MS,
             mode: GuidanceMode::ROADMAP,
             ..Guidance::default()
-        };
+        }
+    }
+
+    #[test]
+    fn guidance_reaches_the_device_after_the_ramp() {
+        let g = guidance(4, [0.0, 0.05, 0.0]);
         let mut t = Tick::new(arm(), &config(), Fixed(g), NoSink).unwrap();
         for i in 1..=1000 {
             t.step(i * MS, PrevTiming::default());
@@ -323,17 +328,7 @@ mod tests {
 
     #[test]
     fn device_fault_zeroes_force_in_the_same_tick() {
-        let g = Guidance {
-            header: Header {
-                sequence: 1,
-                ..Header::default()
-            },
-            attractive: [0.05, 0.0, 0.0, 0.0, 0.0, 0.0],
-            gain_n_per_m: 40.0,
-            time_to_live_ns: 10_000 * MS,
-            mode: GuidanceMode::ROADMAP,
-            ..Guidance::default()
-        };
+        let g = guidance(1, [0.05, 0.0, 0.0]);
         let mut t = Tick::new(arm(), &config(), Fixed(g), NoSink).unwrap();
         for i in 1..=1000 {
             t.step(i * MS, PrevTiming::default());

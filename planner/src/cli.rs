@@ -195,12 +195,9 @@ pub fn solve(args: &SolveArgs) -> anyhow::Result<SolveReport> {
     }
     let time_s = started.elapsed().as_secs_f64();
     let s = planner.stats();
-    let space = planner.space();
-    let path_length = planner.solution().map(|p| {
-        p.windows(2)
-            .map(|w| crate::space::ConfigSpace::distance(space, &w[0], &w[1]))
-            .sum()
-    });
+    let path_length = planner
+        .solution()
+        .map(|p| crate::space::path_length(planner.space(), p));
     Ok(SolveReport {
         scene: scene.name.clone(),
         seed: args.core.seed,

@@ -28,6 +28,7 @@ pub mod scene;
 pub mod shell;
 pub mod space;
 pub mod tree;
+pub mod wire;
 
 pub use collision::CollisionChecker;
 pub use params::{PlannerError, PlannerParams};

@@ -82,7 +82,12 @@ impl Se3 {
         self.pos.iter().all(|v| v.is_finite()) && self.rot.coords.iter().all(|v| v.is_finite())
     }
 
-    /// Conversion to an nalgebra isometry.
+    /// The pose of an nalgebra isometry.
+    pub fn from_isometry(iso: &Isometry3<f64>) -> Self {
+        Self::new(iso.translation.vector, iso.rotation)
+    }
+
+    /// The equivalent nalgebra isometry.
     pub fn to_isometry(&self) -> Isometry3<f64> {
         Isometry3::from_parts(Translation3::from(self.pos), self.rot)
     }

@@ -12,7 +12,6 @@
 use crate::{Planner, PlannerParams, Scene, Se3};
 use ipc_types::services::{self, GuidancePublisher, StateReader};
 use ipc_types::{Guidance, GuidanceMode, HapticState, Header, PATH_CAPACITY, Path, Pose};
-use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use serde::Serialize;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -302,23 +301,12 @@ fn publish_guidance(publisher: &GuidancePublisher, g: Guidance) {
 
 /// The planner's pose type from a wire pose; `None` if invalid.
 pub fn se3(p: &Pose) -> Option<Se3> {
-    if !p.is_valid() {
-        return None;
-    }
-    let [x, y, z, w] = p.orientation_xyzw;
-    Some(Se3::new(
-        Vector3::from(p.position_m),
-        UnitQuaternion::new_normalize(Quaternion::new(w, x, y, z)),
-    ))
+    crate::wire::isometry(p).map(|iso| Se3::from_isometry(&iso))
 }
 
 /// The wire pose of a planner pose.
 pub fn pose(q: &Se3) -> Pose {
-    let c = q.rot.coords;
-    Pose {
-        position_m: q.pos.into(),
-        orientation_xyzw: [c.x, c.y, c.z, c.w],
-    }
+    crate::wire::pose(&q.to_isometry())
 }
 
 /// The solution as a wire [`Path`], resampled to at most [`PATH_CAPACITY`] waypoints by
@@ -336,11 +324,7 @@ fn to_wire_path(sol: &[Se3], planner: &Planner, seq: u64, pid: u32) -> Path {
         path.waypoints[i] = pose(&sol[src]);
     }
     path.len = keep as u64;
-    let space = planner.space();
-    path.length = sol
-        .windows(2)
-        .map(|w| crate::space::ConfigSpace::distance(space, &w[0], &w[1]))
-        .sum();
+    path.length = crate::space::path_length(planner.space(), sol);
     path.header = Header {
         sequence: seq,
         timestamp_ns: ipc_types::monotonic_ns(),

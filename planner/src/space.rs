@@ -84,6 +84,11 @@ pub trait ConfigSpace {
     }
 }
 
+/// Weighted length (I-RRT eq. 2 metric) of the polyline through `path`.
+pub fn path_length(space: &dyn ConfigSpace, path: &[Se3]) -> f64 {
+    path.windows(2).map(|w| space.distance(&w[0], &w[1])).sum()
+}
+
 /// SE(3) with a box for the reference point. See the module docs for the metric.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Se3Space {
