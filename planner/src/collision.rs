@@ -32,21 +32,28 @@ pub fn to_parry(q: &Se3) -> Pose {
     )
 }
 
+/// The parry shape of one part, in the part's local frame.
+pub fn part_shape(part: &Part) -> SharedShape {
+    match &part.primitive {
+        Primitive::Box { half_extents_m: h } => SharedShape::cuboid(h.x, h.y, h.z),
+        Primitive::Sphere { radius_m } => SharedShape::ball(*radius_m),
+    }
+}
+
+/// Every part as (pose in the parent frame, shape): the one conversion from scene parts to
+/// parry, shared by the collision checker and the haptic loop's voxmap and pointshell.
+pub fn part_shapes(parts: &[Part]) -> Vec<(Pose, SharedShape)> {
+    parts
+        .iter()
+        .map(|p| (to_parry(&p.pose), part_shape(p)))
+        .collect()
+}
+
 fn compound(parts: &[Part]) -> Option<Compound> {
     if parts.is_empty() {
         return None; // parry's Compound::new panics on an empty list.
     }
-    let shapes = parts
-        .iter()
-        .map(|p| {
-            let shape = match &p.primitive {
-                Primitive::Box { half_extents_m: h } => SharedShape::cuboid(h.x, h.y, h.z),
-                Primitive::Sphere { radius_m } => SharedShape::ball(*radius_m),
-            };
-            (to_parry(&p.pose), shape)
-        })
-        .collect();
-    Some(Compound::new(shapes))
+    Some(Compound::new(part_shapes(parts)))
 }
 
 /// Collision checker for one scene. Not `Sync` (the check counter is a `Cell`); build one
