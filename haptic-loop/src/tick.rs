@@ -93,6 +93,8 @@ pub struct Tick<D, G, S> {
     guidance_age_ns: u64,
     pid: u32,
     contact: Option<ContactStage>,
+    contact_ticks: u64,
+    max_penetration_m: f64,
 }
 
 impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
@@ -121,6 +123,8 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
             guidance_age_ns: 0,
             pid: std::process::id(),
             contact: None,
+            contact_ticks: 0,
+            max_penetration_m: 0.0,
         })
     }
 
@@ -133,6 +137,16 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
     /// The contact stage, when contact rendering is on.
     pub fn contact(&self) -> Option<&ContactStage> {
         self.contact.as_ref()
+    }
+
+    /// Ticks spent in contact (contact code CONTACT) since start.
+    pub fn contact_ticks(&self) -> u64 {
+        self.contact_ticks
+    }
+
+    /// Deepest penetration of the proxy into the scene since start, m.
+    pub fn max_penetration_m(&self) -> f64 {
+        self.max_penetration_m
     }
 
     /// The device's specification.
@@ -270,6 +284,8 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
                 s.contact_point_m = c.point_m.into();
                 s.operator_force_n = c.operator_force_n.into();
                 s.penetration_m = c.penetration_m;
+                self.contact_ticks += u64::from(c.code == ContactCode::CONTACT);
+                self.max_penetration_m = self.max_penetration_m.max(c.penetration_m);
             }
             None => {
                 s.contact_wrench = ipc_types::Wrench::ZERO;

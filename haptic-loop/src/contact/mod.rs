@@ -294,6 +294,53 @@ pub struct ContactOutput {
     pub points_tested: u32,
 }
 
+/// Σ w·JJᵀ for J = [n; r×n], kept as the three 3×3 blocks (21 numbers): the per-point cost
+/// of the implicit step's contact stiffness is 21 multiply-adds instead of a 6×6 update.
+#[derive(Debug, Default, Clone, Copy, PartialEq)]
+struct JtJ {
+    nn: [f64; 6],
+    mn: [f64; 9],
+    mm: [f64; 6],
+}
+
+impl JtJ {
+    #[inline]
+    fn add(&mut self, w: f64, n: &Vector3<f64>, m: &Vector3<f64>) {
+        let (wn, wm) = (n * w, m * w);
+        self.nn[0] += wn.x * n.x;
+        self.nn[1] += wn.x * n.y;
+        self.nn[2] += wn.x * n.z;
+        self.nn[3] += wn.y * n.y;
+        self.nn[4] += wn.y * n.z;
+        self.nn[5] += wn.z * n.z;
+        for a in 0..3 {
+            for b in 0..3 {
+                self.mn[3 * a + b] += wm[a] * n[b];
+            }
+        }
+        self.mm[0] += wm.x * m.x;
+        self.mm[1] += wm.x * m.y;
+        self.mm[2] += wm.x * m.z;
+        self.mm[3] += wm.y * m.y;
+        self.mm[4] += wm.y * m.z;
+        self.mm[5] += wm.z * m.z;
+    }
+
+    /// `scale · Σ w JJᵀ` as a 6×6 matrix ([force; torque] order).
+    fn matrix(&self, scale: f64) -> Matrix6<f64> {
+        let sym = |v: &[f64; 6]| Matrix3::new(v[0], v[1], v[2], v[1], v[3], v[4], v[2], v[4], v[5]);
+        let nn = sym(&self.nn) * scale;
+        let mm = sym(&self.mm) * scale;
+        let mn = Matrix3::from_row_slice(&self.mn) * scale;
+        let mut out = Matrix6::zeros();
+        out.fixed_view_mut::<3, 3>(0, 0).copy_from(&nn);
+        out.fixed_view_mut::<3, 3>(3, 0).copy_from(&mn);
+        out.fixed_view_mut::<3, 3>(0, 3).copy_from(&mn.transpose());
+        out.fixed_view_mut::<3, 3>(3, 3).copy_from(&mm);
+        out
+    }
+}
+
 /// The scene's wrench on an object held still at a pose (see [`ContactStage::probe`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Probe {
@@ -314,10 +361,10 @@ pub struct Probe {
 struct Sums {
     /// Generalised force about the centre of mass: [force; torque].
     wrench: Vector6<f64>,
-    /// Σ k_p JᵀJ over penetrating points.
-    stiffness: Matrix6<f64>,
-    /// Σ b JᵀJ over points whose damping or braking is active.
-    damping: Matrix6<f64>,
+    /// Σ JᵀJ over penetrating points (stiffness and contact damping are multiples of it).
+    contact_jj: JtJ,
+    /// Σ w JᵀJ over braking points, w the braking weight.
+    braking_jj: JtJ,
     contacts: u32,
     braking_points: u32,
     near: bool,
@@ -327,6 +374,66 @@ struct Sums {
     normal_sum: Vector3<f64>,
     max_depth: f64,
     tested: u32,
+}
+
+/// Temporal coherence of the contact search: each point, each cluster and the whole object
+/// carry the total proxy motion (m, any point's worst-case travel, summed over steps) at
+/// which they can first come within reach of the surface. Until the running total passes
+/// it, they are skipped without a voxmap look-up; a point 5 mm from the wall is looked at
+/// again only after the object has moved about 3 mm. Preallocated; reset on `place`.
+#[derive(Debug, Clone, Default)]
+struct Coherence {
+    /// Running total of the bound on any point's motion, m.
+    motion_m: f64,
+    /// Pose at the last search.
+    last: Option<Isometry3<f64>>,
+    object: f64,
+    clusters: Vec<f64>,
+    points: Vec<f64>,
+}
+
+impl Coherence {
+    fn new(clusters: usize, points: usize) -> Self {
+        Self {
+            motion_m: 0.0,
+            last: None,
+            object: 0.0,
+            clusters: vec![0.0; clusters],
+            points: vec![0.0; points],
+        }
+    }
+
+    /// Forget everything (the object jumped).
+    fn reset(&mut self) {
+        self.motion_m = 0.0;
+        self.last = None;
+        self.object = 0.0;
+        self.clusters.fill(0.0);
+        self.points.fill(0.0);
+    }
+
+    /// Adds the motion from the last search to `pose`: the centre of mass's travel plus
+    /// the rotation angle times the object's radius about it bounds every point's travel.
+    fn advance(&mut self, pose: &Isometry3<f64>, com_local: &Vector3<f64>, radius_m: f64) {
+        if let Some(last) = self.last {
+            let c0 = last.transform_point(&Point3::from(*com_local));
+            let c1 = pose.transform_point(&Point3::from(*com_local));
+            let angle = last.rotation.angle_to(&pose.rotation);
+            self.motion_m += (c1 - c0).norm() + angle * radius_m;
+        }
+        self.last = Some(*pose);
+    }
+}
+
+/// Adds `f` along the unit direction `n` with moment arm cross product `rxn` (= r × n).
+#[inline]
+fn add_wrench(w: &mut Vector6<f64>, f: f64, n: &Vector3<f64>, rxn: &Vector3<f64>) {
+    w[0] += f * n.x;
+    w[1] += f * n.y;
+    w[2] += f * n.z;
+    w[3] += f * rxn.x;
+    w[4] += f * rxn.y;
+    w[5] += f * rxn.z;
 }
 
 /// The dynamic proxy with its coupling. `step` is allocation-free.
@@ -349,12 +456,15 @@ pub struct ContactStage {
     /// step is divided among that many points (one tick of lag, no second pass).
     previous_contacts: u32,
     previous_braking: u32,
+    last_tested: u32,
+    cache: Coherence,
 }
 
 impl ContactStage {
     /// A proxy for `model`; it is placed at the first anchor it sees.
     pub fn new(model: Arc<ContactModel>, config: ContactConfig, coupling: Coupling) -> Self {
         Self {
+            cache: Coherence::new(model.shell.clusters().len(), model.shell.len()),
             model,
             config,
             coupling,
@@ -367,12 +477,18 @@ impl ContactStage {
             started: false,
             previous_contacts: 0,
             previous_braking: 0,
+            last_tested: 0,
         }
     }
 
     /// The coupling gains in use.
     pub fn coupling(&self) -> &Coupling {
         &self.coupling
+    }
+
+    /// Pointshell points tested against the voxmap in the last step (after culling).
+    pub fn last_points_tested(&self) -> u32 {
+        self.last_tested
     }
 
     /// The model.
@@ -392,6 +508,7 @@ impl ContactStage {
         self.angular_velocity = Vector3::zeros();
         self.in_contact = false;
         self.started = true;
+        self.cache.reset();
     }
 
     /// Sets the proxy's velocities (centre of mass, m/s; rad/s) — for tests.
@@ -452,7 +569,7 @@ impl ContactStage {
     /// force (N), torque about the reference point (N·m), deepest penetration (m) and the
     /// number of penetrating points. Does not move the proxy.
     pub fn probe(&self, pose: &Isometry3<f64>) -> Probe {
-        let s = self.sum_contacts(pose, &Vector3::zeros(), &Vector3::zeros());
+        let s = self.sum_contacts(pose, &Vector3::zeros(), &Vector3::zeros(), None);
         let force: Vector3<f64> = s.wrench.fixed_rows::<3>(0).into_owned();
         let com = pose
             .transform_point(&Point3::from(self.model.com_local))
@@ -477,12 +594,14 @@ impl ContactStage {
     }
 
     /// The scene's wrench on the object at `pose` moving with `velocity` (centre of mass,
-    /// m/s) and `angular_velocity` (rad/s).
+    /// m/s) and `angular_velocity` (rad/s). With `cache`, points and clusters whose motion
+    /// budget is not used up are skipped (see [`Coherence`]) and the budgets are renewed.
     fn sum_contacts(
         &self,
         pose: &Isometry3<f64>,
         velocity: &Vector3<f64>,
         angular_velocity: &Vector3<f64>,
+        mut cache: Option<&mut Coherence>,
     ) -> Sums {
         let model = &*self.model;
         let vox = &model.voxmap;
@@ -496,35 +615,65 @@ impl ContactStage {
             self.config.contact_damping_n_s_per_m / f64::from(self.previous_contacts.max(1));
         let b_brake = self.config.braking_n_s_per_m / f64::from(self.previous_braking.max(1));
         let mut s = Sums::default();
+        let moved = cache.as_ref().map_or(0.0, |c| c.motion_m);
         let com = pose.transform_point(&Point3::from(model.com_local)).coords;
-        if vox.clearance(&com) > model.radius_m + reach {
+        if let Some(c) = cache.as_deref_mut() {
+            if moved < c.object {
+                return s;
+            }
+            c.object = moved + vox.clearance(&com) - model.radius_m - reach;
+            if moved < c.object {
+                return s;
+            }
+        } else if vox.clearance(&com) > model.radius_m + reach {
             return s;
         }
         let rot = pose.rotation.to_rotation_matrix();
         let t = pose.translation.vector;
         let points = shell.points();
         let normals = shell.normals();
-        for cl in shell.clusters() {
+        for (c, cl) in shell.clusters().iter().enumerate() {
+            if let Some(cache) = cache.as_deref()
+                && moved < cache.clusters[c]
+            {
+                continue;
+            }
             let centre = rot * cl.centre + t;
-            if vox.clearance(&centre) > cl.radius_m + reach {
+            let slack = vox.clearance(&centre) - cl.radius_m - reach;
+            if let Some(cache) = cache.as_deref_mut() {
+                cache.clusters[c] = moved + slack;
+            }
+            if slack > 0.0 {
                 continue;
             }
             for i in cl.start as usize..cl.end as usize {
+                if let Some(cache) = cache.as_deref()
+                    && moved < cache.points[i]
+                {
+                    continue;
+                }
                 s.tested += 1;
                 let p = rot * points[i] + t;
-                let Sample::Near {
-                    distance_m: sd,
-                    gradient,
-                } = vox.sample(&p)
-                else {
+                let sample = vox.sample(&p);
+                let sd = match sample {
+                    Sample::Near { distance_m, .. } => distance_m,
+                    Sample::Far { clearance_m } => clearance_m,
+                    Sample::Deep => -f64::INFINITY,
+                };
+                if let Some(cache) = cache.as_deref_mut() {
+                    cache.points[i] = moved + sd - reach;
+                }
+                let Sample::Near { gradient, .. } = sample else {
                     continue;
                 };
                 if sd >= reach {
                     continue;
                 }
-                let Some(n) = gradient.try_normalize(1e-9) else {
-                    continue;
-                };
+                let g2 = gradient.norm_squared();
+                if g2 < 1e-18 {
+                    continue; // flat field (midway inside a thin plate): no direction
+                }
+                let n = gradient * (1.0 / g2.sqrt());
                 if (rot * normals[i]).dot(&n) < 0.0 {
                     continue; // faces away from this surface: see module docs
                 }
@@ -532,21 +681,14 @@ impl ContactStage {
                 s.within_release |= sd < release;
                 let r = p - com;
                 let rxn = r.cross(&n);
-                let j = Vector6::new(n.x, n.y, n.z, rxn.x, rxn.y, rxn.z);
                 let vn = (velocity + angular_velocity.cross(&r)).dot(&n);
                 if sd < 0.0 {
                     let d = -sd;
-                    let spring = kp * d;
-                    let damper = -b_contact * vn;
-                    // Damping never pulls the point into the surface.
-                    let push = if spring + damper > 0.0 {
-                        s.damping.ger(b_contact, &j, &j, 1.0);
-                        spring + damper
-                    } else {
-                        0.0
-                    };
-                    s.wrench += j * push;
-                    s.stiffness.ger(kp, &j, &j, 1.0);
+                    // Damping never pulls the point into the surface. (The implicit step
+                    // keeps its damping term also for a clamped point: numerical damping.)
+                    let push = (kp * d - b_contact * vn).max(0.0);
+                    add_wrench(&mut s.wrench, push, &n, &rxn);
+                    s.contact_jj.add(1.0, &n, &rxn);
                     s.contacts += 1;
                     s.weighted_point += d * (p + d * n);
                     s.weight += d;
@@ -554,9 +696,9 @@ impl ContactStage {
                     s.max_depth = s.max_depth.max(d);
                 } else if sd < prox && vn < 0.0 {
                     // Pre-contact braking: opposes approach only, fading in over the layer.
-                    let b = b_brake * (1.0 - sd / prox);
-                    s.wrench += j * (-b * vn);
-                    s.damping.ger(b, &j, &j, 1.0);
+                    let w = 1.0 - sd / prox;
+                    add_wrench(&mut s.wrench, -b_brake * w * vn, &n, &rxn);
+                    s.braking_jj.add(w, &n, &rxn);
                     s.braking_points += 1;
                 }
             }
@@ -570,13 +712,25 @@ impl ContactStage {
             self.place(anchor.pose);
         }
         let before = self.pose;
-        let s = self.sum_contacts(&self.pose, &self.velocity, &self.angular_velocity);
+        let mut cache = std::mem::take(&mut self.cache);
+        cache.advance(&self.pose, &self.model.com_local, self.model.radius_m);
+        let s = self.sum_contacts(
+            &self.pose,
+            &self.velocity,
+            &self.angular_velocity,
+            Some(&mut cache),
+        );
+        self.cache = cache;
 
+        let b_contact =
+            self.config.contact_damping_n_s_per_m / f64::from(self.previous_contacts.max(1));
+        let b_brake = self.config.braking_n_s_per_m / f64::from(self.previous_braking.max(1));
         self.previous_contacts = s.contacts;
+        self.last_tested = s.tested;
         self.previous_braking = s.braking_points;
         let contact_wrench = s.wrench;
         let mut force = s.wrench;
-        let mut damping = s.damping;
+        let mut damping = s.contact_jj.matrix(b_contact) + s.braking_jj.matrix(b_brake);
 
         // Coupling between the centres of mass.
         let c = self.coupling;
@@ -602,7 +756,7 @@ impl ContactStage {
             t_coupling.y,
             t_coupling.z,
         );
-        let mut stiffness = s.stiffness;
+        let mut stiffness = s.contact_jj.matrix(self.config.point_stiffness_n_per_m);
         let mut coupling_damping = Matrix6::zeros();
         for a in 0..3 {
             stiffness[(a, a)] += c.k_n_per_m;

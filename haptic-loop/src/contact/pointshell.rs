@@ -21,7 +21,7 @@ use std::collections::BTreeMap;
 type PointNormal = (Vector3<f64>, Vector3<f64>);
 
 /// Cluster edge, in point spacings.
-const CLUSTER_CELLS: f64 = 6.0;
+const CLUSTER_CELLS: f64 = 3.0;
 
 /// A group of consecutive points with a bounding sphere (object frame).
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -382,10 +382,15 @@ impl Voxmap {
     }
 
     /// The field at `p` (scene frame, m). O(1), no allocation.
-    #[inline]
+    #[inline(always)]
     pub fn sample(&self, p: &Vector3<f64>) -> Sample {
         let g = (p - self.origin) * self.inv_h;
-        let inside_grid = (0..3).all(|a| g[a] >= 0.0 && g[a] < self.cells[a] as f64);
+        let inside_grid = g.x >= 0.0
+            && g.y >= 0.0
+            && g.z >= 0.0
+            && g.x < self.cells[0] as f64
+            && g.y < self.cells[1] as f64
+            && g.z < self.cells[2] as f64;
         if !inside_grid {
             // The surface lies at least `reach` inside the grid box.
             let d = (0..3)
@@ -401,7 +406,13 @@ impl Voxmap {
                 clearance_m: d + self.far_clearance(0.0),
             };
         }
-        let (ix, iy, iz) = (g.x as usize, g.y as usize, g.z as usize);
+        // In range (checked above), so truncation is the floor; `as u32` of a value in
+        // [0, cells) is exact and cheaper than a saturating `as usize`.
+        let (ix, iy, iz) = (
+            g.x as u32 as usize,
+            g.y as u32 as usize,
+            g.z as u32 as usize,
+        );
         let b = ix / B + self.blocks[0] * (iy / B + self.blocks[1] * (iz / B));
         let slot = self.index[b];
         if slot == OUTSIDE {
@@ -413,11 +424,16 @@ impl Voxmap {
             return Sample::Deep;
         }
         let base = (slot - FIRST) as usize * BLOCK_NODES;
+        // A fixed-size view: every index below is < BLOCK_NODES by construction (local
+        // coordinates ≤ 8), which lets the compiler drop the bounds checks.
+        let block: &[i16; BLOCK_NODES] = self.data[base..base + BLOCK_NODES]
+            .try_into()
+            .expect("blocks are BLOCK_NODES long");
         let (lx, ly, lz) = (ix % B, iy % B, iz % B);
-        let (fx, fy, fz) = (g.x - ix as f64, g.y - iy as f64, g.z - iz as f64);
         let at = |i: usize, j: usize, k: usize| {
-            f64::from(self.data[base + (lx + i) + N * ((ly + j) + N * (lz + k))])
+            f64::from(block[(lx + i) + N * ((ly + j) + N * (lz + k))])
         };
+        let (fx, fy, fz) = (g.x - ix as f64, g.y - iy as f64, g.z - iz as f64);
         let (c000, c100, c010, c110) = (at(0, 0, 0), at(1, 0, 0), at(0, 1, 0), at(1, 1, 0));
         let (c001, c101, c011, c111) = (at(0, 0, 1), at(1, 0, 1), at(0, 1, 1), at(1, 1, 1));
         // Interpolate along x, then y, then z; keep the partial derivatives.
