@@ -57,7 +57,7 @@ pub struct LoopArgs {
     #[arg(long, default_value_t = 200.0)]
     pub fade_ms: f64,
     /// Speed of the simulated operator's hand, m/s at the device.
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.02)]
     pub user_speed: f64,
     /// RMS amplitude of the simulated operator's tremor, m (0 = none).
     #[arg(long, default_value_t = 0.0)]
@@ -96,6 +96,9 @@ pub struct DemoArgs {
     /// Keep running this long after the solution, so its guidance can be felt.
     #[arg(long, default_value_t = 3.0)]
     pub after_solve_s: f64,
+    /// Run at least this long, so the scripted operator reaches the wall.
+    #[arg(long, default_value_t = 8.0)]
+    pub min_run_s: f64,
     /// Planner RNG seed.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -505,6 +508,7 @@ impl Progress {
 /// Runs the loop until `done` says so; returns the loop report and run time.
 fn run_loop(
     setup: &LoopSetup,
+    contact: Option<ContactStage>,
     stop: &AtomicBool,
     mut done: impl FnMut(&Watch) -> bool,
 ) -> anyhow::Result<(LoopReport, f64, Watch, Option<ContactSummary>)> {
@@ -525,7 +529,6 @@ fn run_loop(
         _node: node,
     };
     let arm = simulated_arm(setup, &demo_route(&setup.scene))?;
-    let contact = setup.contact_stage(&setup.arm.spec())?;
     let mut tick = Tick::new(arm, &setup.tick, guidance_source, state_writer)
         .map_err(|e| anyhow::anyhow!("cannot open the simulated arm: {e}"))?;
     if let Some(stage) = contact {
@@ -556,6 +559,8 @@ fn finish(summary: &Summary, json: Option<&PathBuf>) -> anyhow::Result<()> {
 /// `haptic-loop run`: the loop with the simulated arm, no planner of its own.
 pub fn run(args: &RunArgs) -> anyhow::Result<i32> {
     let setup = args.common.to_setup()?;
+    // Build the voxmap before anything starts: it takes seconds at fine voxel sizes.
+    let contact = setup.contact_stage(&setup.arm.spec())?;
     let stop = install_stop_handler()?;
     let duration = args
         .duration_s
@@ -574,7 +579,7 @@ pub fn run(args: &RunArgs) -> anyhow::Result<i32> {
         setup.scene.name
     );
     let started = Instant::now();
-    let (report, run_s, watch, contact) = run_loop(&setup, &stop, |_| {
+    let (report, run_s, watch, contact) = run_loop(&setup, contact, &stop, |_| {
         duration.is_some_and(|d| started.elapsed() >= d)
     })?;
     let g = watch.relay.newest();
@@ -587,6 +592,8 @@ pub fn run(args: &RunArgs) -> anyhow::Result<i32> {
 /// solved within the time limit, 1 when not.
 pub fn demo(args: &DemoArgs) -> anyhow::Result<i32> {
     let setup = args.common.to_setup()?;
+    // Build the voxmap before anything starts: it takes seconds at fine voxel sizes.
+    let contact = setup.contact_stage(&setup.arm.spec())?;
     if !(args.time_limit_s.is_finite() && args.time_limit_s > 0.0) {
         bail!(
             "--time-limit-s must be a finite number > 0, got {}",
@@ -597,6 +604,12 @@ pub fn demo(args: &DemoArgs) -> anyhow::Result<i32> {
         bail!(
             "--after-solve-s must be a finite number >= 0, got {}",
             args.after_solve_s
+        );
+    }
+    if !(args.min_run_s.is_finite() && args.min_run_s >= 0.0) {
+        bail!(
+            "--min-run-s must be a finite number >= 0, got {}",
+            args.min_run_s
         );
     }
     let stop = install_stop_handler()?;
@@ -629,10 +642,11 @@ pub fn demo(args: &DemoArgs) -> anyhow::Result<i32> {
     let started = Instant::now();
     let limit = Duration::from_secs_f64(args.time_limit_s);
     let after = Duration::from_secs_f64(args.after_solve_s);
+    let min_run = Duration::from_secs_f64(args.min_run_s);
     let mut solved_at: Option<Duration> = None;
     let mut path: Option<(u64, f64)> = None;
     let mut child_exited = None;
-    let result = run_loop(&setup, &stop, |watch| {
+    let result = run_loop(&setup, contact, &stop, |watch| {
         let elapsed = started.elapsed();
         if let Some(p) = watch.newest_path() {
             path = Some(p);
@@ -650,7 +664,7 @@ pub fn demo(args: &DemoArgs) -> anyhow::Result<i32> {
             child_exited = Some(status);
         }
         match solved_at {
-            Some(t) => elapsed >= t + after,
+            Some(t) => elapsed >= (t + after).max(min_run),
             None => elapsed >= limit,
         }
     });
