@@ -141,3 +141,67 @@ fn guidance_reaches_the_arm_fades_on_planner_death_and_returns() {
         .expect("loop stops on SIGTERM");
     assert!(st.success(), "clean exit on SIGTERM: {st}");
 }
+
+/// Issue 7: ten planner faults in a row, alternating `kill -9` and a hang (`SIGSTOP`, then
+/// killed): each time the guidance fades to exactly zero, the loop keeps ticking with no
+/// fault and never commands more than the arm's maximum force, and a restarted planner
+/// brings guidance back.
+#[test]
+fn ten_planner_kills_and_hangs_in_a_row() {
+    let ns = unique_namespace("cycles");
+    let mut lp = start_loop(&ns);
+    let (node, _) = services::create_node("it_cycles_watch").unwrap();
+    let state = services::state_reader(&node, &ns).unwrap();
+    let max_force_n = devices::sim::SimulatedArmConfig::default().max_force_n;
+    wait_for("the loop past start-up", Duration::from_secs(30), || {
+        let s = *state.get();
+        (s.header.sequence > 1000 && s.fault == ipc_types::FaultCode::NONE).then_some(())
+    });
+    for cycle in 0..10 {
+        let mut planner = start_planner(&ns, &["--ttl-ms", "100"]);
+        wait_for(
+            &format!("cycle {cycle}: fresh guidance"),
+            Duration::from_secs(30),
+            || guidance_seen(&state.get()).then_some(()),
+        );
+        let hang = cycle % 2 == 1;
+        planner.signal(if hang { libc::SIGSTOP } else { libc::SIGKILL });
+        let from = state.get().header.sequence;
+        // Within TTL + fade (300 ms) plus margin, by the loop's own clock: 500 ticks.
+        let mut peak: f64 = 0.0;
+        wait_for(
+            &format!("cycle {cycle}: 500 ticks after the fault"),
+            Duration::from_secs(30),
+            || {
+                let s = *state.get();
+                peak = peak.max(norm(s.commanded_wrench.force_n));
+                assert_eq!(
+                    s.fault,
+                    ipc_types::FaultCode::NONE,
+                    "cycle {cycle}: loop fault"
+                );
+                (s.header.sequence > from + 500).then_some(())
+            },
+        );
+        let s = *state.get();
+        assert_eq!(
+            s.guidance_freshness,
+            GuidanceFreshness::LOST,
+            "cycle {cycle}"
+        );
+        assert_eq!(norm(s.guidance_wrench.force_n), 0.0, "cycle {cycle}");
+        assert!(peak <= max_force_n + 1e-9, "cycle {cycle}: {peak} N");
+        if hang {
+            planner.signal(libc::SIGKILL);
+        }
+        planner
+            .wait_timeout(Duration::from_secs(10))
+            .expect("the faulted planner is gone");
+        assert!(lp.is_running(), "cycle {cycle}: loop died");
+    }
+    lp.signal(libc::SIGTERM);
+    let st = lp
+        .wait_timeout(Duration::from_secs(10))
+        .expect("loop stops on SIGTERM");
+    assert!(st.success(), "clean exit: {st}");
+}
