@@ -2,3 +2,4 @@
 //! `src/bin/`).
 
 pub mod contact_fixture;
+pub mod harness;

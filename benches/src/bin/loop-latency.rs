@@ -16,24 +16,14 @@
 //! `cargo build --release -p planner -p benches && target/release/loop-latency --seconds 30 --json out.json`
 
 use anyhow::{Context, bail};
+use benches::harness::{PlannerChild, WallLoop, wall_loop};
 use clap::Parser;
-use devices::sim::{ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmConfig, Waypoint};
-use haptic_loop::contact::{ContactConfig, ContactModel, ContactStage, Coupling, VoxmapConfig};
-use haptic_loop::guidance::GuidanceConfig;
-use haptic_loop::mapping::MappingConfig;
-use haptic_loop::relay::Relay;
 use haptic_loop::rt::{self, RtOptions};
-use haptic_loop::runner::{self, LoopReport, RunnerConfig};
-use haptic_loop::safety::SafetyConfig;
+use haptic_loop::runner::LoopReport;
 use haptic_loop::stats::{NsHistogram, Percentiles};
-use haptic_loop::tick::{Tick, TickConfig};
-use ipc_types::services;
-use nalgebra::{Isometry3, Translation3};
-use planner::Scene;
 use serde::Serialize;
 use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
-use std::sync::Arc;
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 #[global_allocator]
@@ -350,111 +340,30 @@ fn builtin_floor(rt: RtOptions, period_ns: u64, phase: Duration) -> anyhow::Resu
         .map_err(|_| anyhow::anyhow!("the floor thread panicked"))
 }
 
-/// Kills the planner child on drop.
-struct ChildGuard(Child);
-
-impl Drop for ChildGuard {
-    fn drop(&mut self) {
-        // SAFETY: kill(2) on a child we spawned and have not reaped.
-        unsafe { libc::kill(self.0.id() as libc::pid_t, libc::SIGTERM) };
-        let deadline = Instant::now() + Duration::from_secs(5);
-        while Instant::now() < deadline && matches!(self.0.try_wait(), Ok(None)) {
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
 fn run_loop(
     args: &Args,
     rt: RtOptions,
     phase: Duration,
 ) -> anyhow::Result<(LoopReport, bool, bool)> {
     let ns = format!("latency_{}", std::process::id());
-    let scene = Scene::wall_with_hole();
-    let (node, _) = services::create_node(&format!("loop_latency_{}", std::process::id()))?;
-    let writer = services::state_writer(&node, &ns)?;
-    let (_relay, guidance) = Relay::spawn(&ns, Duration::from_millis(1))?;
-
     let _planner = if args.planner {
-        let exe = std::env::current_exe()?;
-        let planner = exe.with_file_name("planner");
-        if !planner.exists() {
-            bail!(
-                "--planner needs the planner binary next to this one ({}): run `cargo build --release -p planner`",
-                planner.display()
-            );
-        }
-        let child = Command::new(&planner)
-            .args(["serve", "--namespace", &ns, "--scene", "wall-hole"])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .with_context(|| format!("cannot start {}", planner.display()))?;
-        Some(ChildGuard(child))
+        Some(PlannerChild::spawn(&ns)?)
     } else {
         None
     };
-
-    // The operator pushes the S against the wall beside the hole and slides it (see
-    // tick-budget), over and over.
-    let origin = Isometry3::from_parts(Translation3::new(-0.08, 0.15, 0.1), scene.start.rot);
-    let device = |x: f64, y: f64| Waypoint::new(Isometry3::translation(x, y, 0.0));
-    let mut route = vec![device(0.0, 0.0)];
-    for _ in 0..((phase.as_secs_f64() / 8.0).ceil() as usize).max(1) {
-        route.extend([device(0.06, 0.05), device(0.06, -0.05), device(0.0, 0.0)]);
-    }
-    let arm_config = SimulatedArmConfig::default();
-    let spec = arm_config.spec();
-    let user = ScriptedUser::new(
-        ScriptedUserConfig {
-            max_force_n: spec.max_force_n,
-            linear_speed_m_per_s: 0.05,
-            ..ScriptedUserConfig::default()
-        },
-        route,
-    )?;
-    let arm = SimulatedArm::with_user(arm_config, user)?;
-    let config = TickConfig {
-        mapping: MappingConfig {
-            position_scale: 1.0,
-            origin,
-            clutch_button: None,
-        },
-        guidance: GuidanceConfig::default(),
-        safety: SafetyConfig::default(),
-        period_s: 1.0 / args.rate_hz,
-    };
-    let mut tick = Tick::new(arm, &config, guidance, writer).map_err(|e| anyhow::anyhow!("{e}"))?;
-    if !args.no_contact {
-        let contact = ContactConfig {
-            voxmap: VoxmapConfig {
-                voxel_m: args.voxel_mm / 1000.0,
-                ..VoxmapConfig::default()
-            },
-            ..ContactConfig::default()
-        };
-        let model =
-            ContactModel::from_scene(&scene, &contact.voxmap).map_err(anyhow::Error::msg)?;
-        eprintln!("{}", model.describe());
-        let coupling = Coupling::from_spec(&spec, 1.0, contact.coupling_fraction);
-        tick = tick.with_contact(ContactStage::new(Arc::new(model), contact, coupling));
-    }
-    let handle = runner::spawn(
-        tick,
-        RunnerConfig {
+    let running = wall_loop(
+        &ns,
+        &WallLoop {
             rate_hz: args.rate_hz,
             rt,
-            spin_ns: 0,
-            max_ticks: Some((phase.as_secs_f64() * args.rate_hz) as u64),
+            ticks: (phase.as_secs_f64() * args.rate_hz) as u64,
+            voxel_m: (!args.no_contact).then_some(args.voxel_mm / 1000.0),
         },
-        |_| {},
     )?;
-    while !handle.is_finished() {
+    while !running.handle.is_finished() {
         std::thread::sleep(Duration::from_millis(50));
     }
-    let (_tick, report) = handle.join();
+    let (_tick, report) = running.handle.join();
     Ok((report, !args.no_contact, args.planner))
 }
 

@@ -1,0 +1,161 @@
+//! What the harness binaries share: the real haptic loop on the simulated arm in the
+//! hardest steady contact case, and a planner child process.
+
+use anyhow::{Context, bail};
+use devices::sim::{ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmConfig, Waypoint};
+use haptic_loop::contact::{ContactConfig, ContactModel, ContactStage, Coupling, VoxmapConfig};
+use haptic_loop::guidance::GuidanceConfig;
+use haptic_loop::mapping::MappingConfig;
+use haptic_loop::relay::{Relay, RelayOutput};
+use haptic_loop::rt::RtOptions;
+use haptic_loop::runner::{self, LoopHandle, RunnerConfig};
+use haptic_loop::safety::SafetyConfig;
+use haptic_loop::tick::{Tick, TickConfig};
+use ipc_types::services::{self, StateWriter};
+use nalgebra::{Isometry3, Translation3};
+use planner::Scene;
+use std::process::{Child, Command, Stdio};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// A planner child process, stopped (SIGTERM, then SIGKILL) on drop.
+#[derive(Debug)]
+pub struct PlannerChild(pub Child);
+
+impl PlannerChild {
+    /// Starts `planner serve` on namespace `ns` from the binary next to the running one.
+    pub fn spawn(ns: &str) -> anyhow::Result<Self> {
+        let exe = std::env::current_exe()?;
+        let planner = exe.with_file_name("planner");
+        if !planner.exists() {
+            bail!(
+                "the planner binary is not next to this one ({}): run `cargo build --release -p planner`",
+                planner.display()
+            );
+        }
+        let child = Command::new(&planner)
+            .args(["serve", "--namespace", ns, "--scene", "wall-hole"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .with_context(|| format!("cannot start {}", planner.display()))?;
+        Ok(Self(child))
+    }
+
+    /// Sends `signal` to the process.
+    pub fn signal(&self, signal: i32) {
+        // SAFETY: kill(2) on a child we spawned and have not reaped.
+        unsafe { libc::kill(self.0.id() as libc::pid_t, signal) };
+    }
+}
+
+impl Drop for PlannerChild {
+    fn drop(&mut self) {
+        self.signal(libc::SIGCONT);
+        self.signal(libc::SIGTERM);
+        let deadline = Instant::now() + Duration::from_secs(5);
+        while Instant::now() < deadline && matches!(self.0.try_wait(), Ok(None)) {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// How to run [`wall_loop`].
+#[derive(Debug, Clone, Copy)]
+pub struct WallLoop {
+    /// Tick rate, Hz.
+    pub rate_hz: f64,
+    /// RT thread options.
+    pub rt: RtOptions,
+    /// Ticks to run.
+    pub ticks: u64,
+    /// Voxel size, m; `None` renders no contact.
+    pub voxel_m: Option<f64>,
+}
+
+/// The loop with its IPC ends; keep it alive while the loop runs.
+pub struct RunningLoop {
+    /// The RT thread.
+    pub handle: LoopHandle<SimulatedArm, RelayOutput, StateWriter>,
+    /// Guidance relay.
+    pub relay: Relay,
+    /// This process's iceoryx2 node.
+    pub node: iceoryx2::node::Node<services::Ipc>,
+}
+
+impl std::fmt::Debug for RunningLoop {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RunningLoop").finish_non_exhaustive()
+    }
+}
+
+/// Starts the real haptic loop on namespace `ns`: the simulated operator pushes the
+/// wall-hole scene's S against the wall beside the hole and slides it back and forth (the
+/// hardest steady contact case), for as long as the loop runs.
+pub fn wall_loop(ns: &str, run: &WallLoop) -> anyhow::Result<RunningLoop> {
+    let scene = Scene::wall_with_hole();
+    let (node, _) = services::create_node(&format!("harness_loop_{}", std::process::id()))?;
+    let writer = services::state_writer(&node, ns)?;
+    let (relay, guidance) = Relay::spawn(ns, Duration::from_millis(1))?;
+
+    let origin = Isometry3::from_parts(Translation3::new(-0.08, 0.15, 0.1), scene.start.rot);
+    let device = |x: f64, y: f64| Waypoint::new(Isometry3::translation(x, y, 0.0));
+    let seconds = run.ticks as f64 / run.rate_hz;
+    let mut route = vec![device(0.0, 0.0)];
+    for _ in 0..((seconds / 8.0).ceil() as usize).max(1) {
+        route.extend([device(0.06, 0.05), device(0.06, -0.05), device(0.0, 0.0)]);
+    }
+    let arm_config = SimulatedArmConfig::default();
+    let spec = arm_config.spec();
+    let user = ScriptedUser::new(
+        ScriptedUserConfig {
+            max_force_n: spec.max_force_n,
+            linear_speed_m_per_s: 0.05,
+            ..ScriptedUserConfig::default()
+        },
+        route,
+    )?;
+    let arm = SimulatedArm::with_user(arm_config, user)?;
+    let config = TickConfig {
+        mapping: MappingConfig {
+            position_scale: 1.0,
+            origin,
+            clutch_button: None,
+        },
+        guidance: GuidanceConfig::default(),
+        safety: SafetyConfig::default(),
+        period_s: 1.0 / run.rate_hz,
+    };
+    let mut tick = Tick::new(arm, &config, guidance, writer).map_err(|e| anyhow::anyhow!("{e}"))?;
+    if let Some(voxel_m) = run.voxel_m {
+        let contact = ContactConfig {
+            voxmap: VoxmapConfig {
+                voxel_m,
+                ..VoxmapConfig::default()
+            },
+            ..ContactConfig::default()
+        };
+        let model =
+            ContactModel::from_scene(&scene, &contact.voxmap).map_err(anyhow::Error::msg)?;
+        eprintln!("{}", model.describe());
+        let coupling = Coupling::from_spec(&spec, 1.0, contact.coupling_fraction);
+        tick = tick.with_contact(ContactStage::new(Arc::new(model), contact, coupling));
+    }
+    let handle = runner::spawn(
+        tick,
+        RunnerConfig {
+            rate_hz: run.rate_hz,
+            rt: run.rt,
+            spin_ns: 0,
+            max_ticks: Some(run.ticks),
+        },
+        |_| {},
+    )?;
+    Ok(RunningLoop {
+        handle,
+        relay,
+        node,
+    })
+}
