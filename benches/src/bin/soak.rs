@@ -152,7 +152,7 @@ fn main() -> anyhow::Result<()> {
         if Instant::now() >= next {
             if let Some(p) = planner.take() {
                 // Alternate a crash and a hang; the hung one is killed 2 s later.
-                if injected % 2 == 0 {
+                if injected.is_multiple_of(2) {
                     p.signal(libc::SIGKILL);
                 } else {
                     p.signal(libc::SIGSTOP);
