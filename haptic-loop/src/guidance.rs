@@ -117,6 +117,11 @@ impl GuidanceFilter {
         let a = &g.attractive;
         let force = Vector3::new(a[0], a[1], a[2]) * (g.gain_n_per_m * factor);
         let torque = Vector3::new(a[3], a[4], a[5]) * (g.gain_nm_per_rad * factor);
+        // Validation bounds every factor, so this holds; kept as the last line of defence
+        // of the RT path (a NaN here would latch a loop fault).
+        if !(force.iter().chain(torque.iter()).all(|x| x.is_finite())) {
+            return RenderedGuidance::NONE;
+        }
         RenderedGuidance {
             force_n: clamp_norm(force, self.max_force_n),
             torque_nm: clamp_norm(torque, self.max_torque_nm),

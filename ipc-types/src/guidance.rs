@@ -54,11 +54,18 @@ pub enum GuidanceError {
     NonFinite,
     /// A gain is negative (it would push the operator away from the roadmap).
     NegativeGain,
+    /// F_a or a gain is beyond [`Guidance::MAX_MAGNITUDE`]: no real planner sends that, and
+    /// their product could overflow to infinity.
+    OutOfRange,
     /// The mode code is unknown to this build.
     UnknownMode,
 }
 
 impl Guidance {
+    /// Largest accepted |F_a| component (m or rad) and gain (N/m or N·m/rad): far above any
+    /// scene (metres) or device (kN/m), far below where `F_a · k` could overflow.
+    pub const MAX_MAGNITUDE: f64 = 1e6;
+
     /// Checks what a reader must check before it renders a sample another process wrote.
     /// Cheap, allocation-free, suitable for the RT thread.
     pub fn validate(&self) -> Result<(), GuidanceError> {
@@ -73,6 +80,14 @@ impl Guidance {
         }
         if self.gain_n_per_m < 0.0 || self.gain_nm_per_rad < 0.0 {
             return Err(GuidanceError::NegativeGain);
+        }
+        let in_range = self
+            .attractive
+            .iter()
+            .chain([&self.gain_n_per_m, &self.gain_nm_per_rad])
+            .all(|v| v.abs() <= Self::MAX_MAGNITUDE);
+        if !in_range {
+            return Err(GuidanceError::OutOfRange);
         }
         match self.mode {
             GuidanceMode::NONE | GuidanceMode::ROADMAP | GuidanceMode::PATH => Ok(()),
@@ -117,5 +132,10 @@ mod tests {
         let mut mode = valid();
         mode.mode = GuidanceMode(99);
         assert_eq!(mode.validate(), Err(GuidanceError::UnknownMode));
+        // Found by the guidance_sample fuzz target: finite values whose product overflows.
+        let mut huge = valid();
+        huge.attractive[0] = 1e300;
+        huge.gain_n_per_m = 1e300;
+        assert_eq!(huge.validate(), Err(GuidanceError::OutOfRange));
     }
 }
