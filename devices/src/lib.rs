@@ -25,6 +25,7 @@
 mod device;
 mod error;
 pub mod sim;
+pub mod spacemouse;
 mod spec;
 mod types;
 
