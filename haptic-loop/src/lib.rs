@@ -13,6 +13,8 @@
 
 pub mod alloc_count;
 pub mod app;
+pub mod bridge;
+pub mod bridge_driver;
 pub mod guidance;
 pub mod mapping;
 pub mod relay;
