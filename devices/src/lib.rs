@@ -25,6 +25,7 @@
 
 mod device;
 mod error;
+pub mod record;
 #[allow(unsafe_code)]
 pub mod sdk;
 pub mod sim;
