@@ -152,10 +152,8 @@ fn dhd_loads_opens_reads_and_writes_in_our_frame() {
     dev.open().expect("replugged device opens again");
     dev.close();
     // SAFETY: signature from the fake.
-    assert_eq!(
-        unsafe { c.f::<extern "C" fn() -> i32>("fakeDhdIsOpen")() },
-        0
-    );
+    let n = unsafe { c.f::<extern "C" fn() -> i32>("fakeDhdIsOpen")() };
+    assert_eq!(n, 0);
 }
 
 #[test]
@@ -275,10 +273,8 @@ fn hd_servo_bridge_converts_mm_and_frames_and_never_blocks() {
 
     dev.close();
     // SAFETY: signature from the fake.
-    assert_eq!(
-        unsafe { c.f::<extern "C" fn() -> i32>("fakeHdScheduled")() },
-        0
-    );
+    let n = unsafe { c.f::<extern "C" fn() -> i32>("fakeHdScheduled")() };
+    assert_eq!(n, 0);
     assert_eq!(dev.read(t0 + 62 * MS), Err(DeviceError::NotOpen));
 
     // Absent device: hdInitDevice fails with a clear message.
