@@ -197,8 +197,9 @@ impl<D: HapticDevice> Recorder<D> {
         self.dropped.load(Ordering::Relaxed)
     }
 
-    /// Closes the device, drains the ring and finishes the file.
-    pub fn finish(mut self) -> Result<RecordStats, RecordError> {
+    /// Closes the device, drains the ring and finishes the file. Works through `&mut`
+    /// so a recorder owned by a loop can be finished in place; later calls return zeros.
+    pub fn finish(&mut self) -> Result<RecordStats, RecordError> {
         self.inner.close();
         self.stop_writer().unwrap_or(Ok(RecordStats::default()))
     }

@@ -100,7 +100,7 @@ fn bad_files_are_errors_not_panics() {
     }
     // A recording with no spec (the device was never opened) is refused with a reason.
     let arm = SimulatedArm::new(SimulatedArmConfig::default()).unwrap();
-    let rec = Recorder::create(arm, &path).unwrap();
+    let mut rec = Recorder::create(arm, &path).unwrap();
     rec.finish().unwrap();
     let e = ReplayDevice::from_file(&path).unwrap_err();
     assert!(e.to_string().contains("/device/spec"), "{e}");
