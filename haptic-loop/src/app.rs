@@ -2,6 +2,7 @@
 //! (the loop plus a planner child process, a scripted operator heading for the hole, and a
 //! summary). Arguments are parsed here, validated into a [`LoopSetup`], then run.
 
+use crate::device_select::DeviceChoice;
 use crate::guidance::GuidanceConfig;
 use crate::mapping::{Mapping, MappingConfig};
 use crate::relay::Relay;
@@ -74,6 +75,9 @@ pub struct RunArgs {
     /// Stop after this many seconds (default: until Ctrl-C / SIGTERM).
     #[arg(long)]
     pub duration_s: Option<f64>,
+    /// Device selection and recording.
+    #[command(flatten)]
+    pub device: crate::device_select::DeviceArgs,
 }
 
 /// Options of `haptic-loop demo`.
@@ -405,6 +409,7 @@ impl Progress {
 /// Runs the loop until `done` says so; returns the loop report and run time.
 fn run_loop(
     setup: &LoopSetup,
+    (device, choice): (Box<dyn devices::HapticDevice>, &DeviceChoice),
     stop: &AtomicBool,
     mut done: impl FnMut(&Watch) -> bool,
 ) -> anyhow::Result<(LoopReport, f64, Watch)> {
@@ -424,9 +429,8 @@ fn run_loop(
         path: services::path_subscriber(&node, &setup.namespace)?,
         _node: node,
     };
-    let arm = simulated_arm(setup, &demo_route(&setup.scene))?;
-    let tick = Tick::new(arm, &setup.tick, guidance_source, state_writer)
-        .map_err(|e| anyhow::anyhow!("cannot open the simulated arm: {e}"))?;
+    let tick = Tick::new(device, &setup.tick, guidance_source, state_writer)
+        .map_err(|e| choice.open_error(e))?;
     let started = Instant::now();
     let handle = runner::spawn(tick, setup.runner, move |s| {
         tracing::info!("{}", progress.line(s));
@@ -462,14 +466,18 @@ pub fn run(args: &RunArgs) -> anyhow::Result<i32> {
             }
         })
         .transpose()?;
+    let device = crate::device_select::build(&args.device, &setup.namespace, || {
+        Ok(Box::new(simulated_arm(&setup, &demo_route(&setup.scene))?))
+    })?;
     tracing::info!(
-        "haptic loop at {} Hz on the simulated arm, namespace '{}', scene '{}'",
+        "haptic loop at {} Hz on {}, namespace '{}', scene '{}'",
         setup.runner.rate_hz,
+        args.device.device.name(),
         setup.namespace,
         setup.scene.name
     );
     let started = Instant::now();
-    let (report, run_s, watch) = run_loop(&setup, &stop, |_| {
+    let (report, run_s, watch) = run_loop(&setup, (device, &args.device.device), &stop, |_| {
         duration.is_some_and(|d| started.elapsed() >= d)
     })?;
     let g = watch.relay.newest();
@@ -527,7 +535,9 @@ pub fn demo(args: &DemoArgs) -> anyhow::Result<i32> {
     let mut solved_at: Option<Duration> = None;
     let mut path: Option<(u64, f64)> = None;
     let mut child_exited = None;
-    let result = run_loop(&setup, &stop, |watch| {
+    let arm: Box<dyn devices::HapticDevice> =
+        Box::new(simulated_arm(&setup, &demo_route(&setup.scene))?);
+    let result = run_loop(&setup, (arm, &DeviceChoice::Sim), &stop, |watch| {
         let elapsed = started.elapsed();
         if let Some(p) = watch.newest_path() {
             path = Some(p);

@@ -231,7 +231,7 @@ impl HapticDevice for BridgeDevice {
             if Instant::now() > deadline {
                 session.shutdown();
                 return Err(DeviceError::OpenFailed(
-                    "no driver publishes a valid state on hrrtc/<namespace>/driver/state: start the driver (e.g. `cargo run -p haptic-loop --example bridge_driver`) with the same --namespace",
+                    "no driver publishes a valid state on hrrtc/<namespace>/driver/state (start one, e.g. the bridge_driver example)",
                 ));
             }
             std::thread::sleep(Duration::from_millis(1));
@@ -331,7 +331,7 @@ mod tests {
         c.open_timeout_s = 0.2;
         let mut dev = BridgeDevice::new(c).unwrap();
         match dev.open() {
-            Err(DeviceError::OpenFailed(msg)) => assert!(msg.contains("start the driver")),
+            Err(DeviceError::OpenFailed(msg)) => assert!(msg.contains("driver/state")),
             other => panic!("expected OpenFailed, got {other:?}"),
         }
         assert_eq!(dev.read(0), Err(DeviceError::NotOpen));

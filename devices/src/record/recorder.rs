@@ -70,9 +70,9 @@ impl<D: HapticDevice> Recorder<D> {
     /// Creates `path` (truncating it) and starts the writer thread. The spec is written at
     /// each `open`.
     pub fn create(inner: D, path: &Path) -> Result<Self, RecordError> {
-        let file = File::create(path).map_err(|source| RecordError::Io {
+        let file = File::create(path).map_err(|error| RecordError::Io {
             path: path.display().to_string(),
-            source,
+            error,
         })?;
         let mut mcap = mcap::WriteOptions::new()
             .compression(None)
@@ -164,9 +164,9 @@ impl<D: HapticDevice> Recorder<D> {
                     stats.dropped = dropped.load(Ordering::Relaxed);
                     Ok(stats)
                 })
-                .map_err(|source| RecordError::Io {
+                .map_err(|error| RecordError::Io {
                     path: path.display().to_string(),
-                    source,
+                    error,
                 })?
         };
         Ok(Recorder {

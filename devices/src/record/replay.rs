@@ -33,9 +33,9 @@ fn bad(path: &Path, what: String) -> RecordError {
 impl ReplayDevice {
     /// Loads a recording written by [`super::Recorder`].
     pub fn from_file(path: &Path) -> Result<Self, RecordError> {
-        let bytes = std::fs::read(path).map_err(|source| RecordError::Io {
+        let bytes = std::fs::read(path).map_err(|error| RecordError::Io {
             path: path.display().to_string(),
-            source,
+            error,
         })?;
         Self::from_bytes(&bytes, path)
     }

@@ -75,7 +75,8 @@ impl SpaceMouseConfig {
         Ok(())
     }
 
-    fn spec(&self, name: &str, buttons: u32) -> DeviceSpec {
+    /// The spec a SpaceMouse named `name` with `buttons` buttons reports under this config.
+    pub fn spec_for(&self, name: &str, buttons: u32) -> DeviceSpec {
         DeviceSpec {
             name: name.to_string(),
             max_force_n: self.max_pseudo_force_n,
@@ -160,7 +161,7 @@ impl SpaceMouse {
         buttons: u32,
     ) -> Self {
         SpaceMouse {
-            spec: config.spec(name, buttons),
+            spec: config.spec_for(name, buttons),
             rate: RateControl::new(config.rate),
             config,
             source,
@@ -201,9 +202,7 @@ impl SpaceMouse {
 fn open_error(e: &ConnectError) -> DeviceError {
     DeviceError::OpenFailed(match e {
         ConnectError::Hid(_) => "cannot list HID devices (is /sys/class/hidraw present?)",
-        ConnectError::NoneFound => {
-            "no 3Dconnexion SpaceMouse found (is it plugged in? `haptic-loop devices` lists what is seen)"
-        }
+        ConnectError::NoneFound => "no 3Dconnexion SpaceMouse found (is it plugged in?)",
         ConnectError::CannotOpen { .. } => {
             "SpaceMouse found but /dev/hidraw* cannot be opened: install devices/udev/70-hrrtc-devices.rules and re-plug, or run with access to /dev/hidraw*"
         }
@@ -218,7 +217,7 @@ impl HapticDevice for SpaceMouse {
             let timeout = Duration::from_secs_f64(self.config.open_timeout_s);
             let (r, found) = hid::Reader::start(feed, timeout).map_err(|e| open_error(&e))?;
             let buttons = found.model.map_or(2, |m| m.buttons);
-            self.spec = self.config.spec(&found.name, buttons);
+            self.spec = self.config.spec_for(&found.name, buttons);
             r.led
                 .store(u8::from(self.led), std::sync::atomic::Ordering::Relaxed);
             *reader = Some(r);
