@@ -133,3 +133,38 @@ pub fn wait_for<T>(what: &str, timeout: Duration, mut f: impl FnMut() -> Option<
 pub fn norm(v: [f64; 3]) -> f64 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
+
+/// Builds the fake vendor library `package` (a cdylib under `devices/fake-sdk`) with this
+/// test's profile and returns the path of `lib<lib>.so`.
+pub fn fake_sdk(package: &str, lib: &str) -> PathBuf {
+    let dir = bin_dir();
+    let release = dir.file_name().is_some_and(|n| n == "release");
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let mut cmd = Command::new(cargo);
+    cmd.args(["build", "--quiet", "-p", package]);
+    if release {
+        cmd.arg("--release");
+    }
+    let status = cmd.status().expect("run cargo build for the fake SDK");
+    assert!(status.success(), "building {package} failed");
+    let p = dir.join(format!("lib{lib}.so"));
+    assert!(p.exists(), "{} was not built", p.display());
+    p
+}
+
+/// Path of the haptic-loop example `name`, built with this test's profile.
+pub fn example(name: &str) -> PathBuf {
+    let dir = bin_dir();
+    let release = dir.file_name().is_some_and(|n| n == "release");
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let mut cmd = Command::new(cargo);
+    cmd.args(["build", "--quiet", "-p", "haptic-loop", "--example", name]);
+    if release {
+        cmd.arg("--release");
+    }
+    let status = cmd.status().expect("run cargo build for the example");
+    assert!(status.success(), "building example {name} failed");
+    let p = dir.join("examples").join(name);
+    assert!(p.exists(), "{} was not built", p.display());
+    p
+}
