@@ -123,3 +123,86 @@ fn issue_5_replayed_session_reproduces_the_loop_output() {
     assert_eq!(dev.max_wrench_deviation(), 0.0);
     let _ = std::fs::remove_file(&path);
 }
+
+mod spacemouse {
+    use super::*;
+    use devices::spacemouse::{SpaceMouse, SpaceMouseConfig, report};
+
+    /// A SpaceMouse Compact fed from bytes, in the loop with F_a pulling along scene +X.
+    fn setup() -> (Tick<SpaceMouse, Fixed, NoSink>, devices::spacemouse::Feed) {
+        let model = report::known_model(0x256f, 0xc635).unwrap();
+        let (dev, mut feed) = SpaceMouse::with_feed(SpaceMouseConfig::default(), model).unwrap();
+        feed.attach();
+        let g = Fixed(Guidance {
+            attractive: [0.05, 0.0, 0.0, 0.0, 0.0, 0.0],
+            gain_n_per_m: 40.0,
+            gain_nm_per_rad: 0.0,
+            ..guidance().0
+        });
+        (Tick::new(dev, &config(), g, NoSink).unwrap(), feed)
+    }
+
+    #[test]
+    fn issue_5_guidance_moves_the_spacemouse_avatar_and_deflection_steers_it() {
+        let (mut t, mut feed) = setup();
+        // Puck at rest: only F_s moves the avatar (I-RRT Alg. 2, non-haptic branch).
+        let mut s = *t.step(MS, PrevTiming::default());
+        for i in 2..=2000 {
+            s = *t.step(i * MS, PrevTiming::default());
+        }
+        assert_eq!(s.fault, FaultCode::NONE);
+        let x_guided = s.user_pose.position_m[0];
+        assert!(
+            x_guided > 0.005,
+            "avatar pulled along +X by F_s: {x_guided} m"
+        );
+        assert!(s.user_pose.position_m[1].abs() < 1e-12);
+        // Full push to the left (HID x = −350) for 1 s beats the guidance (0.05 m/s vs
+        // at most 0.02 m/s from F_s). The device repeats its report every 16 ms while
+        // deflected.
+        for i in 2001..=3000 {
+            if i % 16 == 1 {
+                feed.push(&[1, 0xa2, 0xfe, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0])
+                    .unwrap();
+            }
+            s = *t.step(i * MS, PrevTiming::default());
+        }
+        assert!(
+            s.user_pose.position_m[0] < x_guided - 0.02,
+            "{:?}",
+            s.user_pose
+        );
+    }
+
+    #[test]
+    fn issue_5_unplugged_spacemouse_faults_and_stops_then_resumes() {
+        let (mut t, mut feed) = setup();
+        feed.push(&[1, 0, 0, 0x5e, 0x01, 0, 0, 0, 0, 0, 0, 0, 0])
+            .unwrap(); // HID +y: toward the user = scene −Y
+        for i in 1..=500 {
+            t.step(i * MS, PrevTiming::default());
+        }
+        let before = *t.state();
+        assert!(before.user_pose.position_m[1] < -0.01);
+        feed.detach();
+        let s = *t.step(501 * MS, PrevTiming::default());
+        assert_eq!(s.fault, FaultCode::DEVICE_DISCONNECTED);
+        assert_eq!(s.commanded_wrench, ipc_types::Wrench::ZERO);
+        for i in 502..=600 {
+            let s = *t.step(i * MS, PrevTiming::default());
+            assert_eq!(s.fault, FaultCode::DEVICE_DISCONNECTED);
+            // Zero motion: the held pose does not drift.
+            assert_eq!(s.user_pose.position_m, before.user_pose.position_m);
+        }
+        feed.attach();
+        let mut s = s;
+        for i in 601..=1000 {
+            s = *t.step(i * MS, PrevTiming::default());
+        }
+        assert_eq!(s.fault, FaultCode::NONE, "resumed after the fault clears");
+        assert!(
+            s.commanded_wrench.force_n[0] > 0.0,
+            "guidance ramps back in"
+        );
+    }
+}
