@@ -281,3 +281,50 @@ mod tests {
         assert_eq!(c.validate(), Err(DriverError::UnknownCode));
     }
 }
+
+#[cfg(test)]
+mod fuzz {
+    use super::*;
+
+    /// Any bytes another process could leave in shared memory give a verdict, never a panic.
+    #[test]
+    fn arbitrary_bytes_validate_without_panicking() {
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        let mut accepted = 0;
+        for round in 0..20_000 {
+            let mut s = DriverState::default();
+            let mut c = DriverCommand::default();
+            // SAFETY: both types are plain integers and floats (every bit pattern valid);
+            // we write exactly their size.
+            unsafe {
+                let sp = (&mut s as *mut DriverState).cast::<u8>();
+                for i in 0..core::mem::size_of::<DriverState>() {
+                    *sp.add(i) = next() as u8;
+                }
+                let cp = (&mut c as *mut DriverCommand).cast::<u8>();
+                for i in 0..core::mem::size_of::<DriverCommand>() {
+                    *cp.add(i) = next() as u8;
+                }
+            }
+            if round % 2 == 0 {
+                // Half the time start from a valid message and corrupt one field.
+                s.header.sequence = 1;
+                s.status = DriverStatus::OK;
+                s.pose = crate::Pose::IDENTITY;
+            }
+            if s.validate().is_ok() {
+                accepted += 1;
+                assert!(s.pose.is_valid() && s.name_str().is_some());
+            }
+            let _ = c.validate();
+        }
+        // Random limits are almost never all finite and non-negative: nearly all rejected.
+        assert!(accepted < 100, "{accepted} random states accepted");
+    }
+}
