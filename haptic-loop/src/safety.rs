@@ -1,5 +1,11 @@
 //! The last stage before the device: NaN guard, saturation, force-rate limit, fault latch
 //! and the ramp forces come back through. Allocation-free; runs in the RT tick.
+//!
+//! State machine: forces start latched off (`STARTUP`). Any fault cause latches zero force
+//! in the tick it is seen. A latched fault clears only after its cause has been absent
+//! *and* the device has been still (see `Tick`) for `fault_clear_s`; forces then ramp in
+//! over `ramp_s`, rate limited. So nothing jumps at start, and a hand that is moving when a
+//! fault ends is not suddenly pushed.
 
 use crate::guidance::clamp_norm;
 use devices::Wrench;
@@ -19,8 +25,23 @@ pub struct SafetyConfig {
     pub max_torque_rate_nm_per_s: f64,
     /// Time over which forces ramp from zero to full after start or after a fault clears, s.
     pub ramp_s: f64,
-    /// A fault clears after its cause has been absent this long, s.
+    /// A fault clears after its cause has been absent, and the device still, this long, s.
     pub fault_clear_s: f64,
+    /// The device counts as still below this end-effector speed, m/s (device frame).
+    pub still_speed_m_per_s: f64,
+    /// ... and below this angular speed, rad/s.
+    pub still_rate_rad_per_s: f64,
+    /// Fastest plausible end-effector speed, m/s: a larger position change between two
+    /// readings is a `DEVICE_JUMP` fault.
+    pub max_device_speed_m_per_s: f64,
+    /// This many consecutive ticks that each missed a deadline latch `OVERRUN_STREAK`.
+    pub max_miss_streak: u32,
+    /// Always-on viscous damping on the end-effector velocity, as a fraction of the device's
+    /// stable damping (0 disables).
+    pub damping_fraction: f64,
+    /// Stiffness of the soft wall at the workspace boundary (the device's workspace
+    /// sphere), as a fraction of the device's stable stiffness (0 disables).
+    pub boundary_stiffness_fraction: f64,
 }
 
 impl Default for SafetyConfig {
@@ -32,6 +53,12 @@ impl Default for SafetyConfig {
             max_torque_rate_nm_per_s: 100.0,
             ramp_s: 0.5,
             fault_clear_s: 0.1,
+            still_speed_m_per_s: 0.02,
+            still_rate_rad_per_s: 0.5,
+            max_device_speed_m_per_s: 3.0,
+            max_miss_streak: 5,
+            damping_fraction: 0.1,
+            boundary_stiffness_fraction: 0.5,
         }
     }
 }
@@ -51,13 +78,14 @@ pub struct Safety {
 
 impl Safety {
     /// Limits are the smaller of `config` and the device's (`device_max_force_n`, N;
-    /// `device_max_torque_nm`, N·m). Starts ramping in from zero.
+    /// `device_max_torque_nm`, N·m). Starts latched in `STARTUP`: forces come on once the
+    /// device has been still for `fault_clear_s`, through the ramp.
     pub fn new(config: SafetyConfig, device_max_force_n: f64, device_max_torque_nm: f64) -> Self {
         Self {
             config,
             max_force_n: config.max_force_n.min(device_max_force_n).max(0.0),
             max_torque_nm: config.max_torque_nm.min(device_max_torque_nm).max(0.0),
-            latched: FaultCode::NONE,
+            latched: FaultCode::STARTUP,
             clear_for_s: 0.0,
             ramp: 0.0,
             last: Wrench::ZERO,
@@ -81,9 +109,16 @@ impl Safety {
     }
 
     /// Shapes `wanted` (device frame) for one tick of `dt_s` seconds. `cause` is a fault
-    /// detected this tick (`NONE` if none). Returns the wrench to write and the fault to
-    /// report. A fault gives zero force in this very tick.
-    pub fn apply(&mut self, wanted: &Wrench, cause: FaultCode, dt_s: f64) -> (Wrench, FaultCode) {
+    /// detected this tick (`NONE` if none); `still` says whether the device is at rest.
+    /// Returns the wrench to write and the fault to report. A fault gives zero force in this
+    /// very tick.
+    pub fn apply(
+        &mut self,
+        wanted: &Wrench,
+        cause: FaultCode,
+        still: bool,
+        dt_s: f64,
+    ) -> (Wrench, FaultCode) {
         let cause = if cause == FaultCode::NONE && !wanted.is_finite() {
             FaultCode::NON_FINITE_WRENCH
         } else {
@@ -100,7 +135,7 @@ impl Safety {
             return (Wrench::ZERO, cause);
         }
         if self.latched != FaultCode::NONE {
-            self.clear_for_s += dt_s;
+            self.clear_for_s = if still { self.clear_for_s + dt_s } else { 0.0 };
             if self.clear_for_s < self.config.fault_clear_s {
                 return (Wrench::ZERO, self.latched);
             }
@@ -131,10 +166,11 @@ mod tests {
 
     const DT: f64 = 0.001;
 
+    /// Runs 2 s with the device still: past start-up, the ramp and the rate limit.
     fn full(s: &mut Safety, w: &Wrench) -> Wrench {
         let mut out = Wrench::ZERO;
         for _ in 0..2000 {
-            out = s.apply(w, FaultCode::NONE, DT).0;
+            out = s.apply(w, FaultCode::NONE, true, DT).0;
         }
         out
     }
@@ -159,9 +195,23 @@ mod tests {
     }
 
     #[test]
-    fn ramps_in_at_start_and_limits_rate() {
+    fn starts_off_until_still_then_ramps_in_and_limits_rate() {
         let mut s = Safety::new(SafetyConfig::default(), 8.0, 0.5);
-        let first = s.apply(&push(4.0), FaultCode::NONE, DT).0;
+        // Moving: held off however long.
+        for _ in 0..500 {
+            let (out, fault) = s.apply(&push(4.0), FaultCode::NONE, false, DT);
+            assert_eq!(fault, FaultCode::STARTUP);
+            assert_eq!(out.force.norm(), 0.0);
+        }
+        // Still for 0.1 s: still off, then on.
+        for _ in 0..99 {
+            assert_eq!(
+                s.apply(&push(4.0), FaultCode::NONE, true, DT).1,
+                FaultCode::STARTUP
+            );
+        }
+        assert_eq!(s.faults_total(), 0, "start-up is not a fault");
+        let first = s.apply(&push(4.0), FaultCode::NONE, true, DT).0;
         assert!(
             first.force.norm() <= 2000.0 * DT + 1e-12,
             "rate limit: 2 N per tick"
@@ -182,14 +232,14 @@ mod tests {
             force: Vector3::new(f64::NAN, 0.0, 0.0),
             torque: Vector3::zeros(),
         };
-        let (out, fault) = s.apply(&nan, FaultCode::NONE, DT);
+        let (out, fault) = s.apply(&nan, FaultCode::NONE, true, DT);
         assert_eq!(fault, FaultCode::NON_FINITE_WRENCH);
         assert_eq!(out.force.norm(), 0.0);
         // Held off while the clear time runs, then ramps: never a step back to 4 N.
         let mut prev = 0.0;
         let mut max_step: f64 = 0.0;
         for i in 0..1000 {
-            let (out, fault) = s.apply(&push(4.0), FaultCode::NONE, DT);
+            let (out, fault) = s.apply(&push(4.0), FaultCode::NONE, true, DT);
             if i < 99 {
                 assert_eq!(fault, FaultCode::NON_FINITE_WRENCH);
                 assert_eq!(out.force.norm(), 0.0);
@@ -207,10 +257,28 @@ mod tests {
     }
 
     #[test]
+    fn a_fault_clears_only_while_the_device_is_still() {
+        let mut s = Safety::new(SafetyConfig::default(), 8.0, 0.5);
+        full(&mut s, &push(4.0));
+        s.apply(&push(4.0), FaultCode::DEVICE_STALE, true, DT);
+        // Cause gone but the hand moves: stays latched.
+        for _ in 0..1000 {
+            let (out, fault) = s.apply(&push(4.0), FaultCode::NONE, false, DT);
+            assert_eq!(fault, FaultCode::DEVICE_STALE);
+            assert_eq!(out.force.norm(), 0.0);
+        }
+        // Still: clears after 0.1 s and ramps.
+        for _ in 0..100 {
+            s.apply(&push(4.0), FaultCode::NONE, true, DT);
+        }
+        assert_eq!(s.fault(), FaultCode::NONE);
+    }
+
+    #[test]
     fn external_fault_zeroes_output() {
         let mut s = Safety::new(SafetyConfig::default(), 8.0, 0.5);
         full(&mut s, &push(4.0));
-        let (out, fault) = s.apply(&push(4.0), FaultCode::DEVICE_READ, DT);
+        let (out, fault) = s.apply(&push(4.0), FaultCode::DEVICE_READ, true, DT);
         assert_eq!(fault, FaultCode::DEVICE_READ);
         assert_eq!(out.force.norm() + out.torque.norm(), 0.0);
     }

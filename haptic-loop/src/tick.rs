@@ -95,6 +95,10 @@ pub struct Tick<D, G, S> {
     contact: Option<ContactStage>,
     contact_ticks: u64,
     max_penetration_m: f64,
+    safety_config: SafetyConfig,
+    last_device_position: Option<Vector3<f64>>,
+    last_deadline_misses: u64,
+    miss_streak: u32,
 }
 
 impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
@@ -125,6 +129,10 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
             contact: None,
             contact_ticks: 0,
             max_penetration_m: 0.0,
+            safety_config: config.safety,
+            last_device_position: None,
+            last_deadline_misses: 0,
+            miss_streak: 0,
         })
     }
 
@@ -210,13 +218,38 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
                 None
             }
         };
+        let sc = self.safety_config;
         if let Some(s) = &reading {
             if s.timestamp_ns <= self.last_device_timestamp_ns {
                 fault = FaultCode::DEVICE_STALE;
+            } else if let Some(last) = self.last_device_position {
+                // Farther than the arm can move between the two readings (plus 2 mm of
+                // sensor noise): a glitch, not a motion.
+                let dt_s = (s.timestamp_ns - self.last_device_timestamp_ns) as f64 * 1e-9;
+                let limit = sc.max_device_speed_m_per_s * dt_s.max(self.period_s) + 0.002;
+                if (s.pose.translation.vector - last).norm() > limit {
+                    fault = FaultCode::DEVICE_JUMP;
+                }
             }
             self.last_device_timestamp_ns = s.timestamp_ns;
+            self.last_device_position = Some(s.pose.translation.vector);
+        }
+        // Deadline misses in consecutive ticks: the loop cannot keep its rhythm.
+        if prev.deadline_misses > self.last_deadline_misses {
+            self.miss_streak += 1;
+        } else {
+            self.miss_streak = 0;
+        }
+        self.last_deadline_misses = prev.deadline_misses;
+        if fault == FaultCode::NONE
+            && sc.max_miss_streak > 0
+            && self.miss_streak >= sc.max_miss_streak
+        {
+            fault = FaultCode::OVERRUN_STREAK;
         }
         let device = reading.unwrap_or_else(|| self.last_device_state());
+        let still = device.linear_velocity.norm() < sc.still_speed_m_per_s
+            && device.angular_velocity.norm() < sc.still_rate_rad_per_s;
 
         // 2. Map into the scene.
         let user = self.mapping.to_scene(&device.pose, device.buttons);
@@ -249,13 +282,28 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
         self.guidance_age_ns = g.age_ns;
 
         // 5. Sum in the scene frame, rotate to the device frame, apply safety.
+        //    Always on, in the device frame: a soft wall at the workspace sphere and a little
+        //    viscous damping of the end effector.
+        let p = device.pose.translation.vector;
+        let outside = p.norm() - self.spec.workspace_radius_m;
+        let boundary = if outside > 0.0 {
+            -p.normalize()
+                * (outside * sc.boundary_stiffness_fraction * self.spec.max_stiffness_n_per_m)
+        } else {
+            Vector3::zeros()
+        };
+        let damping =
+            -device.linear_velocity * (sc.damping_fraction * self.spec.max_damping_n_s_per_m);
+        let rot_damping = -device.angular_velocity
+            * (sc.damping_fraction * self.spec.max_rot_damping_nm_s_per_rad);
         let wanted = Wrench {
-            force: self.mapping.vector_to_device(&(device_force + g.force_n)),
+            force: self.mapping.vector_to_device(&(device_force + g.force_n)) + boundary + damping,
             torque: self
                 .mapping
-                .vector_to_device(&(device_torque + g.torque_nm)),
+                .vector_to_device(&(device_torque + g.torque_nm))
+                + rot_damping,
         };
-        let (out, fault) = self.safety.apply(&wanted, fault, self.period_s);
+        let (out, fault) = self.safety.apply(&wanted, fault, still, self.period_s);
 
         // 6. Device.
         let fault = match (fault, self.device.write(&out)) {
@@ -320,7 +368,9 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use devices::sim::{SimulatedArm, SimulatedArmConfig};
+    use devices::sim::{
+        ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmConfig, Waypoint,
+    };
     use ipc_types::{GuidanceFreshness, GuidanceMode};
 
     struct Fixed(Guidance);
@@ -362,10 +412,22 @@ mod tests {
         }
     }
 
+    /// `config()` without the always-on damping and workspace wall, to see guidance alone.
+    fn bare() -> TickConfig {
+        TickConfig {
+            safety: SafetyConfig {
+                damping_fraction: 0.0,
+                boundary_stiffness_fraction: 0.0,
+                ..SafetyConfig::default()
+            },
+            ..config()
+        }
+    }
+
     #[test]
     fn guidance_reaches_the_device_after_the_ramp() {
         let g = guidance(4, [0.0, 0.05, 0.0]);
-        let mut t = Tick::new(arm(), &config(), Fixed(g), NoSink).unwrap();
+        let mut t = Tick::new(arm(), &bare(), Fixed(g), NoSink).unwrap();
         for i in 1..=1000 {
             t.step(i * MS, PrevTiming::default());
         }
@@ -378,6 +440,120 @@ mod tests {
         assert!((t.device().commanded_wrench().force.y - 2.0).abs() < 1e-9);
         assert_eq!(s.fault, FaultCode::NONE);
         assert_eq!(s.header.sequence, 1000);
+    }
+
+    #[test]
+    fn forces_wait_for_a_still_device_at_start() {
+        // The operator moves the arm 5 cm at 5 cm/s from the start, then holds it: no force
+        // may be rendered while it moves, and forces come on only 0.1 s after it stops.
+        let g = guidance(1, [0.05, 0.0, 0.0]);
+        let user = ScriptedUser::new(
+            ScriptedUserConfig::default(),
+            [
+                Waypoint::new(Isometry3::translation(-0.05, 0.0, 0.0)),
+                Waypoint::new(Isometry3::translation(0.0, 0.0, 0.0)).with_dwell(5.0),
+            ],
+        )
+        .unwrap();
+        let mut arm = SimulatedArm::with_user(SimulatedArmConfig::default(), user).unwrap();
+        arm.set_true_pose(Isometry3::translation(-0.05, 0.0, 0.0));
+        let mut t = Tick::new(arm, &bare(), Fixed(g), NoSink).unwrap();
+        let mut first_force = None;
+        let mut moving_ticks = 0;
+        for i in 1..=3000u64 {
+            let s = *t.step(i * MS, PrevTiming::default());
+            if first_force.is_none() {
+                if s.commanded_wrench == ipc_types::Wrench::ZERO {
+                    assert_eq!(s.fault, FaultCode::STARTUP, "tick {i}");
+                    let v = nalgebra::Vector3::from(s.device_twist.linear_m_s).norm();
+                    moving_ticks += usize::from(v >= 0.02);
+                } else {
+                    first_force = Some(i);
+                    assert_eq!(s.fault, FaultCode::NONE);
+                }
+            }
+        }
+        assert!(
+            moving_ticks > 500,
+            "the arm moved at start ({moving_ticks} ticks)"
+        );
+        assert!(first_force.is_some_and(|i| i > 1000), "{first_force:?}");
+    }
+
+    #[test]
+    fn a_position_jump_is_a_fault_in_the_same_tick() {
+        let g = guidance(1, [0.05, 0.0, 0.0]);
+        let mut t = Tick::new(arm(), &bare(), Fixed(g), NoSink).unwrap();
+        for i in 1..=1000 {
+            t.step(i * MS, PrevTiming::default());
+        }
+        assert!(t.state().commanded_wrench.force_n[0] > 1.0);
+        let p = t.device().true_pose().translation.vector;
+        t.device_mut()
+            .set_true_pose(Isometry3::translation(p.x + 0.05, p.y, p.z));
+        let s = *t.step(1001 * MS, PrevTiming::default());
+        assert_eq!(s.fault, FaultCode::DEVICE_JUMP);
+        assert_eq!(s.commanded_wrench, ipc_types::Wrench::ZERO);
+    }
+
+    #[test]
+    fn a_streak_of_missed_deadlines_latches_zero_force() {
+        let g = guidance(1, [0.05, 0.0, 0.0]);
+        let mut t = Tick::new(arm(), &bare(), Fixed(g), NoSink).unwrap();
+        let mut misses = 0;
+        for i in 1..=1000u64 {
+            // Isolated misses (every 10th tick) are tolerated.
+            if i % 10 == 5 {
+                misses += 1;
+            }
+            let prev = PrevTiming {
+                deadline_misses: misses,
+                ..PrevTiming::default()
+            };
+            assert_ne!(t.step(i * MS, prev).fault, FaultCode::OVERRUN_STREAK);
+        }
+        for i in 1001..=1005u64 {
+            misses += 1;
+            let prev = PrevTiming {
+                deadline_misses: misses,
+                ..PrevTiming::default()
+            };
+            let s = *t.step(i * MS, prev);
+            if i < 1005 {
+                assert_eq!(s.fault, FaultCode::NONE, "tick {i}");
+            } else {
+                assert_eq!(s.fault, FaultCode::OVERRUN_STREAK);
+                assert_eq!(s.commanded_wrench, ipc_types::Wrench::ZERO);
+            }
+        }
+    }
+
+    #[test]
+    fn the_workspace_wall_pushes_back() {
+        // The operator holds the arm 3 cm beyond its 0.12 m workspace sphere on +x: the
+        // loop's soft wall pushes along −x.
+        let user = ScriptedUser::holding(
+            ScriptedUserConfig::default(),
+            Isometry3::translation(0.15, 0.0, 0.0),
+        )
+        .unwrap();
+        let mut arm = SimulatedArm::with_user(SimulatedArmConfig::default(), user).unwrap();
+        arm.set_true_pose(Isometry3::translation(0.15, 0.0, 0.0));
+        let mut t = Tick::new(arm, &config(), NoGuidance, NoSink).unwrap();
+        for i in 1..=2000u64 {
+            t.step(i * MS, PrevTiming::default());
+        }
+        let s = *t.state();
+        // The simulated arm's own end stop holds it just outside the sphere; the loop's wall
+        // adds k·(r − R) inwards with k = 0.5 × 2000 N/m.
+        let outside = nalgebra::Vector3::from(s.device_pose.position_m).norm() - 0.12;
+        assert!(outside > 0.0);
+        let expected = -1000.0 * outside;
+        let fx = s.commanded_wrench.force_n[0];
+        assert!(
+            fx < 0.0 && (fx - expected).abs() < 0.05,
+            "{fx} N vs {expected} N"
+        );
     }
 
     #[test]

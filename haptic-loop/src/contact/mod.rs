@@ -569,7 +569,9 @@ impl ContactStage {
     /// force (N), torque about the reference point (N·m), deepest penetration (m) and the
     /// number of penetrating points. Does not move the proxy.
     pub fn probe(&self, pose: &Isometry3<f64>) -> Probe {
-        let s = self.sum_contacts(pose, &Vector3::zeros(), &Vector3::zeros(), None);
+        // A fresh cache: a full search. (Allocates: a diagnostic, not for the RT thread.)
+        let mut cache = Coherence::new(self.model.shell.clusters().len(), self.model.shell.len());
+        let s = self.sum_contacts(pose, &Vector3::zeros(), &Vector3::zeros(), &mut cache);
         let force: Vector3<f64> = s.wrench.fixed_rows::<3>(0).into_owned();
         let com = pose
             .transform_point(&Point3::from(self.model.com_local))
@@ -594,14 +596,17 @@ impl ContactStage {
     }
 
     /// The scene's wrench on the object at `pose` moving with `velocity` (centre of mass,
-    /// m/s) and `angular_velocity` (rad/s). With `cache`, points and clusters whose motion
-    /// budget is not used up are skipped (see [`Coherence`]) and the budgets are renewed.
+    /// m/s) and `angular_velocity` (rad/s). Points and clusters whose motion budget in
+    /// `cache` is not used up are skipped (see [`Coherence`]) and the budgets are renewed.
+    ///
+    /// This is the hot loop of the tick: accumulators are locals and the per-point work is
+    /// kept to one voxmap look-up and a few dozen multiply-adds.
     fn sum_contacts(
         &self,
         pose: &Isometry3<f64>,
         velocity: &Vector3<f64>,
         angular_velocity: &Vector3<f64>,
-        mut cache: Option<&mut Coherence>,
+        cache: &mut Coherence,
     ) -> Sums {
         let model = &*self.model;
         let vox = &model.voxmap;
@@ -615,57 +620,62 @@ impl ContactStage {
             self.config.contact_damping_n_s_per_m / f64::from(self.previous_contacts.max(1));
         let b_brake = self.config.braking_n_s_per_m / f64::from(self.previous_braking.max(1));
         let mut s = Sums::default();
-        let moved = cache.as_ref().map_or(0.0, |c| c.motion_m);
+        let moved = cache.motion_m;
         let com = pose.transform_point(&Point3::from(model.com_local)).coords;
-        if let Some(c) = cache.as_deref_mut() {
-            if moved < c.object {
-                return s;
-            }
-            c.object = moved + vox.clearance(&com) - model.radius_m - reach;
-            if moved < c.object {
-                return s;
-            }
-        } else if vox.clearance(&com) > model.radius_m + reach {
+        if moved < cache.object {
             return s;
         }
-        let rot = pose.rotation.to_rotation_matrix();
+        cache.object = moved + vox.clearance(&com) - model.radius_m - reach;
+        if moved < cache.object {
+            return s;
+        }
+        let rot = pose.rotation.to_rotation_matrix().into_inner();
         let t = pose.translation.vector;
         let points = shell.points();
         let normals = shell.normals();
+        let expiry = &mut cache.points[..points.len()];
+        let (mut wrench, mut contact_jj, mut braking_jj) =
+            (Vector6::zeros(), JtJ::default(), JtJ::default());
+        let (mut weighted_point, mut normal_sum) = (Vector3::zeros(), Vector3::zeros());
+        let (mut weight, mut max_depth) = (0.0, 0.0_f64);
+        let (mut contacts, mut braking_points, mut tested) = (0u32, 0u32, 0u32);
+        let (mut near, mut within_release) = (false, false);
         for (c, cl) in shell.clusters().iter().enumerate() {
-            if let Some(cache) = cache.as_deref()
-                && moved < cache.clusters[c]
-            {
+            if moved < cache.clusters[c] {
                 continue;
             }
             let centre = rot * cl.centre + t;
             let slack = vox.clearance(&centre) - cl.radius_m - reach;
-            if let Some(cache) = cache.as_deref_mut() {
-                cache.clusters[c] = moved + slack;
-            }
+            cache.clusters[c] = moved + slack;
             if slack > 0.0 {
                 continue;
             }
-            for i in cl.start as usize..cl.end as usize {
-                if let Some(cache) = cache.as_deref()
-                    && moved < cache.points[i]
-                {
+            let range = cl.start as usize..cl.end as usize;
+            for ((point, normal), exp) in points[range.clone()]
+                .iter()
+                .zip(&normals[range.clone()])
+                .zip(&mut expiry[range])
+            {
+                if moved < *exp {
                     continue;
                 }
-                s.tested += 1;
-                let p = rot * points[i] + t;
-                let sample = vox.sample(&p);
-                let sd = match sample {
-                    Sample::Near { distance_m, .. } => distance_m,
-                    Sample::Far { clearance_m } => clearance_m,
-                    Sample::Deep => -f64::INFINITY,
+                tested += 1;
+                let p = rot * point + t;
+                let (sd, gradient) = match vox.sample(&p) {
+                    Sample::Near {
+                        distance_m,
+                        gradient,
+                    } => (distance_m, gradient),
+                    Sample::Far { clearance_m } => {
+                        *exp = moved + clearance_m - reach;
+                        continue;
+                    }
+                    Sample::Deep => {
+                        *exp = moved;
+                        continue;
+                    }
                 };
-                if let Some(cache) = cache.as_deref_mut() {
-                    cache.points[i] = moved + sd - reach;
-                }
-                let Sample::Near { gradient, .. } = sample else {
-                    continue;
-                };
+                *exp = moved + sd - reach;
                 if sd >= reach {
                     continue;
                 }
@@ -674,35 +684,48 @@ impl ContactStage {
                     continue; // flat field (midway inside a thin plate): no direction
                 }
                 let n = gradient * (1.0 / g2.sqrt());
-                if (rot * normals[i]).dot(&n) < 0.0 {
+                if (rot * normal).dot(&n) < 0.0 {
                     continue; // faces away from this surface: see module docs
                 }
-                s.near = true;
-                s.within_release |= sd < release;
+                near = true;
+                within_release |= sd < release;
                 let r = p - com;
                 let rxn = r.cross(&n);
-                let vn = (velocity + angular_velocity.cross(&r)).dot(&n);
+                // Normal velocity of the point: v·n + (ω × r)·n = v·n + ω·(r × n).
+                let vn = velocity.dot(&n) + angular_velocity.dot(&rxn);
                 if sd < 0.0 {
                     let d = -sd;
                     // Damping never pulls the point into the surface. (The implicit step
                     // keeps its damping term also for a clamped point: numerical damping.)
                     let push = (kp * d - b_contact * vn).max(0.0);
-                    add_wrench(&mut s.wrench, push, &n, &rxn);
-                    s.contact_jj.add(1.0, &n, &rxn);
-                    s.contacts += 1;
-                    s.weighted_point += d * (p + d * n);
-                    s.weight += d;
-                    s.normal_sum += d * n;
-                    s.max_depth = s.max_depth.max(d);
+                    add_wrench(&mut wrench, push, &n, &rxn);
+                    contact_jj.add(1.0, &n, &rxn);
+                    contacts += 1;
+                    weighted_point += d * (p + d * n);
+                    weight += d;
+                    normal_sum += d * n;
+                    max_depth = max_depth.max(d);
                 } else if sd < prox && vn < 0.0 {
                     // Pre-contact braking: opposes approach only, fading in over the layer.
                     let w = 1.0 - sd / prox;
-                    add_wrench(&mut s.wrench, -b_brake * w * vn, &n, &rxn);
-                    s.braking_jj.add(w, &n, &rxn);
-                    s.braking_points += 1;
+                    add_wrench(&mut wrench, -b_brake * w * vn, &n, &rxn);
+                    braking_jj.add(w, &n, &rxn);
+                    braking_points += 1;
                 }
             }
         }
+        s.wrench = wrench;
+        s.contact_jj = contact_jj;
+        s.braking_jj = braking_jj;
+        s.contacts = contacts;
+        s.braking_points = braking_points;
+        s.near = near;
+        s.within_release = within_release;
+        s.weighted_point = weighted_point;
+        s.weight = weight;
+        s.normal_sum = normal_sum;
+        s.max_depth = max_depth;
+        s.tested = tested;
         s
     }
 
@@ -718,7 +741,7 @@ impl ContactStage {
             &self.pose,
             &self.velocity,
             &self.angular_velocity,
-            Some(&mut cache),
+            &mut cache,
         );
         self.cache = cache;
 

@@ -202,7 +202,7 @@ fn new_devices_read_and_write_without_allocating() {
     let _ = std::fs::remove_file(&path);
 
     // DHD and HD through the fake vendor libraries (real dlopen and C calls).
-    let lib = tests::fake_sdk("fake-dhd", "fake_dhd");
+    let lib = tests::fake_sdk("fake_dhd");
     let d = dhd::Dhd::load(dhd::DhdConfig {
         library: lib,
         ..dhd::DhdConfig::default()
@@ -210,7 +210,7 @@ fn new_devices_read_and_write_without_allocating() {
     .unwrap();
     let (n, fault) = rt_allocations(Box::new(d), 3000, fixed);
     assert_eq!((n, fault), (0, FaultCode::NONE), "dhd");
-    let lib = tests::fake_sdk("fake-hd", "fake_hd");
+    let lib = tests::fake_sdk("fake_hd");
     let h = hd::Hd::load(hd::HdConfig {
         library: lib,
         ..hd::HdConfig::default()
@@ -238,7 +238,7 @@ fn new_devices_read_and_write_without_allocating() {
 
 #[test]
 fn loop_runs_a_dhd_arm_through_the_fake_sdk_and_lists_it() {
-    let lib = tests::fake_sdk("fake-dhd", "fake_dhd");
+    let lib = tests::fake_sdk("fake_dhd");
     let lib = lib.to_str().expect("utf-8 path");
     let ns = tests::unique_namespace("dhdproc");
     // `devices` sees it (the HD probe of the same file fails on symbols and says so).
