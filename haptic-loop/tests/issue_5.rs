@@ -7,7 +7,7 @@ use devices::{DeviceError, HapticDevice};
 use haptic_loop::guidance::GuidanceConfig;
 use haptic_loop::mapping::MappingConfig;
 use haptic_loop::safety::SafetyConfig;
-use haptic_loop::tick::{GuidanceSource, NoSink, PrevTiming, Tick, TickConfig};
+use haptic_loop::tick::{GuidanceSource, NoGuidance, NoSink, PrevTiming, Tick, TickConfig};
 use ipc_types::{FaultCode, Guidance, GuidanceMode, HapticState, Header};
 use nalgebra::{Isometry3, Translation3};
 
@@ -203,6 +203,77 @@ mod spacemouse {
         assert!(
             s.commanded_wrench.force_n[0] > 0.0,
             "guidance ramps back in"
+        );
+    }
+
+    /// Contact holds the SpaceMouse avatar on a plate: the coupling force goes to `write`
+    /// like F_s and moves the avatar back, so pushing down stops at the surface instead of
+    /// passing through it.
+    #[test]
+    fn issue_5_contact_holds_the_spacemouse_avatar_on_a_plate() {
+        use haptic_loop::contact::{
+            ContactConfig, ContactModel, ContactStage, Coupling, VoxmapConfig,
+        };
+        use parry3d_f64::math::Pose;
+        use parry3d_f64::shape::SharedShape;
+        use std::sync::Arc;
+
+        let model = report::known_model(0x046d, 0xc626).unwrap();
+        let (dev, mut feed) = SpaceMouse::with_feed(SpaceMouseConfig::default(), model).unwrap();
+        feed.attach();
+        let spec = dev.spec().clone();
+        let contact = ContactConfig {
+            voxmap: VoxmapConfig {
+                voxel_m: 0.002,
+                ..VoxmapConfig::default()
+            },
+            ..ContactConfig::default()
+        };
+        // A 300 × 300 mm plate with its top face at z = 0; a 100 × 20 × 20 mm bar.
+        let plate = [(
+            Pose::translation(0.0, 0.0, -0.01),
+            SharedShape::cuboid(0.15, 0.15, 0.01),
+        )];
+        let bar = [(Pose::IDENTITY, SharedShape::cuboid(0.05, 0.01, 0.01))];
+        let stage = ContactStage::new(
+            Arc::new(ContactModel::build(&plate, &bar, &contact.voxmap).unwrap()),
+            contact,
+            Coupling::from_spec(&spec, 1.0, contact.coupling_fraction),
+        );
+        // Avatar starts 5 cm above the plate.
+        let mut cfg = config();
+        cfg.mapping.origin = Isometry3::from_parts(
+            Translation3::new(0.0, 0.0, 0.05),
+            nalgebra::UnitQuaternion::identity(),
+        );
+        let mut t = Tick::new(dev, &cfg, NoGuidance, NoSink)
+            .unwrap()
+            .with_contact(stage);
+        // Push down (HID +z) at full speed for 2.5 s, the device repeating its report:
+        // 0.125 m of travel, far through the plate without contact.
+        // First hold still for 1 s: the loop releases its start-up latch only then.
+        let mut s = *t.state();
+        for i in 1..=1000 {
+            s = *t.step(i * MS, PrevTiming::default());
+        }
+        assert_eq!(s.fault, FaultCode::NONE, "start-up latch released");
+        for i in 1001..=3500 {
+            if i % 16 == 1 {
+                feed.push(&[1, 0, 0, 0, 0, 0x5e, 0x01]).unwrap();
+            }
+            s = *t.step(i * MS, PrevTiming::default());
+        }
+        let user_z = s.user_pose.position_m[2];
+        let proxy_z = s.proxy_pose.position_m[2];
+        assert!(proxy_z > 0.005, "proxy held above the plate: {proxy_z} m");
+        assert!(
+            user_z > -0.005,
+            "avatar stopped near the surface: {user_z} m"
+        );
+        assert!(
+            s.commanded_wrench.force_n[2] > 1.0,
+            "coupling pushes the avatar up: {:?}",
+            s.commanded_wrench
         );
     }
 }
