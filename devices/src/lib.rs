@@ -20,11 +20,16 @@
 //! (waypoints included) is set up at construction.
 
 #![warn(missing_docs)]
-#![forbid(unsafe_code)]
+// Unsafe only where vendor C libraries are called (`sdk`), each block with a SAFETY note.
+#![deny(unsafe_code)]
 
 mod device;
 mod error;
+pub mod record;
+#[allow(unsafe_code)]
+pub mod sdk;
 pub mod sim;
+pub mod spacemouse;
 mod spec;
 mod types;
 

@@ -3,6 +3,7 @@
 //! summary). Arguments are parsed here, validated into a [`LoopSetup`], then run.
 
 use crate::contact::{ContactConfig, ContactModel, ContactStage, Coupling, VoxmapConfig};
+use crate::device_select::DeviceChoice;
 use crate::guidance::GuidanceConfig;
 use crate::mapping::{Mapping, MappingConfig};
 use crate::relay::Relay;
@@ -82,6 +83,9 @@ pub struct RunArgs {
     /// Stop after this many seconds (default: until Ctrl-C / SIGTERM).
     #[arg(long)]
     pub duration_s: Option<f64>,
+    /// Device selection and recording.
+    #[command(flatten)]
+    pub device: crate::device_select::DeviceArgs,
 }
 
 /// Options of `haptic-loop demo`.
@@ -508,6 +512,7 @@ impl Progress {
 /// Runs the loop until `done` says so; returns the loop report and run time.
 fn run_loop(
     setup: &LoopSetup,
+    (device, choice): (Box<dyn devices::HapticDevice>, &DeviceChoice),
     contact: Option<ContactStage>,
     stop: &AtomicBool,
     mut done: impl FnMut(&Watch) -> bool,
@@ -528,9 +533,8 @@ fn run_loop(
         path: services::path_subscriber(&node, &setup.namespace)?,
         _node: node,
     };
-    let arm = simulated_arm(setup, &demo_route(&setup.scene))?;
-    let mut tick = Tick::new(arm, &setup.tick, guidance_source, state_writer)
-        .map_err(|e| anyhow::anyhow!("cannot open the simulated arm: {e}"))?;
+    let mut tick = Tick::new(device, &setup.tick, guidance_source, state_writer)
+        .map_err(|e| choice.open_error(e))?;
     if let Some(stage) = contact {
         tick = tick.with_contact(stage);
     }
@@ -559,8 +563,16 @@ fn finish(summary: &Summary, json: Option<&PathBuf>) -> anyhow::Result<()> {
 /// `haptic-loop run`: the loop with the simulated arm, no planner of its own.
 pub fn run(args: &RunArgs) -> anyhow::Result<i32> {
     let setup = args.common.to_setup()?;
+    let mut device = crate::device_select::build(&args.device, &setup.namespace, || {
+        Ok(Box::new(simulated_arm(&setup, &demo_route(&setup.scene))?))
+    })?;
+    // Open now: a backend's limits are final only once open, and the contact coupling is
+    // sized from them. `Tick::new` opens it again, which the device trait allows.
+    device
+        .open()
+        .map_err(|e| args.device.device.open_error(e))?;
     // Build the voxmap before anything starts: it takes seconds at fine voxel sizes.
-    let contact = setup.contact_stage(&setup.arm.spec())?;
+    let contact = setup.contact_stage(device.spec())?;
     let stop = install_stop_handler()?;
     let duration = args
         .duration_s
@@ -573,15 +585,20 @@ pub fn run(args: &RunArgs) -> anyhow::Result<i32> {
         })
         .transpose()?;
     tracing::info!(
-        "haptic loop at {} Hz on the simulated arm, namespace '{}', scene '{}'",
+        "haptic loop at {} Hz on {}, namespace '{}', scene '{}'",
         setup.runner.rate_hz,
+        args.device.device.name(),
         setup.namespace,
         setup.scene.name
     );
     let started = Instant::now();
-    let (report, run_s, watch, contact) = run_loop(&setup, contact, &stop, |_| {
-        duration.is_some_and(|d| started.elapsed() >= d)
-    })?;
+    let (report, run_s, watch, contact) = run_loop(
+        &setup,
+        (device, &args.device.device),
+        contact,
+        &stop,
+        |_| duration.is_some_and(|d| started.elapsed() >= d),
+    )?;
     let g = watch.relay.newest();
     let summary = Summary::new(report, run_s, &g, g.solved == 1, None, None, contact);
     finish(&summary, args.common.summary_json.as_ref())?;
@@ -646,7 +663,9 @@ pub fn demo(args: &DemoArgs) -> anyhow::Result<i32> {
     let mut solved_at: Option<Duration> = None;
     let mut path: Option<(u64, f64)> = None;
     let mut child_exited = None;
-    let result = run_loop(&setup, contact, &stop, |watch| {
+    let arm: Box<dyn devices::HapticDevice> =
+        Box::new(simulated_arm(&setup, &demo_route(&setup.scene))?);
+    let result = run_loop(&setup, (arm, &DeviceChoice::Sim), contact, &stop, |watch| {
         let elapsed = started.elapsed();
         if let Some(p) = watch.newest_path() {
             path = Some(p);

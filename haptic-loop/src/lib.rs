@@ -13,7 +13,10 @@
 
 pub mod alloc_count;
 pub mod app;
+pub mod bridge;
+pub mod bridge_driver;
 pub mod contact;
+pub mod device_select;
 pub mod guidance;
 pub mod mapping;
 pub mod relay;

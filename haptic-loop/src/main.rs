@@ -22,9 +22,12 @@ enum Command {
     /// Loop + planner process + a simulated operator heading for the hole; prints progress
     /// each second and a summary. Exit code 0 when solved within the time limit.
     Demo(DemoArgs),
-    /// Only the loop with the simulated arm (start a planner yourself with
-    /// `planner serve`). Runs until Ctrl-C / SIGTERM or --duration-s.
+    /// Only the loop, on the simulated arm or a real device (--device); start a planner
+    /// yourself with `planner serve`. Runs until Ctrl-C / SIGTERM or --duration-s.
     Run(RunArgs),
+    /// List attached devices (SpaceMouse, Force Dimension, OpenHaptics, bridged driver)
+    /// with their limits. Exit code 0, also when none is found.
+    Devices(haptic_loop::device_select::DevicesArgs),
     /// The planner process, exactly as the `planner` binary (`haptic-loop planner --help`).
     #[command(disable_help_flag = true)]
     Planner {
@@ -48,6 +51,7 @@ fn main() -> std::process::ExitCode {
             planner::cli::init_logging();
             app::demo(&a)
         }
+        Command::Devices(a) => haptic_loop::device_select::list(&a),
         Command::Run(a) => {
             planner::cli::init_logging();
             app::run(&a)

@@ -23,12 +23,16 @@
 #![warn(missing_docs)]
 
 mod codes;
+mod driver;
 mod guidance;
 mod path;
 pub mod services;
 mod state;
 
 pub use codes::{ContactCode, FaultCode, GuidanceFreshness, GuidanceMode};
+pub use driver::{
+    DRIVER_NAME_LEN, DriverCommand, DriverError, DriverState, DriverStatus, OutputCode,
+};
 pub use guidance::{Guidance, GuidanceError};
 pub use path::{PATH_CAPACITY, Path};
 pub use state::HapticState;

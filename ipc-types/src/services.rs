@@ -5,6 +5,13 @@
 //! | [`HAPTIC_STATE`] | blackboard, one entry | haptic loop (RT thread) | latest value; never blocks, never allocates |
 //! | [`GUIDANCE`] | publish-subscribe | planner | history 1, safe overflow: latest value; a restarted planner simply publishes again |
 //! | [`PATH`] | publish-subscribe | planner | history 1, safe overflow: late subscribers get the newest path; the planner never blocks |
+//! | [`DRIVER_STATE`] | publish-subscribe | external device driver | history 1, safe overflow: latest value; a restarted driver simply publishes again |
+//! | [`DRIVER_COMMAND`] | publish-subscribe | haptic loop (bridge relay thread) | history 1, safe overflow: latest value; the driver zeroes force when it goes stale |
+//!
+//! The driver pair is publish-subscribe for the same reason as guidance: either side may
+//! die and restart. On the loop's side a non-RT relay thread receives and sends and talks
+//! to the RT thread through triple buffers, adding at most its poll period (250 µs by
+//! default) in each direction.
 //!
 //! Why a blackboard for the state: iceoryx2 0.10 `Publisher::loan_uninit()` and `send_copy()`
 //! allocate one `Arc` per sample, and `Notifier::notify()` rebuilds its connection list
@@ -24,7 +31,7 @@
 //! Service names are `hrrtc/<namespace>/<leaf>`; the namespace lets tests and several
 //! independent setups share a host.
 
-use crate::{Guidance, HapticState, Path};
+use crate::{DriverCommand, DriverState, Guidance, HapticState, Path};
 use core::time::Duration;
 use iceoryx2::port::reader::EntryHandle;
 use iceoryx2::port::writer::EntryHandleMut;
@@ -37,6 +44,10 @@ pub const HAPTIC_STATE: &str = "haptic_state";
 pub const GUIDANCE: &str = "guidance";
 /// Leaf name of the [`Path`] publish-subscribe service.
 pub const PATH: &str = "path";
+/// Leaf name of the [`crate::DriverState`] service (driver → loop).
+pub const DRIVER_STATE: &str = "driver/state";
+/// Leaf name of the [`crate::DriverCommand`] service (loop → driver).
+pub const DRIVER_COMMAND: &str = "driver/command";
 /// The single key of each blackboard.
 pub const ENTRY_KEY: u64 = 0;
 /// Namespace used when none is given.
@@ -61,6 +72,14 @@ pub type StateWriter = EntryHandleMut<Ipc, u64, HapticState>;
 pub type GuidancePublisher = iceoryx2::port::publisher::Publisher<Ipc, Guidance, ()>;
 /// Subscriber of [`GUIDANCE`].
 pub type GuidanceSubscriber = iceoryx2::port::subscriber::Subscriber<Ipc, Guidance, ()>;
+/// Publisher of [`DRIVER_STATE`] (the driver).
+pub type DriverStatePublisher = iceoryx2::port::publisher::Publisher<Ipc, DriverState, ()>;
+/// Subscriber of [`DRIVER_STATE`] (the loop's bridge).
+pub type DriverStateSubscriber = iceoryx2::port::subscriber::Subscriber<Ipc, DriverState, ()>;
+/// Publisher of [`DRIVER_COMMAND`] (the loop's bridge).
+pub type DriverCommandPublisher = iceoryx2::port::publisher::Publisher<Ipc, DriverCommand, ()>;
+/// Subscriber of [`DRIVER_COMMAND`] (the driver).
+pub type DriverCommandSubscriber = iceoryx2::port::subscriber::Subscriber<Ipc, DriverCommand, ()>;
 /// Publisher of [`PATH`].
 pub type PathPublisher = iceoryx2::port::publisher::Publisher<Ipc, Path, ()>;
 /// Subscriber of [`PATH`].
@@ -324,6 +343,38 @@ pub fn path_publisher(node: &Node<Ipc>, namespace: &str) -> Result<PathPublisher
 /// Subscriber of [`PATH`].
 pub fn path_subscriber(node: &Node<Ipc>, namespace: &str) -> Result<PathSubscriber, ServiceError> {
     subscriber::<Path>(node, namespace, PATH)
+}
+
+/// Publisher of [`DRIVER_STATE`] (for a device driver).
+pub fn driver_state_publisher(
+    node: &Node<Ipc>,
+    namespace: &str,
+) -> Result<DriverStatePublisher, ServiceError> {
+    publisher::<DriverState>(node, namespace, DRIVER_STATE)
+}
+
+/// Subscriber of [`DRIVER_STATE`] (for the loop's bridge).
+pub fn driver_state_subscriber(
+    node: &Node<Ipc>,
+    namespace: &str,
+) -> Result<DriverStateSubscriber, ServiceError> {
+    subscriber::<DriverState>(node, namespace, DRIVER_STATE)
+}
+
+/// Publisher of [`DRIVER_COMMAND`] (for the loop's bridge).
+pub fn driver_command_publisher(
+    node: &Node<Ipc>,
+    namespace: &str,
+) -> Result<DriverCommandPublisher, ServiceError> {
+    publisher::<DriverCommand>(node, namespace, DRIVER_COMMAND)
+}
+
+/// Subscriber of [`DRIVER_COMMAND`] (for a device driver).
+pub fn driver_command_subscriber(
+    node: &Node<Ipc>,
+    namespace: &str,
+) -> Result<DriverCommandSubscriber, ServiceError> {
+    subscriber::<DriverCommand>(node, namespace, DRIVER_COMMAND)
 }
 
 // The haptic loop moves its handles into the RT thread and the planner into its receiver

@@ -22,6 +22,9 @@ pub fn bin_dir() -> &'static Path {
         let release = dir.file_name().is_some_and(|n| n == "release");
         let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
         let mut cmd = Command::new(cargo);
+        // Everything the tests start, in one build before any test proceeds, so no build
+        // competes for the CPU with a timing-sensitive test: the binaries, the bridge's
+        // example driver, and the fake vendor libraries (cdylibs).
         cmd.args([
             "build",
             "--quiet",
@@ -29,7 +32,14 @@ pub fn bin_dir() -> &'static Path {
             "haptic-loop",
             "-p",
             "planner",
+            "-p",
+            "fake-dhd",
+            "-p",
+            "fake-hd",
+            "--lib",
             "--bins",
+            "--example",
+            "bridge_driver",
         ]);
         if release {
             cmd.arg("--release");
@@ -132,4 +142,19 @@ pub fn wait_for<T>(what: &str, timeout: Duration, mut f: impl FnMut() -> Option<
 /// |v| of a 3-vector.
 pub fn norm(v: [f64; 3]) -> f64 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// Path of the fake vendor library `lib<lib>.so` (a cdylib under `devices/fake-sdk`, built
+/// by [`bin_dir`]).
+pub fn fake_sdk(lib: &str) -> PathBuf {
+    let p = bin_dir().join(format!("lib{lib}.so"));
+    assert!(p.exists(), "{} was not built", p.display());
+    p
+}
+
+/// Path of the haptic-loop example `name` (built by [`bin_dir`]).
+pub fn example(name: &str) -> PathBuf {
+    let p = bin_dir().join("examples").join(name);
+    assert!(p.exists(), "{} was not built", p.display());
+    p
 }

@@ -7,4 +7,5 @@ use haptic_loop::alloc_count::CountingAllocator;
 static ALLOCATOR: CountingAllocator = CountingAllocator;
 
 mod alloc;
+mod devices;
 mod two_process;

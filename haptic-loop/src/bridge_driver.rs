@@ -1,0 +1,116 @@
+//! An example device driver for the bridge: serves the simulated arm over
+//! [`services::DRIVER_STATE`] / [`services::DRIVER_COMMAND`] exactly as a driver for a
+//! real arm would (in any language iceoryx2 supports). `examples/bridge_driver.rs` runs it;
+//! tests run it on a thread.
+//!
+//! Its own safety: it applies a command only when valid, `OutputCode::ON`, and newer than
+//! `command_timeout` by its timestamp; otherwise zero force.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use anyhow::Context;
+use devices::sim::{SimulatedArm, SimulatedArmConfig};
+use devices::{HapticDevice, Wrench};
+use ipc_types::services;
+use ipc_types::{DriverState, DriverStatus, Header, OutputCode, monotonic_ns};
+use nalgebra::Vector3;
+use planner::wire;
+
+/// What the driver did, for its caller.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct DriverReport {
+    /// States published.
+    pub states: u64,
+    /// Commands applied (valid, on, fresh).
+    pub applied: u64,
+    /// Commands rejected or ignored (invalid, off, stale).
+    pub ignored: u64,
+    /// The last wrench applied to the arm, N (device base frame).
+    pub last_force_n: [f64; 3],
+}
+
+/// Serves a simulated arm on `namespace` at `rate_hz` until `stop` is set. Commands older
+/// than `command_timeout` are replaced by zero force.
+pub fn run(
+    namespace: &str,
+    rate_hz: f64,
+    command_timeout: Duration,
+    stop: &AtomicBool,
+) -> anyhow::Result<DriverReport> {
+    services::validate_namespace(namespace).map_err(|e| anyhow::anyhow!("--namespace: {e}"))?;
+    anyhow::ensure!(
+        rate_hz.is_finite() && (10.0..=10_000.0).contains(&rate_hz),
+        "--rate-hz must be within 10–10000, got {rate_hz}"
+    );
+    let (node, _) = services::create_node(&format!("example_driver_{}", std::process::id()))?;
+    let publ = services::driver_state_publisher(&node, namespace)?;
+    let sub = services::driver_command_subscriber(&node, namespace)?;
+    let mut arm = SimulatedArm::new(SimulatedArmConfig::default())
+        .map_err(|e| anyhow::anyhow!("simulated arm: {e}"))?;
+    arm.open().context("open the simulated arm")?;
+    let spec = arm.spec().clone();
+    let period = Duration::from_secs_f64(1.0 / rate_hz);
+    let timeout_ns = command_timeout.as_nanos() as u64;
+    let mut report = DriverReport::default();
+    let mut command = Wrench::ZERO;
+    let mut command_ns = 0u64;
+    let mut next = std::time::Instant::now();
+    while !stop.load(Ordering::Acquire) {
+        let now = monotonic_ns();
+        while let Ok(Some(c)) = sub.receive() {
+            if c.validate().is_ok() && c.output == OutputCode::ON {
+                command = Wrench::new(
+                    Vector3::from(c.wrench.force_n),
+                    Vector3::from(c.wrench.torque_nm),
+                );
+                command_ns = c.header.timestamp_ns.max(1);
+                report.applied += 1;
+            } else {
+                command = Wrench::ZERO;
+                command_ns = 0;
+                report.ignored += 1;
+            }
+        }
+        let fresh = command_ns != 0 && now.saturating_sub(command_ns) <= timeout_ns;
+        let out = if fresh { command } else { Wrench::ZERO };
+        arm.write(&out).context("simulated arm write")?;
+        report.last_force_n = out.force.into();
+        let s = arm.read(now).context("simulated arm read")?;
+        report.states += 1;
+        let mut msg = DriverState {
+            header: Header {
+                sequence: report.states,
+                timestamp_ns: now,
+                writer_pid: std::process::id(),
+                reserved: 0,
+            },
+            pose: wire::pose(&s.pose),
+            twist: wire::twist(&s.linear_velocity, &s.angular_velocity),
+            buttons: s.buttons,
+            status: DriverStatus::OK,
+            max_force_n: spec.max_force_n,
+            max_torque_nm: spec.max_torque_nm,
+            max_stiffness_n_per_m: spec.max_stiffness_n_per_m,
+            max_rot_stiffness_nm_per_rad: spec.max_rot_stiffness_nm_per_rad,
+            max_damping_n_s_per_m: spec.max_damping_n_s_per_m,
+            workspace_radius_m: spec.workspace_radius_m,
+            button_count: spec.capabilities.buttons,
+            orientation_input: u32::from(spec.capabilities.orientation_input),
+            ..DriverState::default()
+        };
+        msg.set_name("example driver: simulated arm");
+        if let Err(e) = publ.send_copy(msg) {
+            tracing::warn!("example driver: publish failed: {e:?}");
+        }
+        next += period;
+        let now_i = std::time::Instant::now();
+        if next > now_i {
+            std::thread::sleep(next - now_i);
+        } else {
+            next = now_i;
+        }
+    }
+    arm.close();
+    Ok(report)
+}
