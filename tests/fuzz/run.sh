@@ -6,7 +6,7 @@
 set -euo pipefail
 cd "$(dirname "$0")"
 seconds="${1:-60}"
-mkdir -p corpus/scene_toml corpus/guidance_sample
+mkdir -p corpus/scene_toml corpus/guidance_sample corpus/spacemouse_report
 cp -n ../../planner/scenes/*.toml corpus/scene_toml/ 2>/dev/null || true
 for target in $(cargo fuzz list --fuzz-dir .); do
     echo "== $target (${seconds} s)"
