@@ -30,12 +30,24 @@ pub enum Command {
     Serve(ServeArgs),
     /// Plan automatically (no operator) with RRT-Connect and report.
     Solve(SolveArgs),
+    /// List the built-in scenes, or write them as TOML files (with OBJ meshes).
+    Scenes(ScenesArgs),
+}
+
+/// Options of `planner scenes`.
+#[derive(Debug, Args, Clone)]
+pub struct ScenesArgs {
+    /// Write every built-in scene to DIR/<name>.toml and its meshes to DIR/meshes/.
+    #[arg(long, value_name = "DIR")]
+    pub write: Option<PathBuf>,
 }
 
 /// Options shared by every planning command.
 #[derive(Debug, Args, Clone)]
 pub struct CoreArgs {
-    /// Scene: `wall-hole` (alias `default`, the I-RRT §5.3 6-D case) or a TOML scene file.
+    /// Scene: a built-in name (`wall-hole` alias `default`, `maze`, `tunnels`,
+    /// `tunnels-1axis`, `tunnels-2axes`, `crossing-planes`, `silencer`, `free`; see
+    /// `planner scenes`) or a TOML scene file.
     #[arg(long, default_value = "wall-hole")]
     pub scene: String,
     /// RNG seed: the same seed and inputs give the same trees.
@@ -286,6 +298,29 @@ where
                 write_json(p, &report)?;
             }
             Ok(if report.solved { 0 } else { 1 })
+        }
+        Command::Scenes(a) => {
+            for name in crate::scene::BUILTIN_NAMES {
+                if name == "default" {
+                    continue;
+                }
+                let scene = Scene::builtin(name).context("built-in scene")?;
+                match &a.write {
+                    Some(dir) => {
+                        let path = scene
+                            .write_to_dir(dir)
+                            .with_context(|| format!("cannot write into {}", dir.display()))?;
+                        println!("{}", path.display());
+                    }
+                    None => println!(
+                        "{name}: {} obstacles, {} object parts, {:?} space",
+                        scene.obstacles.len(),
+                        scene.moving_object.len(),
+                        scene.space
+                    ),
+                }
+            }
+            Ok(0)
         }
     }
 }
