@@ -13,7 +13,7 @@
 
 use crate::pose::Se3;
 use crate::scene::{Bounds, Part, Primitive, Scene};
-use crate::space::{ConfigSpace, Se3Space, Weights};
+use crate::space::{ConfigSpace, Space, Weights};
 use parry3d_f64::math::{Pose, Rot3, Vector};
 use parry3d_f64::query::{contact, intersection_test};
 use parry3d_f64::shape::{Compound, SharedShape, TriMeshFlags};
@@ -107,7 +107,7 @@ impl Side {
 pub struct CollisionChecker {
     obstacles: Side,
     object: Side,
-    space: Se3Space,
+    space: Space,
     resolution: f64,
     checks: Cell<u64>,
 }
@@ -129,7 +129,7 @@ impl CollisionChecker {
         CollisionChecker {
             obstacles: Side::new(&scene.obstacles),
             object: Side::new(&scene.moving_object),
-            space: Se3Space::new(scene.bounds, weights),
+            space: Space::for_scene(scene, weights),
             resolution,
             checks: Cell::new(0),
         }
@@ -137,7 +137,12 @@ impl CollisionChecker {
 
     /// Bounds of the reference point (m, scene frame).
     pub fn bounds(&self) -> &Bounds {
-        &self.space.bounds
+        self.space.bounds()
+    }
+
+    /// The configuration space edges are interpolated in.
+    pub fn space(&self) -> &Space {
+        &self.space
     }
 
     /// Edge resolution (weighted m).
@@ -318,7 +323,6 @@ mod tests {
     #[test]
     fn mesh_parts_collide_like_the_boxes_they_replace() {
         use crate::scene::MeshData;
-        use parry3d_f64::query::PointQuery;
         use std::sync::Arc;
         let boxes = Scene::wall_with_hole();
         let mut meshes = boxes.clone();
@@ -332,7 +336,7 @@ mod tests {
         }
         let (a, b) = (CollisionChecker::new(&boxes), CollisionChecker::new(&meshes));
         let mut rng = ChaCha8Rng::seed_from_u64(5);
-        let space = Se3Space::new(boxes.bounds, Weights::default());
+        let space = crate::space::Se3Space::new(boxes.bounds, Weights::default());
         let mut disagreements = 0;
         let mut collisions = 0;
         for _ in 0..300 {

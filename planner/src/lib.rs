@@ -35,4 +35,4 @@ pub use params::{PlannerError, PlannerParams};
 pub use pose::Se3;
 pub use rrt::{Extend, IterReport, Planner, Stats};
 pub use scene::{Scene, SceneError};
-pub use space::{ConfigSpace, Se3Space, Weights};
+pub use space::{ConfigSpace, PlanarSpace, Se3Space, Space, Weights};

@@ -17,7 +17,7 @@ use crate::guidance::{PathGuide, barycenter_force};
 use crate::params::{PlannerError, PlannerParams};
 use crate::pose::Se3;
 use crate::scene::Scene;
-use crate::space::{ConfigSpace, Se3Space};
+use crate::space::{ConfigSpace, Space};
 use crate::tree::{NodeId, Tree};
 use nalgebra::Vector6;
 use rand::{Rng, SeedableRng};
@@ -75,7 +75,7 @@ const GOAL: usize = 1;
 
 /// RRT-Connect planner for one scene. See the module docs.
 pub struct Planner {
-    space: Se3Space,
+    space: Space,
     checker: CollisionChecker,
     params: PlannerParams,
     rng: ChaCha8Rng,
@@ -101,7 +101,7 @@ impl Planner {
         if !checker.is_free(&scene.goal) {
             return Err(PlannerError::GoalInCollision(scene.name.clone()));
         }
-        let space = Se3Space::new(scene.bounds, params.weights);
+        let space = Space::for_scene(scene, params.weights);
         let d = space.distance(&scene.start, &scene.goal);
         Ok(Planner {
             trees: [Tree::new(scene.start, d), Tree::new(scene.goal, 0.0)],
@@ -285,7 +285,7 @@ impl Planner {
     }
 
     /// The configuration space (metric, bounds).
-    pub fn space(&self) -> &Se3Space {
+    pub fn space(&self) -> &Space {
         &self.space
     }
 

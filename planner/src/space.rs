@@ -9,14 +9,17 @@
 //! object point within `r` of the reference point, no point moves farther than
 //! `|Δp| + r·θ ≤ √2·d`: resolutions stated as weighted distances bound point motion.
 //!
-//! A planar (x, y, θ) space can be added later as another [`ConfigSpace`] whose
-//! configurations are `Se3` with fixed z and rotations about z.
+//! The planar (x, y, θ) space is [`PlanarSpace`], whose configurations are `Se3` with
+//! fixed z and rotations about z; [`Space`] is whichever of the two a scene asks for.
 
 use crate::pose::{Se3, angle_between, exp_rotation, rotation_vector};
 use crate::scene::Bounds;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3, Vector6};
 use rand::{Rng, RngCore};
 use rand_distr::StandardNormal;
+
+mod planar;
+pub use planar::{PlanarSpace, Space, wrap_angle};
 
 /// Weights of the distance (I-RRT eq. 2, generalised to SE(3)).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -70,6 +73,12 @@ pub trait ConfigSpace {
     fn distance_below(&self, a: &Se3, b: &Se3, bound: f64) -> Option<f64> {
         let d = self.distance(a, b);
         (d < bound).then_some(d)
+    }
+
+    /// The configuration of this space nearest to `q` (identity for SE(3); the planar
+    /// space drops z and tilts). Used on operator poses, which are full 6-D.
+    fn project(&self, q: &Se3) -> Se3 {
+        *q
     }
 
     /// Moves from `from` towards `to` by at most `step` (weighted m); returns `to` itself

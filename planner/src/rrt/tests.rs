@@ -169,7 +169,7 @@ fn collision_check_cost() {
     let checker = CollisionChecker::new(&scene);
     let mut rng = ChaCha8Rng::seed_from_u64(9);
     // Configurations near the wall (|x| < 0.1) are the expensive ones.
-    let space = Se3Space::new(
+    let space = crate::space::Se3Space::new(
         crate::scene::Bounds {
             min_m: nalgebra::Vector3::new(-0.1, -0.25, -0.25),
             max_m: nalgebra::Vector3::new(0.1, 0.25, 0.25),
