@@ -62,6 +62,53 @@ pub struct CoreArgs {
     /// p: nearest nodes in F_a's barycenter (I-RRT uses 5).
     #[arg(long, default_value_t = 5)]
     pub neighbours: usize,
+    /// Tree algorithm: `rrt-connect` (two trees, greedy I-RRT Extend) or `rrt` (one tree,
+    /// one step per iteration, 5 % goal bias).
+    #[arg(long, default_value = "rrt-connect", value_parser = ["rrt-connect", "rrt"])]
+    pub algorithm: String,
+    /// Random shortcut attempts on the solution path (0 keeps the raw tree path).
+    #[arg(long, default_value_t = 100)]
+    pub shortcut_attempts: u32,
+}
+
+/// Operator-driven sampling options (I-RRT §4.2.2 and §6, H-RRT-C Algorithms 1–2).
+#[derive(Debug, Args, Clone)]
+pub struct SamplingArgs {
+    /// Sampling method: `cs` (uniform), `pos` (Gaussian around the operator along F_r),
+    /// `path` (Gaussian around the operator's travelled path), `pos+cs` / `path+cs` (one
+    /// uniform sample in β), `hrrtc` (H-RRT-C: uniform with probability α else the
+    /// operator's configuration; HapticSampling on the contact plane while in contact).
+    #[arg(long, default_value = "hrrtc",
+          value_parser = ["cs", "pos", "path", "pos+cs", "path+cs", "hrrtc"])]
+    pub sampling: String,
+    /// α of H-RRT-C: share of machine (uniform) samples in free space, in [0, 1].
+    #[arg(long, default_value_t = 0.5)]
+    pub alpha: f64,
+    /// β of the +CS methods: one sample in β is uniform (I-RRT uses 3), >= 1.
+    #[arg(long, default_value_t = 3.0)]
+    pub beta: f64,
+    /// σ: standard deviation of the POS and PATH Gaussians, weighted m (m, or rad × 0.1).
+    #[arg(long, default_value_t = 0.05)]
+    pub sigma: f64,
+    /// α of I-RRT eq. 1, F_r = α·F_u + (1−α)·F_a, in [0, 1].
+    #[arg(long, default_value_t = 0.5)]
+    pub fr_alpha: f64,
+    /// Grow I-RRT local trees at operator samples the main trees cannot reach.
+    #[arg(long)]
+    pub local_trees: bool,
+}
+
+impl SamplingArgs {
+    /// Applies the options to `params` and validates them.
+    pub fn apply(&self, params: &mut PlannerParams) -> anyhow::Result<()> {
+        params.sampling = crate::Sampling::parse(&self.sampling, self.beta, self.alpha)
+            .with_context(|| format!("unknown --sampling {}", self.sampling))?;
+        params.user_sigma = self.sigma;
+        params.fr_alpha = self.fr_alpha;
+        params.local_trees = self.local_trees;
+        params.validate()?;
+        Ok(())
+    }
 }
 
 /// Options of `planner serve`.
@@ -85,12 +132,9 @@ pub struct ServeArgs {
     /// Time-to-live of each guidance sample, ms; the loop fades it out after that.
     #[arg(long, default_value_t = 100.0)]
     pub ttl_ms: f64,
-    /// Probability of sampling around the operator's configuration instead of uniformly.
-    #[arg(long, default_value_t = 0.5)]
-    pub user_bias: f64,
-    /// Standard deviation of the Gaussian around the operator, weighted m.
-    #[arg(long, default_value_t = 0.05)]
-    pub user_sigma: f64,
+    /// How the operator's input drives sampling.
+    #[command(flatten)]
+    pub sampling: SamplingArgs,
     /// How often to poll the haptic state, Hz (above the loop rate to see every tick).
     #[arg(long, default_value_t = 2000.0)]
     pub poll_hz: f64,
@@ -131,6 +175,12 @@ impl CoreArgs {
             step: self.step,
             edge_resolution: self.edge_resolution,
             neighbours: self.neighbours,
+            algorithm: if self.algorithm == "rrt" {
+                crate::Algorithm::Rrt
+            } else {
+                crate::Algorithm::RrtConnect
+            },
+            shortcut_attempts: self.shortcut_attempts,
             ..PlannerParams::default()
         };
         params.validate()?;
@@ -142,9 +192,7 @@ impl ServeArgs {
     /// Validates the arguments into a [`ShellConfig`] (loads the scene).
     pub fn to_config(&self) -> anyhow::Result<ShellConfig> {
         let (scene, mut params) = self.core.load()?;
-        params.user_bias = self.user_bias;
-        params.user_sigma = self.user_sigma;
-        params.validate()?;
+        self.sampling.apply(&mut params)?;
         let gain = |name: &str, v: f64| -> anyhow::Result<f64> {
             if v.is_finite() && v >= 0.0 {
                 Ok(v)

@@ -161,6 +161,47 @@ impl Tree {
         }
     }
 
+    /// Grafts every node of `other` into this tree, joining `other`'s node `other_at` to
+    /// this tree's node `at` (same configuration: `other_at` itself is not copied). The
+    /// other tree is re-rooted at `other_at`: edges keep their endpoints, parents flip
+    /// where needed. Labels are copied; the distance label is recomputed by `to_goal`.
+    /// Returns the new ids of `other`'s nodes, indexed by their old ids.
+    pub fn graft(
+        &mut self,
+        at: NodeId,
+        other: &Tree,
+        other_at: NodeId,
+        to_goal: impl Fn(&Se3) -> f64,
+    ) -> Vec<NodeId> {
+        let n = other.len();
+        let mut adj: Vec<Vec<u32>> = vec![Vec::new(); n];
+        for (i, node) in other.nodes.iter().enumerate() {
+            if let Some(p) = node.parent {
+                adj[i].push(p.0);
+                adj[p.index()].push(i as u32);
+            }
+        }
+        let mut map = vec![NodeId(u32::MAX); n];
+        map[other_at.index()] = at;
+        let mut stack = vec![other_at.0];
+        while let Some(u) = stack.pop() {
+            for &v in &adj[u as usize] {
+                if map[v as usize].0 != u32::MAX {
+                    continue;
+                }
+                let src = &other.nodes[v as usize];
+                let id = self.add(map[u as usize], src.config, to_goal(&src.config));
+                let l = self.labels_mut(id);
+                l.extension_attempts = src.labels.extension_attempts;
+                l.collisions = src.labels.collisions;
+                l.covered_distance = src.labels.covered_distance;
+                map[v as usize] = id;
+                stack.push(v);
+            }
+        }
+        map
+    }
+
     /// The configurations from `id` up to the root, `id` first.
     pub fn path_to_root(&self, id: NodeId) -> Vec<Se3> {
         let mut out = Vec::new();
@@ -228,5 +269,30 @@ mod tests {
         assert_eq!(l.freedom(), 0.25);
         l.collisions = 0;
         assert_eq!(l.freedom(), 1.0);
+    }
+
+    #[test]
+    fn graft_re_roots_and_keeps_edges() {
+        let mut main = Tree::new(Se3::from_xyz(-0.3, 0.0, 0.0), 1.0);
+        let other = line_tree(); // 0 – 1 – 2 – 3, and 4 off 1
+        // Join other's node 2 onto main's root.
+        let map = main.graft(NodeId(0), &other, NodeId(2), |q| q.pos.x.abs());
+        assert_eq!(main.len(), 1 + 4);
+        assert_eq!(map[2], NodeId(0));
+        // Every edge of `other` is an edge of `main` (in one direction or the other).
+        for (i, node) in other.nodes().iter().enumerate() {
+            if let Some(p) = node.parent {
+                let (a, b) = (map[i], map[p.index()]);
+                assert!(
+                    main.node(a).parent == Some(b) || main.node(b).parent == Some(a),
+                    "edge {i}-{}", p.0
+                );
+            }
+        }
+        // From old node 0 (the old root) the path now runs 0 → 1 → 2(= main root).
+        let path = main.path_to_root(map[0]);
+        let xs: Vec<f64> = path.iter().map(|q| q.pos.x).collect();
+        assert_eq!(xs, vec![0.0, 0.1, -0.3]);
+        assert_eq!(main.node(map[4]).labels.distance_to_goal, 0.1);
     }
 }
