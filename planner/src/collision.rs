@@ -198,6 +198,30 @@ impl CollisionChecker {
         depth
     }
 
+    /// The deepest contact of the object at `q` with an obstacle: `(point on the obstacle
+    /// surface (m), unit normal out of the obstacle, penetration depth (m))`, scene
+    /// frame; `None` when separated. For simulated users; costlier than
+    /// [`Self::is_free`] and not counted.
+    pub fn deepest_contact(
+        &self,
+        q: &Se3,
+    ) -> Option<(nalgebra::Vector3<f64>, nalgebra::Vector3<f64>, f64)> {
+        let at = to_parry(q);
+        let mut best: Option<(nalgebra::Vector3<f64>, nalgebra::Vector3<f64>, f64)> = None;
+        let v = |p: Vector| nalgebra::Vector3::new(p.x, p.y, p.z);
+        for (obj_pose, obj) in self.object.pieces() {
+            for (obs_pose, obs) in self.obstacles.pieces() {
+                if let Ok(Some(c)) = contact(&(at * obj_pose), obj, &obs_pose, obs, 0.0) {
+                    let depth = -c.dist;
+                    if depth >= 0.0 && best.is_none_or(|b| depth > b.2) {
+                        best = Some((v(c.point2), v(c.normal2), depth));
+                    }
+                }
+            }
+        }
+        best
+    }
+
     /// True when `a`, `b` and the straight segment between them (see
     /// [`ConfigSpace::interpolate`]) are free, checked every `resolution` (weighted m).
     pub fn edge_free(&self, a: &Se3, b: &Se3) -> bool {
@@ -262,6 +286,12 @@ mod tests {
         // The cube's x-min face 0.5 mm inside the wall face.
         let depth = c.penetration_m(&Se3::from_xyz(0.0595, 0.0, 0.0));
         assert!((depth - 0.0005).abs() < 1e-9, "{depth}");
+        let (point, normal, d) = c
+            .deepest_contact(&Se3::from_xyz(0.0595, 0.0, 0.0))
+            .expect("contact");
+        assert!((d - 0.0005).abs() < 1e-9 && (normal.x - 1.0).abs() < 1e-9, "{normal}");
+        assert!((point.x - 0.01).abs() < 1e-9, "{point}");
+        assert!(c.deepest_contact(&scene.start).is_none());
         assert_eq!(c.penetration_m(&scene.start), 0.0);
         // Out of bounds is never free.
         assert!(!c.is_free(&Se3::from_xyz(0.31, 0.0, 0.0)));

@@ -22,6 +22,7 @@
 
 pub mod cli;
 pub mod collision;
+pub mod experiment;
 pub mod guidance;
 pub mod params;
 pub mod path;

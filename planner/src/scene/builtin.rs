@@ -85,21 +85,21 @@ impl Scene {
     }
 
     /// I-RRT §5.2 / §6 "simple 2D case", planar (x, y, θ): a 60 × 30 mm block crosses a
-    /// 80 mm thick wall through a 45 mm wide passage (it must turn its long side along the
-    /// passage, within about ±0.2 rad), reaches a lobby, and from there three openings
+    /// 160 mm thick wall through a 36 mm wide corridor (it must turn its long side along
+    /// the corridor, within about ±0.1 rad), reaches a lobby, and from there three openings
     /// lead to three rooms: two are dead ends, the right one holds the goal.
     ///
     /// Layout (m): start (−0.35, −0.35), goal (0.33, 0.40), both θ = 0. Wall band
-    /// y ∈ [−0.04, 0.04] with the passage at x ∈ [−0.0225, 0.0225]. Lobby
-    /// y ∈ [0.04, 0.16]; wall y ∈ [0.16, 0.20] with 100 mm openings centred at
+    /// y ∈ [−0.08, 0.08] with the corridor at x ∈ [−0.018, 0.018]. Lobby
+    /// y ∈ [0.08, 0.16]; wall y ∈ [0.16, 0.20] with 100 mm openings centred at
     /// x = −0.33, 0.0, 0.33; room walls at x = ±0.15 (20 mm) up to y = 0.5. Bounds
     /// ±0.44 m: the block reaches 34 mm from its centre, so it can never pass around a
     /// wall (walls span ±0.5 m).
     pub fn maze() -> Scene {
         let z = 0.05; // wall half height; the block lives in z = 0
         let mut obstacles = vec![
-            boxed([0.23875, 0.04, z], Se3::from_xyz(-0.26125, 0.0, 0.0)),
-            boxed([0.23875, 0.04, z], Se3::from_xyz(0.26125, 0.0, 0.0)),
+            boxed([0.241, 0.08, z], Se3::from_xyz(-0.259, 0.0, 0.0)),
+            boxed([0.241, 0.08, z], Se3::from_xyz(0.259, 0.0, 0.0)),
         ];
         // Wall above the lobby with three 100 mm openings at x = −0.33, 0, 0.33.
         let (y, hy) = (0.18, 0.02);
@@ -127,24 +127,24 @@ impl Scene {
         }
     }
 
-    /// H-RRT-C §V.A "narrow tunnels": a 1.1 m square tube (140 mm inside) along x with two
-    /// 4 mm plates, each with a 100 × 32 mm slot. The object is a T: a 90 × 20 × 20 mm
+    /// H-RRT-C §V.A "narrow tunnels": a 1.1 m square tube (160 mm inside) along x with two
+    /// 4 mm plates, each with a 100 × 26 mm slot. The object is a T: a 90 × 20 × 20 mm
     /// cross-bar with a 60 mm stem along +x; the bar must be turned to the slot's angle
-    /// within about 0.13 rad to pass. Plate A (x = 0.15) is rotated by 35° about the tube
+    /// within about 0.07 rad to pass. Plate A (x = 0.15) is rotated by 35° about the tube
     /// axis; plate B (x = −0.15) by −50° about the axis and, when `b_axes` = 2, tilted by
     /// 25° about z as well (its normal leaves the tube axis). `a_axes` = 2 tilts plate A
     /// by 20° about y. The paper's scene is `(1, 2)`. Start x = 0.40, goal x = −0.40
     /// (the goal is on the left in the paper's figure), identity orientation.
     pub fn tunnels(a_axes: u8, b_axes: u8) -> Scene {
         let deg = PI / 180.0;
-        let mut obstacles = tube_x(0.07, 0.005, -0.55, 0.55);
+        let mut obstacles = tube_x(0.08, 0.005, -0.55, 0.55);
         let a_tilt = if a_axes >= 2 { 20.0 * deg } else { 0.0 };
         let b_tilt = if b_axes >= 2 { 25.0 * deg } else { 0.0 };
         let plate_a = Se3::from_rpy(Vector3::new(0.15, 0.0, 0.0), 35.0 * deg, a_tilt, 0.0);
         let plate_b = Se3::from_rpy(Vector3::new(-0.15, 0.0, 0.0), -50.0 * deg, 0.0, b_tilt);
-        // Plates reach 0.14 m from the tube axis: even tilted they close the tube.
-        obstacles.extend(slotted_plate(0.002, 0.14, [0.05, 0.016], &plate_a));
-        obstacles.extend(slotted_plate(0.002, 0.14, [0.05, 0.016], &plate_b));
+        // Plates reach 0.16 m from the tube axis: even tilted they close the tube.
+        obstacles.extend(slotted_plate(0.002, 0.16, [0.05, 0.013], &plate_a));
+        obstacles.extend(slotted_plate(0.002, 0.16, [0.05, 0.013], &plate_b));
         let name = match (a_axes, b_axes) {
             (1, 2) => "tunnels".to_owned(),
             (1, 1) => "tunnels-1axis".to_owned(),
@@ -170,14 +170,14 @@ impl Scene {
 
     /// H-RRT-C §V.B "crossing planes": in a square tube (200 mm inside) two pairs of
     /// planes leave narrow free space: the first pair (x ∈ [−0.25, −0.08]) a horizontal
-    /// 20 mm slit, the second (x ∈ [0.08, 0.25]) a vertical 20 mm slit, crossing the first.
+    /// 14 mm slit, the second (x ∈ [0.08, 0.25]) a vertical 14 mm slit, crossing the first.
     /// The object is a 120 × 120 × 8 mm plate: it must slide flat through the first pair
-    /// (within about 0.1 rad), turn a quarter about x in the chamber between them, and
+    /// (within about 0.05 rad), turn a quarter about x in the chamber between them, and
     /// slide upright through the second. Start x = −0.35 (flat), goal x = 0.35 (upright).
     pub fn crossing_planes() -> Scene {
         let mut obstacles = tube_x(0.1, 0.005, -0.45, 0.45);
         let (hx, cx1, cx2) = (0.085, -0.165, 0.165);
-        let g = 0.01; // half slit
+        let g = 0.007; // half slit
         let h = 0.5 * (0.1 - g);
         let c = g + h;
         // First pair: above and below a horizontal slit.
