@@ -32,6 +32,58 @@ pub enum Command {
     Solve(SolveArgs),
     /// List the built-in scenes, or write them as TOML files (with OBJ meshes).
     Scenes(ScenesArgs),
+    /// Rerun the papers' experiments with a simulated operator in lockstep and write
+    /// runs.csv, summary.md and PNG plots.
+    Experiment(ExperimentArgs),
+}
+
+/// Options of `planner experiment`.
+#[derive(Debug, Args, Clone)]
+pub struct ExperimentArgs {
+    /// `irrt`: sampling method × σ × ε_v on the maze with a pass-through operator (I-RRT
+    /// §6). `hrrtc`: α on narrow tunnels and crossing planes with a contact-seeking
+    /// operator, beside automatic RRT-Connect (H-RRT-C Tables I and III).
+    #[arg(value_parser = ["irrt", "hrrtc"])]
+    pub sweep: String,
+    /// Runs (seeds 1..=N) per configuration.
+    #[arg(long, default_value_t = 5)]
+    pub seeds: u64,
+    /// Wall-clock limit per run, s (unsolved runs count at the limit in medians).
+    #[arg(long, default_value_t = 10.0)]
+    pub time_limit: f64,
+    /// Output directory (created).
+    #[arg(long, default_value = "experiment-out")]
+    pub out: PathBuf,
+    /// irrt: scene (a built-in with an operator path).
+    #[arg(long, default_value = "maze")]
+    pub scene: String,
+    /// irrt: methods, comma-separated, from pos, pos+cs, path, path+cs, cs.
+    #[arg(long, default_value = "pos,pos+cs,path,path+cs", value_delimiter = ',')]
+    pub methods: Vec<String>,
+    /// irrt: σ values (weighted m), comma-separated.
+    #[arg(long, default_value = "0.01,0.05", value_delimiter = ',')]
+    pub sigmas: Vec<f64>,
+    /// irrt: ε_v values (operator speed, weighted m per iteration), comma-separated.
+    #[arg(long, default_value = "0.0002,0.001,0.005", value_delimiter = ',')]
+    pub eps: Vec<f64>,
+    /// irrt: β of the +CS methods (one uniform sample in β).
+    #[arg(long, default_value_t = 3.0)]
+    pub beta: f64,
+    /// hrrtc: scenes, comma-separated built-ins.
+    #[arg(long, default_value = "tunnels,crossing-planes", value_delimiter = ',')]
+    pub scenes: Vec<String>,
+    /// hrrtc: α values (share of machine samples), comma-separated.
+    #[arg(long, default_value = "0,0.1,0.5,0.9", value_delimiter = ',')]
+    pub alphas: Vec<f64>,
+    /// hrrtc: operator speed ε_v, weighted m per iteration.
+    #[arg(long, default_value_t = 0.001)]
+    pub hrrtc_eps: f64,
+    /// hrrtc: σ of the operator's orientation error, rad per axis (its dexterity).
+    #[arg(long, default_value_t = 0.1)]
+    pub error_sigma: f64,
+    /// Hide the progress bar.
+    #[arg(long)]
+    pub quiet: bool,
 }
 
 /// Options of `planner scenes`.
@@ -347,6 +399,10 @@ where
             }
             Ok(if report.solved { 0 } else { 1 })
         }
+        Command::Experiment(a) => {
+            experiment(&a)?;
+            Ok(0)
+        }
         Command::Scenes(a) => {
             for name in crate::scene::BUILTIN_NAMES {
                 if name == "default" {
@@ -371,4 +427,87 @@ where
             Ok(0)
         }
     }
+}
+
+/// Runs `planner experiment`: the sweep, then runs.csv, summary.md and plots in `--out`.
+pub fn experiment(a: &ExperimentArgs) -> anyhow::Result<()> {
+    use crate::experiment::{self as ex, report};
+    let limit = positive("time-limit", a.time_limit)?;
+    if a.seeds == 0 {
+        bail!("--seeds must be >= 1");
+    }
+    let specs = if a.sweep == "irrt" {
+        let methods = a
+            .methods
+            .iter()
+            .map(|m| {
+                crate::Sampling::parse(m, a.beta, 0.5)
+                    .with_context(|| format!("unknown method `{m}` in --methods"))
+            })
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        ex::irrt_specs(&a.scene, &methods, &a.sigmas, &a.eps, a.seeds, limit)
+    } else {
+        ex::hrrtc_specs(&a.scenes, &a.alphas, a.hrrtc_eps, a.error_sigma, a.seeds, limit)
+    };
+    for s in &specs {
+        s.params.validate()?;
+        if crate::scene::Scene::builtin(&s.scene).is_none() {
+            bail!("`{}` is not a built-in scene", s.scene);
+        }
+    }
+    std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
+    let bar = if a.quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        indicatif::ProgressBar::new(specs.len() as u64)
+    };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{elapsed_precise} [{bar:40}] {pos}/{len} runs, eta {eta} {msg}",
+        )
+        .context("progress template")?,
+    );
+    let mut results = Vec::with_capacity(specs.len());
+    for s in &specs {
+        let r = ex::run(s)?;
+        bar.set_message(format!(
+            "{} {} seed {}: {}",
+            r.scene,
+            r.method,
+            r.seed,
+            if r.solved { format!("{:.2} s", r.time_s) } else { "unsolved".into() }
+        ));
+        bar.inc(1);
+        results.push(r);
+    }
+    bar.finish();
+    let summaries = report::summarize(&results, limit);
+    let csv = a.out.join("runs.csv");
+    std::fs::write(&csv, report::to_csv(&results))?;
+    let md = a.out.join("summary.md");
+    let header = format!(
+        "# `planner experiment {}`: {} runs, {} seeds per configuration, {} s limit\n\n",
+        a.sweep,
+        results.len(),
+        a.seeds,
+        limit
+    );
+    std::fs::write(&md, header + &report::to_markdown(&summaries))?;
+    println!("{}", report::to_markdown(&summaries));
+    println!("wrote {} and {}", csv.display(), md.display());
+    if report::register_font() {
+        let png = a.out.join(format!("{}.png", a.sweep));
+        let drawn = if a.sweep == "irrt" {
+            report::plot_irrt(&summaries, limit, &png)
+        } else {
+            report::plot_hrrtc(&summaries, limit, &png)
+        };
+        match drawn {
+            Ok(()) => println!("wrote {}", png.display()),
+            Err(e) => eprintln!("planner: cannot draw {}: {e}", png.display()),
+        }
+    } else {
+        eprintln!("planner: no TrueType font found (DejaVuSans.ttf): plots skipped");
+    }
+    Ok(())
 }
