@@ -204,12 +204,19 @@ pub struct SolveArgs {
     /// Scene, seed and tree parameters.
     #[command(flatten)]
     pub core: CoreArgs,
-    /// Give up after this many seconds.
+    /// Give up after this many seconds (wall clock).
     #[arg(long, default_value_t = 60.0)]
     pub time_limit: f64,
-    /// Write the result as JSON here.
+    /// Write the result as JSON here: solved, time_s, iterations, nodes,
+    /// collision_checks, path_length (weighted m), path_waypoints.
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Write the (smoothed) solution path here as CSV: x_m,y_m,z_m,qw,qx,qy,qz,arc_length.
+    #[arg(long)]
+    pub path_csv: Option<PathBuf>,
+    /// Write the (smoothed) solution path here as JSON waypoints.
+    #[arg(long)]
+    pub path_json: Option<PathBuf>,
 }
 
 fn positive(name: &str, v: f64) -> anyhow::Result<f64> {
@@ -310,6 +317,16 @@ pub fn solve(args: &SolveArgs) -> anyhow::Result<SolveReport> {
     let path_length = planner
         .solution()
         .map(|p| crate::space::path_length(planner.space(), p));
+    if let Some(p) = planner.solution() {
+        let write = |file: &Option<PathBuf>, text: String| -> anyhow::Result<()> {
+            if let Some(f) = file {
+                std::fs::write(f, text).with_context(|| format!("cannot write {}", f.display()))?;
+            }
+            Ok(())
+        };
+        write(&args.path_csv, crate::path::to_csv(planner.space(), p))?;
+        write(&args.path_json, crate::path::to_json(planner.space(), p))?;
+    }
     Ok(SolveReport {
         scene: scene.name.clone(),
         seed: args.core.seed,
@@ -510,4 +527,57 @@ pub fn experiment(a: &ExperimentArgs) -> anyhow::Result<()> {
         eprintln!("planner: no TrueType font found (DejaVuSans.ttf): plots skipped");
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn every_option_has_help() {
+        let cmd = Cli::command();
+        cmd.clone().debug_assert();
+        for sub in cmd.get_subcommands() {
+            assert!(sub.get_about().is_some(), "{} has no about", sub.get_name());
+            for arg in sub.get_arguments() {
+                assert!(
+                    arg.get_help().is_some() || arg.get_long_help().is_some(),
+                    "`{} --{}` has no help",
+                    sub.get_name(),
+                    arg.get_id()
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn solve_writes_json_and_paths() {
+        let dir = std::env::temp_dir().join(format!("planner-cli-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let (json, csv, pj) = (dir.join("r.json"), dir.join("p.csv"), dir.join("p.json"));
+        let argv = [
+            "planner", "solve", "--scene", "free", "--seed", "3", "--time-limit", "5", "--json",
+        ];
+        let mut args: Vec<String> = argv.iter().map(|s| s.to_string()).collect();
+        args.push(json.display().to_string());
+        args.extend(["--path-csv".into(), csv.display().to_string()]);
+        args.extend(["--path-json".into(), pj.display().to_string()]);
+        assert_eq!(main_with_args(args).expect("runs"), 0);
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("parse");
+        assert_eq!(v["solved"], true);
+        for key in ["time_s", "nodes", "collision_checks", "path_length"] {
+            assert!(v[key].is_number(), "{key}: {v}");
+        }
+        let rows = std::fs::read_to_string(&csv).expect("csv");
+        assert!(rows.starts_with("x_m,y_m,z_m,qw,qx,qy,qz,arc_length\n") && rows.lines().count() >= 3);
+        let wp: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&pj).expect("pj")).expect("parse");
+        assert!(wp.as_array().is_some_and(|a| a.len() >= 2));
+        // A bad scene is an error naming it, not a panic.
+        let bad = ["planner", "solve", "--scene", "/nonexistent.toml"];
+        let e = main_with_args(bad).unwrap_err().to_string();
+        assert!(e.contains("/nonexistent.toml"), "{e}");
+    }
 }
