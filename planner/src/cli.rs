@@ -464,7 +464,14 @@ pub fn experiment(a: &ExperimentArgs) -> anyhow::Result<()> {
             .collect::<anyhow::Result<Vec<_>>>()?;
         ex::irrt_specs(&a.scene, &methods, &a.sigmas, &a.eps, a.seeds, limit)
     } else {
-        ex::hrrtc_specs(&a.scenes, &a.alphas, a.hrrtc_eps, a.error_sigma, a.seeds, limit)
+        ex::hrrtc_specs(
+            &a.scenes,
+            &a.alphas,
+            a.hrrtc_eps,
+            a.error_sigma,
+            a.seeds,
+            limit,
+        )
     };
     for s in &specs {
         s.params.validate()?;
@@ -472,7 +479,8 @@ pub fn experiment(a: &ExperimentArgs) -> anyhow::Result<()> {
             bail!("`{}` is not a built-in scene", s.scene);
         }
     }
-    std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create {}", a.out.display()))?;
     let bar = if a.quiet {
         indicatif::ProgressBar::hidden()
     } else {
@@ -492,7 +500,11 @@ pub fn experiment(a: &ExperimentArgs) -> anyhow::Result<()> {
             r.scene,
             r.method,
             r.seed,
-            if r.solved { format!("{:.2} s", r.time_s) } else { "unsolved".into() }
+            if r.solved {
+                format!("{:.2} s", r.time_s)
+            } else {
+                "unsolved".into()
+            }
         ));
         bar.inc(1);
         results.push(r);
@@ -557,7 +569,15 @@ mod tests {
         std::fs::create_dir_all(&dir).expect("dir");
         let (json, csv, pj) = (dir.join("r.json"), dir.join("p.csv"), dir.join("p.json"));
         let argv = [
-            "planner", "solve", "--scene", "free", "--seed", "3", "--time-limit", "5", "--json",
+            "planner",
+            "solve",
+            "--scene",
+            "free",
+            "--seed",
+            "3",
+            "--time-limit",
+            "5",
+            "--json",
         ];
         let mut args: Vec<String> = argv.iter().map(|s| s.to_string()).collect();
         args.push(json.display().to_string());
@@ -571,7 +591,9 @@ mod tests {
             assert!(v[key].is_number(), "{key}: {v}");
         }
         let rows = std::fs::read_to_string(&csv).expect("csv");
-        assert!(rows.starts_with("x_m,y_m,z_m,qw,qx,qy,qz,arc_length\n") && rows.lines().count() >= 3);
+        assert!(
+            rows.starts_with("x_m,y_m,z_m,qw,qx,qy,qz,arc_length\n") && rows.lines().count() >= 3
+        );
         let wp: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&pj).expect("pj")).expect("parse");
         assert!(wp.as_array().is_some_and(|a| a.len() >= 2));

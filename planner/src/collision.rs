@@ -289,7 +289,10 @@ mod tests {
         let (point, normal, d) = c
             .deepest_contact(&Se3::from_xyz(0.0595, 0.0, 0.0))
             .expect("contact");
-        assert!((d - 0.0005).abs() < 1e-9 && (normal.x - 1.0).abs() < 1e-9, "{normal}");
+        assert!(
+            (d - 0.0005).abs() < 1e-9 && (normal.x - 1.0).abs() < 1e-9,
+            "{normal}"
+        );
         assert!((point.x - 0.01).abs() < 1e-9, "{point}");
         assert!(c.deepest_contact(&scene.start).is_none());
         assert_eq!(c.penetration_m(&scene.start), 0.0);
@@ -356,7 +359,11 @@ mod tests {
         use std::sync::Arc;
         let boxes = Scene::wall_with_hole();
         let mut meshes = boxes.clone();
-        for part in meshes.obstacles.iter_mut().chain(meshes.moving_object.iter_mut()) {
+        for part in meshes
+            .obstacles
+            .iter_mut()
+            .chain(meshes.moving_object.iter_mut())
+        {
             let Primitive::Box { half_extents_m: h } = part.primitive else {
                 panic!("boxes")
             };
@@ -364,7 +371,10 @@ mod tests {
                 mesh: Arc::new(MeshData::cuboid("box", [h.x, h.y, h.z])),
             };
         }
-        let (a, b) = (CollisionChecker::new(&boxes), CollisionChecker::new(&meshes));
+        let (a, b) = (
+            CollisionChecker::new(&boxes),
+            CollisionChecker::new(&meshes),
+        );
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         let space = crate::space::Se3Space::new(boxes.bounds, Weights::default());
         let mut disagreements = 0;
@@ -398,7 +408,11 @@ mod tests {
             assert!(c.is_free(&s.goal), "{name}: goal collides");
             // Every scene but `free` needs more than the straight segment.
             let straight = c.edge_free(&s.start, &s.goal);
-            assert_eq!(straight, name == "free", "{name}: straight line free = {straight}");
+            assert_eq!(
+                straight,
+                name == "free",
+                "{name}: straight line free = {straight}"
+            );
         }
     }
 
@@ -408,7 +422,10 @@ mod tests {
         // Maze: the 45 mm passage at x = 0 takes the 60 × 30 mm block turned by 90°.
         let maze = Scene::maze();
         let c = CollisionChecker::new(&maze);
-        let turned = Se3::new(Vector3::zeros(), UnitQuaternion::from_euler_angles(0.0, 0.0, FRAC_PI_2));
+        let turned = Se3::new(
+            Vector3::zeros(),
+            UnitQuaternion::from_euler_angles(0.0, 0.0, FRAC_PI_2),
+        );
         assert!(c.is_free(&turned));
         assert!(!c.is_free(&Se3::identity()));
         // Crossing planes: flat in the first slit, upright in the second.
@@ -431,6 +448,9 @@ mod tests {
         assert!(!c.is_free(&Se3::from_xyz(0.0, 0.0, -0.15)));
         assert!(c.is_free(&Se3::from_xyz(-0.3, 0.0, 0.06)));
         assert!(c.is_free(&Se3::from_xyz(-0.3, 0.0, -0.15)));
-        assert!(c.edge_free(&Se3::from_xyz(-0.3, 0.0, 0.06), &Se3::from_xyz(-0.3, 0.0, -0.15)));
+        assert!(c.edge_free(
+            &Se3::from_xyz(-0.3, 0.0, 0.06),
+            &Se3::from_xyz(-0.3, 0.0, -0.15)
+        ));
     }
 }

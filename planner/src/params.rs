@@ -119,10 +119,8 @@ impl PlannerParams {
         let c = &self.contact;
         pos("contact.area_per_newton_m2", c.area_per_newton_m2)?;
         pos("contact.max_semi_axis_m", c.max_semi_axis_m)?;
-        if !(c.rotation_sigma_rad >= 0.0 && c.normal_offset_m >= 0.0)
-            || !c.rotation_sigma_rad.is_finite()
-            || !c.normal_offset_m.is_finite()
-        {
+        let non_negative = |v: f64| v.is_finite() && v >= 0.0;
+        if !(non_negative(c.rotation_sigma_rad) && non_negative(c.normal_offset_m)) {
             return Err(PlannerError::InvalidParam {
                 name: "contact",
                 reason: "rotation_sigma_rad and normal_offset_m must be finite and >= 0".into(),

@@ -96,7 +96,13 @@ mod tests {
         let c = CollisionChecker::new(&scene);
         // A zig-zag on the start side: shortcut to its two ends.
         let zig: Vec<Se3> = (0..9)
-            .map(|i| Se3::from_xyz(-0.25 + 0.01 * i as f64, if i % 2 == 0 { 0.0 } else { 0.1 }, 0.0))
+            .map(|i| {
+                Se3::from_xyz(
+                    -0.25 + 0.01 * i as f64,
+                    if i % 2 == 0 { 0.0 } else { 0.1 },
+                    0.0,
+                )
+            })
             .collect();
         let mut rng = ChaCha8Rng::seed_from_u64(1);
         let s = shortcut(&c, &zig, 200, &mut rng);

@@ -183,12 +183,10 @@ impl Planner {
         if report.solved {
             return report;
         }
-        let input = input
-            .filter(|u| u.q_user.is_finite())
-            .map(|u| UserInput {
-                q_user: self.space.project(&u.q_user),
-                contact: u.contact,
-            });
+        let input = input.filter(|u| u.q_user.is_finite()).map(|u| UserInput {
+            q_user: self.space.project(&u.q_user),
+            contact: u.contact,
+        });
         if let Some(u) = &input {
             self.track_user(&u.q_user);
         }
@@ -219,7 +217,9 @@ impl Planner {
     /// `q_rand` and its source. See [`crate::sampling`].
     fn sample(&mut self, input: Option<&UserInput>) -> (Se3, Source) {
         let sampling = self.params.sampling;
-        if self.params.algorithm == Algorithm::Rrt && self.rng.random::<f64>() < self.params.goal_bias {
+        if self.params.algorithm == Algorithm::Rrt
+            && self.rng.random::<f64>() < self.params.goal_bias
+        {
             return (self.goal, Source::Uniform);
         }
         let Some(u) = input else {

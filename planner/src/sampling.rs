@@ -73,9 +73,7 @@ impl Sampling {
     pub fn user_share(&self) -> f64 {
         match *self {
             Sampling::Uniform => 0.0,
-            Sampling::Pos { beta } | Sampling::Path { beta } => {
-                beta.map_or(1.0, |b| 1.0 - 1.0 / b)
-            }
+            Sampling::Pos { beta } | Sampling::Path { beta } => beta.map_or(1.0, |b| 1.0 - 1.0 / b),
             Sampling::Hrrtc { alpha } => 1.0 - alpha,
         }
     }
@@ -177,7 +175,11 @@ pub struct Ellipse {
 /// A unit tangent of the plane with normal `n` (unit): deterministic, for when no motion
 /// or tangential force gives a direction.
 fn any_tangent(n: &Vector3<f64>) -> Vector3<f64> {
-    let a = if n.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+    let a = if n.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
     (a - n * n.dot(&a)).normalize()
 }
 
@@ -293,7 +295,10 @@ mod tests {
         assert!((PI * e.semi_major_m * e.semi_minor_m - 5e-3).abs() < 1e-12);
         // Twice the force, twice the area.
         let e2 = haptic_ellipse(&contact([0.0, 0.0, -20.0], [0.0, 0.0, 0.0]), &p).expect("e");
-        assert!((e2.semi_major_m * e2.semi_minor_m / (e.semi_major_m * e.semi_minor_m) - 2.0).abs() < 1e-9);
+        assert!(
+            (e2.semi_major_m * e2.semi_minor_m / (e.semi_major_m * e.semi_minor_m) - 2.0).abs()
+                < 1e-9
+        );
         // 45° push: ba = e^(π/2), area unchanged, major axis along the motion's tangent part.
         let e = haptic_ellipse(&contact([5.0, 0.0, -5.0], [0.0, 0.001, -0.003]), &p).expect("e");
         assert!((e.phi_rad - PI / 4.0).abs() < 1e-12);
@@ -337,7 +342,10 @@ mod tests {
             assert_eq!(Sampling::parse(n, 3.0, 0.1).expect(n).name(), n);
         }
         assert!(Sampling::parse("nope", 3.0, 0.1).is_none());
-        assert!((Sampling::parse("pos+cs", 3.0, 0.0).expect("p").user_share() - 2.0 / 3.0).abs() < 1e-12);
+        assert!(
+            (Sampling::parse("pos+cs", 3.0, 0.0).expect("p").user_share() - 2.0 / 3.0).abs()
+                < 1e-12
+        );
         assert_eq!(Sampling::Pos { beta: None }.user_share(), 1.0);
         assert!((Sampling::Hrrtc { alpha: 0.2 }.user_share() - 0.8).abs() < 1e-12);
         assert!(Sampling::Hrrtc { alpha: 1.5 }.validate().is_err());

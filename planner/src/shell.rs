@@ -140,10 +140,7 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
         }
 
         if !planner.solved() {
-            let input = op
-                .state
-                .filter(|_| fresh)
-                .and_then(|s| user_input(&s));
+            let input = op.state.filter(|_| fresh).and_then(|s| user_input(&s));
             planner.iterate_input(input.as_ref());
             if planner.solved() {
                 let t = started.elapsed().as_secs_f64();

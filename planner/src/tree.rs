@@ -285,7 +285,8 @@ mod tests {
                 let (a, b) = (map[i], map[p.index()]);
                 assert!(
                     main.node(a).parent == Some(b) || main.node(b).parent == Some(a),
-                    "edge {i}-{}", p.0
+                    "edge {i}-{}",
+                    p.0
                 );
             }
         }

@@ -133,10 +133,13 @@ pub fn run(spec: &RunSpec) -> Result<RunResult, PlannerError> {
     }
     let s = planner.stats();
     let (eps_v, alpha) = match (spec.user, spec.params.sampling) {
-        (UserModel::PassThrough { eps_v } | UserModel::ContactSeeking { eps_v, .. }, Sampling::Hrrtc { alpha }) => {
-            (eps_v, alpha)
+        (
+            UserModel::PassThrough { eps_v } | UserModel::ContactSeeking { eps_v, .. },
+            Sampling::Hrrtc { alpha },
+        ) => (eps_v, alpha),
+        (UserModel::PassThrough { eps_v } | UserModel::ContactSeeking { eps_v, .. }, _) => {
+            (eps_v, f64::NAN)
         }
-        (UserModel::PassThrough { eps_v } | UserModel::ContactSeeking { eps_v, .. }, _) => (eps_v, f64::NAN),
         (UserModel::None, _) => (0.0, f64::NAN),
     };
     Ok(RunResult {
@@ -251,28 +254,52 @@ mod tests {
             seed: 3,
             time_limit_s: 5.0,
         };
-        let a = run(&spec(UserModel::PassThrough { eps_v: 0.01 }, Sampling::Pos { beta: None }))
-            .expect("run");
-        let b = run(&spec(UserModel::PassThrough { eps_v: 0.01 }, Sampling::Pos { beta: None }))
-            .expect("run");
+        let a = run(&spec(
+            UserModel::PassThrough { eps_v: 0.01 },
+            Sampling::Pos { beta: None },
+        ))
+        .expect("run");
+        let b = run(&spec(
+            UserModel::PassThrough { eps_v: 0.01 },
+            Sampling::Pos { beta: None },
+        ))
+        .expect("run");
         assert!(a.solved && b.solved);
-        assert_eq!((a.iterations, a.nodes, a.collision_checks), (b.iterations, b.nodes, b.collision_checks));
+        assert_eq!(
+            (a.iterations, a.nodes, a.collision_checks),
+            (b.iterations, b.nodes, b.collision_checks)
+        );
         assert_eq!(a.method, "pos");
         let h = run(&spec(
-            UserModel::ContactSeeking { eps_v: 0.01, error_sigma_rad: 0.1 },
+            UserModel::ContactSeeking {
+                eps_v: 0.01,
+                error_sigma_rad: 0.1,
+            },
             Sampling::Hrrtc { alpha: 0.5 },
         ))
         .expect("run");
         assert!(h.solved && h.alpha == 0.5 && h.method == "hrrtc");
         let auto = run(&spec(UserModel::None, Sampling::Uniform)).expect("run");
         assert_eq!((auto.method.as_str(), auto.eps_v), ("auto", 0.0));
-        assert!(run(&RunSpec { scene: "nope".into(), ..spec(UserModel::None, Sampling::Uniform) }).is_err());
+        assert!(
+            run(&RunSpec {
+                scene: "nope".into(),
+                ..spec(UserModel::None, Sampling::Uniform)
+            })
+            .is_err()
+        );
     }
 
     #[test]
     fn sweeps_enumerate_every_combination() {
-        let m = [Sampling::Pos { beta: None }, Sampling::Path { beta: Some(3.0) }];
-        assert_eq!(irrt_specs("maze", &m, &[0.01, 0.05], &[0.001], 3, 1.0).len(), 2 * 2 * 3);
+        let m = [
+            Sampling::Pos { beta: None },
+            Sampling::Path { beta: Some(3.0) },
+        ];
+        assert_eq!(
+            irrt_specs("maze", &m, &[0.01, 0.05], &[0.001], 3, 1.0).len(),
+            2 * 2 * 3
+        );
         let h = hrrtc_specs(&["tunnels".into()], &[0.0, 0.5], 0.002, 0.1, 4, 1.0);
         assert_eq!(h.len(), 4 * 3);
         assert_eq!(h.iter().filter(|s| s.user == UserModel::None).count(), 4);

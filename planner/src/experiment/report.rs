@@ -67,7 +67,10 @@ pub fn summarize(results: &[RunResult], limit_s: f64) -> Vec<Summary> {
     groups
         .into_values()
         .map(|g| {
-            let mut t: Vec<f64> = g.iter().map(|r| if r.solved { r.time_s } else { limit_s }).collect();
+            let mut t: Vec<f64> = g
+                .iter()
+                .map(|r| if r.solved { r.time_s } else { limit_s })
+                .collect();
             let mut it: Vec<f64> = g.iter().map(|r| r.iterations as f64).collect();
             let mut nd: Vec<f64> = g.iter().map(|r| r.nodes as f64).collect();
             Summary {
@@ -114,7 +117,11 @@ pub fn to_csv(results: &[RunResult]) -> String {
 }
 
 fn opt(v: f64) -> String {
-    if v.is_nan() { "–".into() } else { format!("{v}") }
+    if v.is_nan() {
+        "–".into()
+    } else {
+        format!("{v}")
+    }
 }
 
 /// The summaries as a markdown table.
@@ -129,8 +136,16 @@ pub fn to_markdown(summaries: &[Summary]) -> String {
             "| {} | {} | {} | {} | {} | {}/{} | {:.3} | {:.0} | {:.0} |",
             s.scene,
             s.method,
-            if s.method == "auto" || s.method == "hrrtc" { "–".into() } else { opt(s.sigma) },
-            if s.method == "auto" { "–".into() } else { opt(s.eps_v) },
+            if s.method == "auto" || s.method == "hrrtc" {
+                "–".into()
+            } else {
+                opt(s.sigma)
+            },
+            if s.method == "auto" {
+                "–".into()
+            } else {
+                opt(s.eps_v)
+            },
             opt(s.alpha),
             s.solved,
             s.runs,
@@ -180,7 +195,10 @@ pub fn plot_irrt(summaries: &[Summary], limit_s: f64, path: &Path) -> PlotResult
     );
     for (m, panel) in methods.iter().zip(panels.iter()) {
         let mut chart = ChartBuilder::on(panel)
-            .caption(format!("{m}: median time vs user speed"), ("sans-serif", 22))
+            .caption(
+                format!("{m}: median time vs user speed"),
+                ("sans-serif", 22),
+            )
             .margin(10)
             .x_label_area_size(40)
             .y_label_area_size(50)
@@ -190,7 +208,8 @@ pub fn plot_irrt(summaries: &[Summary], limit_s: f64, path: &Path) -> PlotResult
             .x_desc("ε_v (weighted m / iteration)")
             .y_desc("time (s)")
             .draw()?;
-        let sigmas: Vec<f64> = dedup_f(summaries.iter().filter(|s| &s.method == m).map(|s| s.sigma));
+        let sigmas: Vec<f64> =
+            dedup_f(summaries.iter().filter(|s| &s.method == m).map(|s| s.sigma));
         for (i, sigma) in sigmas.iter().enumerate() {
             let c = COLOURS[i % COLOURS.len()];
             let mut pts: Vec<(f64, f64)> = summaries
@@ -225,7 +244,11 @@ pub fn plot_hrrtc(summaries: &[Summary], limit_s: f64, path: &Path) -> PlotResul
             .x_label_area_size(40)
             .y_label_area_size(50)
             .build_cartesian_2d(-0.02..1.02, 0.0..limit_s * 1.05)?;
-        chart.configure_mesh().x_desc("α").y_desc("time (s)").draw()?;
+        chart
+            .configure_mesh()
+            .x_desc("α")
+            .y_desc("time (s)")
+            .draw()?;
         let mut pts: Vec<(f64, f64)> = summaries
             .iter()
             .filter(|s| &s.scene == scene && s.method == "hrrtc")
@@ -237,7 +260,10 @@ pub fn plot_hrrtc(summaries: &[Summary], limit_s: f64, path: &Path) -> PlotResul
             .label("H-RRT-C, simulated operator")
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE));
         chart.draw_series(pts.iter().map(|p| Circle::new(*p, 4, BLUE.filled())))?;
-        if let Some(a) = summaries.iter().find(|s| &s.scene == scene && s.method == "auto") {
+        if let Some(a) = summaries
+            .iter()
+            .find(|s| &s.scene == scene && s.method == "auto")
+        {
             let level = a.median_time_s;
             chart
                 .draw_series(DashedLineSeries::new(
@@ -308,12 +334,28 @@ mod tests {
         let s = summarize(&rs, 10.0);
         assert_eq!(s.len(), 2);
         let pos = s.iter().find(|x| x.method == "pos").expect("pos");
-        assert_eq!((pos.runs, pos.solved, pos.median_time_s, pos.median_iterations), (3, 2, 2.0, 20.0));
+        assert_eq!(
+            (
+                pos.runs,
+                pos.solved,
+                pos.median_time_s,
+                pos.median_iterations
+            ),
+            (3, 2, 2.0, 20.0)
+        );
         let md = to_markdown(&s);
-        assert!(md.contains("| maze | pos | 0.05 | 0.001 | – | 2/3 | 2.000 | 20 | 2 |"), "{md}");
+        assert!(
+            md.contains("| maze | pos | 0.05 | 0.001 | – | 2/3 | 2.000 | 20 | 2 |"),
+            "{md}"
+        );
         let csv = to_csv(&rs);
         assert_eq!(csv.lines().count(), 5);
-        assert!(csv.lines().nth(2).expect("row").starts_with("maze,pos,0.05,0.001,NaN,2,false,"));
+        assert!(
+            csv.lines()
+                .nth(2)
+                .expect("row")
+                .starts_with("maze,pos,0.05,0.001,NaN,2,false,")
+        );
         assert!(median(&mut []).is_nan());
         assert_eq!(median(&mut [3.0, 1.0]), 2.0);
     }
@@ -323,7 +365,11 @@ mod tests {
         if !register_font() {
             return; // No system font: plots are skipped by design (see `register_font`).
         }
-        let rs = vec![r("pos", 0.001, 1, true, 1.0), r("pos", 0.01, 1, true, 0.5), r("path", 0.001, 1, true, 2.0)];
+        let rs = vec![
+            r("pos", 0.001, 1, true, 1.0),
+            r("pos", 0.01, 1, true, 0.5),
+            r("path", 0.001, 1, true, 2.0),
+        ];
         let s = summarize(&rs, 10.0);
         let dir = std::env::temp_dir().join(format!("planner-plot-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("dir");

@@ -97,7 +97,11 @@ impl SimUser {
             return self.keyframes[0];
         }
         let (a, b) = (self.arc[i - 1], self.arc[i]);
-        let t = if b > a { ((s - a) / (b - a)).clamp(0.0, 1.0) } else { 1.0 };
+        let t = if b > a {
+            ((s - a) / (b - a)).clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
         space.interpolate(&self.keyframes[i - 1], &self.keyframes[i], t)
     }
 
@@ -162,8 +166,16 @@ pub fn keyframes(scene: &str) -> Option<Vec<Se3>> {
                 "tunnels-1axis" => (false, false),
                 _ => (true, true),
             };
-            let ra = UnitQuaternion::from_euler_angles(35.0 * deg, if a2 { 20.0 * deg } else { 0.0 }, 0.0);
-            let rb = UnitQuaternion::from_euler_angles(-50.0 * deg, 0.0, if b2 { 25.0 * deg } else { 0.0 });
+            let ra = UnitQuaternion::from_euler_angles(
+                35.0 * deg,
+                if a2 { 20.0 * deg } else { 0.0 },
+                0.0,
+            );
+            let rb = UnitQuaternion::from_euler_angles(
+                -50.0 * deg,
+                0.0,
+                if b2 { 25.0 * deg } else { 0.0 },
+            );
             // Cross each plate along its own normal, from 45 mm before its centre to 80 mm
             // after (the stem trails the bar by 70 mm).
             let (ca, cb) = (Vector3::new(0.15, 0.0, 0.0), Vector3::new(-0.15, 0.0, 0.0));
@@ -212,13 +224,24 @@ mod tests {
 
     #[test]
     fn operator_paths_are_free_densely_and_run_start_to_goal() {
-        for name in ["maze", "tunnels", "tunnels-1axis", "tunnels-2axes", "crossing-planes", "silencer", "free"] {
+        for name in [
+            "maze",
+            "tunnels",
+            "tunnels-1axis",
+            "tunnels-2axes",
+            "crossing-planes",
+            "silencer",
+            "free",
+        ] {
             let scene = Scene::builtin(name).expect("scene");
             let c = CollisionChecker::new(&scene);
             let k = keyframes(name).expect("keyframes");
             let space = Space::for_scene(&scene, Weights::default());
             assert!(space.distance(&k[0], &scene.start) < 1e-9, "{name} start");
-            assert!(space.distance(&k[k.len() - 1], &scene.goal) < 1e-9, "{name} goal");
+            assert!(
+                space.distance(&k[k.len() - 1], &scene.goal) < 1e-9,
+                "{name} goal"
+            );
             for (i, w) in k.windows(2).enumerate() {
                 assert!(c.edge_free(&w[0], &w[1]), "{name}: segment {i} collides");
             }

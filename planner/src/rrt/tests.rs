@@ -31,7 +31,10 @@ fn solves_an_easy_scene_with_valid_path() {
         }
         let raw = p.raw_solution().expect("raw");
         for w in raw.windows(2) {
-            assert!(p.checker().edge_free(&w[0], &w[1]), "seed {seed}: bad raw edge");
+            assert!(
+                p.checker().edge_free(&w[0], &w[1]),
+                "seed {seed}: bad raw edge"
+            );
             assert!(p.space().distance(&w[0], &w[1]) <= p.params().step + 1e-12);
         }
         let len = |q: &[Se3]| crate::space::path_length(p.space(), q);
@@ -283,7 +286,10 @@ fn rrt_baseline_solves_the_free_scene() {
     let mut p = Planner::new(&scene, params, 1).expect("p");
     run(&mut p, 5_000, None).expect("solved");
     let raw = p.raw_solution().expect("raw");
-    assert_eq!((raw[0], *raw.last().expect("last")), (scene.start, scene.goal));
+    assert_eq!(
+        (raw[0], *raw.last().expect("last")),
+        (scene.start, scene.goal)
+    );
     assert!(raw.windows(2).all(|w| p.checker().edge_free(&w[0], &w[1])));
     assert_eq!(p.stats().trees, 2);
 }
@@ -350,8 +356,8 @@ fn path_sampling_follows_the_travelled_path() {
 fn planar_maze_trees_stay_planar_and_runs_are_deterministic() {
     let scene = Scene::maze();
     let grow = || {
-        let mut p = Planner::new(&scene, with(crate::Sampling::Pos { beta: Some(3.0) }), 9)
-            .expect("p");
+        let mut p =
+            Planner::new(&scene, with(crate::Sampling::Pos { beta: Some(3.0) }), 9).expect("p");
         for i in 0..200 {
             let q = Se3::from_rpy(
                 nalgebra::Vector3::new(-0.35 + 0.001 * i as f64, -0.35, 0.02),
@@ -369,7 +375,11 @@ fn planar_maze_trees_stay_planar_and_runs_are_deterministic() {
         for n in t.nodes() {
             assert_eq!(n.config.pos.z, 0.0);
             let axis = n.config.rot.axis();
-            assert!(axis.is_none_or(|v| v.z.abs() > 1.0 - 1e-9), "{:?}", n.config);
+            assert!(
+                axis.is_none_or(|v| v.z.abs() > 1.0 - 1e-9),
+                "{:?}",
+                n.config
+            );
         }
     }
     assert!(a.stats().nodes > 20);

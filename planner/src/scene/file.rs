@@ -174,14 +174,15 @@ pub(super) fn parse(text: &str, origin: &str) -> Result<Scene, SceneError> {
                 }
                 (ShapeKind::Mesh, (None, None, Some(f), scale)) => {
                     let path = base_dir.join(f);
-                    let mesh = MeshData::load(&path, scale.map_or(1.0, |s| s.0)).map_err(
-                        |source| SceneError::Mesh {
-                            origin: origin.to_owned(),
-                            line,
-                            field: format!("{field}.file"),
-                            source,
-                        },
-                    )?;
+                    let mesh =
+                        MeshData::load(&path, scale.map_or(1.0, |s| s.0)).map_err(|source| {
+                            SceneError::Mesh {
+                                origin: origin.to_owned(),
+                                line,
+                                field: format!("{field}.file"),
+                                source: Box::new(source),
+                            }
+                        })?;
                     Primitive::Mesh {
                         mesh: Arc::new(mesh),
                     }
@@ -364,18 +365,29 @@ radius_m = 0.1
             panic!("mesh part")
         };
         assert!((s.object_radius_m() - 0.1).abs() < 1e-9 && mesh.triangles.len() == 4);
-        let e = Scene::from_toml_str(&with("m/bad.obj", ""), &origin).unwrap_err().to_string();
+        let e = Scene::from_toml_str(&with("m/bad.obj", ""), &origin)
+            .unwrap_err()
+            .to_string();
         assert!(
-            e.contains("s.toml:9") && e.contains("moving_object[0].file") && e.contains("bad.obj:2"),
+            e.contains("s.toml:9")
+                && e.contains("moving_object[0].file")
+                && e.contains("bad.obj:2"),
             "{e}"
         );
-        let e = Scene::from_toml_str(&with("m/none.stl", ""), &origin).unwrap_err().to_string();
-        assert!(e.contains("none.stl") && e.contains("moving_object[0]"), "{e}");
+        let e = Scene::from_toml_str(&with("m/none.stl", ""), &origin)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("none.stl") && e.contains("moving_object[0]"),
+            "{e}"
+        );
         let e = Scene::from_toml_str(&with("m/tet.obj", "radius_m = 1.0"), &origin)
             .unwrap_err()
             .to_string();
         assert!(e.contains("moving_object[0]") && e.contains("mesh"), "{e}");
-        let e = Scene::from_toml_str(&with("m/tet.obj", "scale = 0"), &origin).unwrap_err().to_string();
+        let e = Scene::from_toml_str(&with("m/tet.obj", "scale = 0"), &origin)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("> 0"), "{e}");
         let e = Scene::from_toml_str(&format!("space = \"plane\"\n{MINIMAL}"), &origin)
             .unwrap_err()

@@ -69,7 +69,10 @@ impl MeshData {
         if triangles.is_empty() {
             return Err(bad("mesh has no triangles".into()));
         }
-        if let Some(i) = vertices_m.iter().position(|v| !v.iter().all(|c| c.is_finite())) {
+        if let Some(i) = vertices_m
+            .iter()
+            .position(|v| !v.iter().all(|c| c.is_finite()))
+        {
             return Err(bad(format!("vertex {i} is not finite")));
         }
         let n = vertices_m.len();
@@ -143,7 +146,10 @@ impl MeshData {
     }
 }
 
-fn read_obj(path: &Path, name: &str) -> Result<(Vec<Vector3<f64>>, Vec<[u32; 3]>), MeshError> {
+/// Vertices (file units) and triangles as read, before scaling and validation.
+type RawMesh = (Vec<Vector3<f64>>, Vec<[u32; 3]>);
+
+fn read_obj(path: &Path, name: &str) -> Result<RawMesh, MeshError> {
     let text = std::fs::read_to_string(path).map_err(|source| MeshError::Io {
         path: name.to_owned(),
         source,
@@ -163,20 +169,24 @@ fn read_obj(path: &Path, name: &str) -> Result<(Vec<Vector3<f64>>, Vec<[u32; 3]>
     };
     let mut reader = BufReader::new(text.as_bytes());
     // Materials are irrelevant to collision: ignore any `mtllib`.
-    let (models, _) = tobj::load_obj_buf(&mut reader, &opts, |_| {
-        Err(tobj::LoadError::GenericFailure)
-    })
-    .map_err(|e| MeshError::Format {
-        path: name.to_owned(),
-        line: None,
-        reason: format!("OBJ: {e}"),
-    })?;
+    let (models, _) =
+        tobj::load_obj_buf(&mut reader, &opts, |_| Err(tobj::LoadError::GenericFailure)).map_err(
+            |e| MeshError::Format {
+                path: name.to_owned(),
+                line: None,
+                reason: format!("OBJ: {e}"),
+            },
+        )?;
     let mut vertices = Vec::new();
     let mut triangles = Vec::new();
     for m in &models {
         let base = vertices.len() as u32;
         for p in m.mesh.positions.chunks_exact(3) {
-            vertices.push(Vector3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])));
+            vertices.push(Vector3::new(
+                f64::from(p[0]),
+                f64::from(p[1]),
+                f64::from(p[2]),
+            ));
         }
         for t in m.mesh.indices.chunks_exact(3) {
             triangles.push([base + t[0], base + t[1], base + t[2]]);
@@ -230,7 +240,7 @@ fn obj_first_bad_line(text: &str) -> Option<(usize, String)> {
     None
 }
 
-fn read_stl(path: &Path, name: &str) -> Result<(Vec<Vector3<f64>>, Vec<[u32; 3]>), MeshError> {
+fn read_stl(path: &Path, name: &str) -> Result<RawMesh, MeshError> {
     let file = std::fs::File::open(path).map_err(|source| MeshError::Io {
         path: name.to_owned(),
         source,

@@ -160,8 +160,8 @@ pub enum SceneError {
         line: Option<usize>,
         /// The part, e.g. `moving_object[0]`.
         field: String,
-        /// The mesh error.
-        source: MeshError,
+        /// The mesh error (boxed: keeps `SceneError` small).
+        source: Box<MeshError>,
     },
     /// The scene parsed but a field is invalid.
     #[error("{origin}{}: field `{field}`: {reason}", line.map(|l| format!(":{l}")).unwrap_or_default())]
@@ -176,7 +176,6 @@ pub enum SceneError {
         reason: String,
     },
 }
-
 
 impl Scene {
     /// The embedded default scene, I-RRT §5.3 "Simple 6D case".
@@ -289,8 +288,15 @@ impl Scene {
                     Primitive::Sphere { radius_m } => radius_m.is_finite() && *radius_m > 0.0,
                     Primitive::Mesh { mesh } => {
                         !mesh.triangles.is_empty()
-                            && mesh.vertices_m.iter().all(|v| v.iter().all(|c| c.is_finite()))
-                            && mesh.triangles.iter().flatten().all(|&i| (i as usize) < mesh.vertices_m.len())
+                            && mesh
+                                .vertices_m
+                                .iter()
+                                .all(|v| v.iter().all(|c| c.is_finite()))
+                            && mesh
+                                .triangles
+                                .iter()
+                                .flatten()
+                                .all(|&i| (i as usize) < mesh.vertices_m.len())
                     }
                 };
                 if !ok {
@@ -308,7 +314,9 @@ impl Scene {
         }
         if self.space == SpaceKind::Planar {
             let tilt = self.goal.rot * self.start.rot.inverse();
-            let about_z = tilt.axis().is_none_or(|a| a.x.abs() < 1e-9 && a.y.abs() < 1e-9);
+            let about_z = tilt
+                .axis()
+                .is_none_or(|a| a.x.abs() < 1e-9 && a.y.abs() < 1e-9);
             if (self.goal.pos.z - self.start.pos.z).abs() > 1e-9 || !about_z {
                 return Err(bad(
                     "goal".into(),

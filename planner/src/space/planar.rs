@@ -102,12 +102,20 @@ impl ConfigSpace for PlanarSpace {
     }
 
     fn contains(&self, q: &Se3) -> bool {
-        self.bounds.contains(&Vector3::new(q.pos.x, q.pos.y, self.z_m))
+        self.bounds
+            .contains(&Vector3::new(q.pos.x, q.pos.y, self.z_m))
     }
 
     fn delta(&self, from: &Se3, to: &Se3) -> Vector6<f64> {
         let dt = wrap_angle(self.theta(to) - self.theta(from));
-        Vector6::new(to.pos.x - from.pos.x, to.pos.y - from.pos.y, 0.0, 0.0, 0.0, dt)
+        Vector6::new(
+            to.pos.x - from.pos.x,
+            to.pos.y - from.pos.y,
+            0.0,
+            0.0,
+            0.0,
+            dt,
+        )
     }
 
     fn project(&self, q: &Se3) -> Se3 {
