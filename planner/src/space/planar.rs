@@ -121,6 +121,11 @@ impl ConfigSpace for PlanarSpace {
     fn project(&self, q: &Se3) -> Se3 {
         self.config(q.pos.x, q.pos.y, self.theta(q))
     }
+
+    fn translation_factor(&self) -> f64 {
+        // Configurations of this space share z = z_m, so |Δp| is the planar |Δ(x, y)|.
+        self.weights.translation.sqrt()
+    }
 }
 
 /// The configuration space of a scene: SE(3) or planar.
@@ -183,6 +188,9 @@ impl ConfigSpace for Space {
     }
     fn project(&self, q: &Se3) -> Se3 {
         self.inner().project(q)
+    }
+    fn translation_factor(&self) -> f64 {
+        self.inner().translation_factor()
     }
 }
 
