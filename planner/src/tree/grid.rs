@@ -51,9 +51,9 @@ impl Grid {
     /// Records node `id` at `q`.
     pub fn insert(&mut self, id: u32, q: &Se3) {
         let k = self.key(q);
-        for i in 0..3 {
-            self.lo[i] = self.lo[i].min(k[i]);
-            self.hi[i] = self.hi[i].max(k[i]);
+        for (i, &ki) in k.iter().enumerate() {
+            self.lo[i] = self.lo[i].min(ki);
+            self.hi[i] = self.hi[i].max(ki);
         }
         self.cells.entry(k).or_default().push(id);
     }
