@@ -1,1 +1,4 @@
-//! Benchmarks live in `benches/` (criterion); this library is empty on purpose.
+//! Shared fixtures of the benchmarks (criterion benches in `benches/`, harness binaries in
+//! `src/bin/`).
+
+pub mod contact_fixture;

@@ -2,6 +2,7 @@
 //! (the loop plus a planner child process, a scripted operator heading for the hole, and a
 //! summary). Arguments are parsed here, validated into a [`LoopSetup`], then run.
 
+use crate::contact::{ContactConfig, ContactModel, ContactStage, Coupling, VoxmapConfig};
 use crate::guidance::GuidanceConfig;
 use crate::mapping::{Mapping, MappingConfig};
 use crate::relay::Relay;
@@ -9,9 +10,10 @@ use crate::rt::RtOptions;
 use crate::runner::{self, LoopReport, RunnerConfig};
 use crate::safety::SafetyConfig;
 use crate::stats::{Percentiles, SecondSummary};
-use crate::tick::{Tick, TickConfig};
+use crate::tick::{GuidanceSource, StateSink, Tick, TickConfig};
 use anyhow::{Context, bail};
 use clap::Args;
+use devices::HapticDevice;
 use devices::sim::{ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmConfig, Waypoint};
 use ipc_types::Guidance;
 use ipc_types::services::{self, PathSubscriber, StateReader};
@@ -55,11 +57,17 @@ pub struct LoopArgs {
     #[arg(long, default_value_t = 200.0)]
     pub fade_ms: f64,
     /// Speed of the simulated operator's hand, m/s at the device.
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.02)]
     pub user_speed: f64,
     /// RMS amplitude of the simulated operator's tremor, m (0 = none).
     #[arg(long, default_value_t = 0.0)]
     pub tremor_m: f64,
+    /// Voxel size of the contact voxmap and pointshell spacing, mm (0.25–20).
+    #[arg(long, default_value_t = 1.0)]
+    pub voxel_mm: f64,
+    /// Render no contact: the object follows the hand through obstacles.
+    #[arg(long)]
+    pub no_contact: bool,
     /// Write the summary as JSON here.
     #[arg(long)]
     pub summary_json: Option<PathBuf>,
@@ -88,6 +96,9 @@ pub struct DemoArgs {
     /// Keep running this long after the solution, so its guidance can be felt.
     #[arg(long, default_value_t = 3.0)]
     pub after_solve_s: f64,
+    /// Run at least this long, so the scripted operator reaches the wall.
+    #[arg(long, default_value_t = 8.0)]
+    pub min_run_s: f64,
     /// Planner RNG seed.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -110,6 +121,8 @@ pub struct LoopSetup {
     pub arm: SimulatedArmConfig,
     /// Simulated operator.
     pub user: ScriptedUserConfig,
+    /// Contact rendering parameters; `None` = contact off.
+    pub contact: Option<ContactConfig>,
 }
 
 impl LoopArgs {
@@ -155,6 +168,16 @@ impl LoopArgs {
         }
         services::validate_namespace(&self.namespace)
             .map_err(|e| anyhow::anyhow!("--namespace: {e}"))?;
+        if !(self.voxel_mm.is_finite() && (0.25..=20.0).contains(&self.voxel_mm)) {
+            bail!("--voxel-mm must be within 0.25–20, got {}", self.voxel_mm);
+        }
+        let contact = (!self.no_contact).then(|| ContactConfig {
+            voxmap: VoxmapConfig {
+                voxel_m: self.voxel_mm / 1000.0,
+                ..VoxmapConfig::default()
+            },
+            ..ContactConfig::default()
+        });
         let arm = SimulatedArmConfig::default();
         // Scene origin of the device: the middle of start and goal, so both are reachable.
         let mid = (scene.start.pos + scene.goal.pos) / 2.0;
@@ -203,15 +226,41 @@ impl LoopArgs {
                 tremor_amplitude_m: self.tremor_m,
                 ..ScriptedUserConfig::default()
             },
+            contact,
         })
     }
 }
 
-/// The scripted operator of the demo, scene frame: from the start to 10 cm before the wall,
-/// a pause to line up, straight through the hole's centre, to the goal, then hold.
-/// (Without contact rendering the hand may pass through the wall: the planner uses the
-/// operator's configuration as a hint, as in I-RRT §5, where "the user [may] go through
-/// obstacles".)
+impl LoopSetup {
+    /// Builds the contact stage (voxmap, pointshell, coupling) when contact is on, and logs
+    /// its size and build time.
+    pub fn contact_stage(
+        &self,
+        spec: &devices::DeviceSpec,
+    ) -> anyhow::Result<Option<ContactStage>> {
+        let Some(config) = self.contact else {
+            return Ok(None);
+        };
+        config.validate().map_err(|e| anyhow::anyhow!(e))?;
+        let model = ContactModel::from_scene(&self.scene, &config.voxmap)
+            .map_err(|e| anyhow::anyhow!("scene '{}': {e}", self.scene.name))?;
+        tracing::info!("contact: {}", model.describe());
+        let coupling = Coupling::from_spec(
+            spec,
+            self.tick.mapping.position_scale,
+            config.coupling_fraction,
+        );
+        Ok(Some(ContactStage::new(Arc::new(model), config, coupling)))
+    }
+}
+
+/// The scripted operator of the demo, scene frame: from the start to the wall 12 cm beside
+/// the hole, pushing 2 cm into it (contact stops the object; the hand feels the wall), back
+/// out, to 10 cm before the hole, a pause to line up, straight through the hole's centre, to
+/// the goal, then hold. The S does not fit through the hole in its start orientation, so
+/// with contact on the object stays in front of the wall until the planner's guidance
+/// turns it; the planner uses the operator's configuration as a hint (I-RRT §5, where "the
+/// user [may] go through obstacles").
 pub fn demo_route(scene: &Scene) -> Vec<(Isometry3<f64>, f64)> {
     let start = scene.start.to_isometry();
     let goal = scene.goal.to_isometry();
@@ -222,8 +271,16 @@ pub fn demo_route(scene: &Scene) -> Vec<(Isometry3<f64>, f64)> {
         p.translation.vector.z = 0.0;
         p
     };
+    let beside = |x: f64| {
+        let mut p = toward(x);
+        p.translation.vector.y = 0.12;
+        p
+    };
     vec![
         (start, 0.5),
+        (beside(-0.1), 0.0),
+        (beside(-0.04), 1.0),
+        (beside(-0.1), 0.0),
         (toward(-0.1), 1.0),
         (toward(0.1), 0.0),
         (goal, 0.0),
@@ -272,6 +329,43 @@ pub struct Summary {
     pub planner_iterations: u64,
     /// Planner nodes at the end.
     pub planner_nodes: u64,
+    /// Contact rendering figures; `null` when contact was off.
+    pub contact: Option<ContactSummary>,
+}
+
+/// What contact rendering did during a run.
+#[derive(Debug, Clone, Serialize)]
+pub struct ContactSummary {
+    /// Time spent in contact, s.
+    pub contact_s: f64,
+    /// Deepest penetration of the proxy into the scene, mm.
+    pub max_penetration_mm: f64,
+    /// Voxel size, mm.
+    pub voxel_mm: f64,
+    /// Pointshell points.
+    pub points: usize,
+    /// Voxmap memory, MB.
+    pub voxmap_mb: f64,
+    /// Voxmap build time, s.
+    pub voxmap_build_s: f64,
+}
+
+impl ContactSummary {
+    fn of<D: HapticDevice, G: GuidanceSource, S: StateSink>(
+        tick: &Tick<D, G, S>,
+        period_s: f64,
+    ) -> Option<Self> {
+        let model = tick.contact()?.model();
+        let report = model.voxmap().report();
+        Some(Self {
+            contact_s: tick.contact_ticks() as f64 * period_s,
+            max_penetration_mm: tick.max_penetration_m() * 1e3,
+            voxel_mm: report.voxel_m * 1e3,
+            points: model.pointshell().len(),
+            voxmap_mb: report.memory_bytes as f64 / 1e6,
+            voxmap_build_s: report.build_time.as_secs_f64(),
+        })
+    }
 }
 
 impl Summary {
@@ -284,6 +378,7 @@ impl Summary {
         solved: bool,
         solved_at: Option<Duration>,
         path: Option<(u64, f64)>,
+        contact: Option<ContactSummary>,
     ) -> Self {
         Self {
             solved,
@@ -298,6 +393,7 @@ impl Summary {
             planner_iterations: guidance.iterations,
             planner_nodes: guidance.nodes,
             loop_report: report,
+            contact,
         }
     }
 }
@@ -328,6 +424,13 @@ fn print_summary(s: &Summary) {
         c.p50, c.p99, c.p999, c.max
     );
     println!("deadline misses:   {}", s.deadline_misses);
+    match &s.contact {
+        Some(c) => println!(
+            "contact:           {:.2} s in contact, max penetration {:.3} mm ({} points, {} mm voxels)",
+            c.contact_s, c.max_penetration_mm, c.points, c.voxel_mm
+        ),
+        None => println!("contact:           off"),
+    }
     match s.allocations_per_tick {
         Some(a) => println!(
             "allocations/tick:  {a} ({} on the RT thread)",
@@ -405,9 +508,10 @@ impl Progress {
 /// Runs the loop until `done` says so; returns the loop report and run time.
 fn run_loop(
     setup: &LoopSetup,
+    contact: Option<ContactStage>,
     stop: &AtomicBool,
     mut done: impl FnMut(&Watch) -> bool,
-) -> anyhow::Result<(LoopReport, f64, Watch)> {
+) -> anyhow::Result<(LoopReport, f64, Watch, Option<ContactSummary>)> {
     let (node, cleaned) = services::create_node(&format!("haptic_loop_{}", std::process::id()))?;
     if cleaned > 0 {
         tracing::info!("removed resources of {cleaned} dead iceoryx2 node(s)");
@@ -425,8 +529,11 @@ fn run_loop(
         _node: node,
     };
     let arm = simulated_arm(setup, &demo_route(&setup.scene))?;
-    let tick = Tick::new(arm, &setup.tick, guidance_source, state_writer)
+    let mut tick = Tick::new(arm, &setup.tick, guidance_source, state_writer)
         .map_err(|e| anyhow::anyhow!("cannot open the simulated arm: {e}"))?;
+    if let Some(stage) = contact {
+        tick = tick.with_contact(stage);
+    }
     let started = Instant::now();
     let handle = runner::spawn(tick, setup.runner, move |s| {
         tracing::info!("{}", progress.line(s));
@@ -434,9 +541,10 @@ fn run_loop(
     while !stop.load(Ordering::Acquire) && !handle.is_finished() && !done(&watch) {
         std::thread::sleep(Duration::from_millis(20));
     }
-    let (_tick, report) = handle.join();
+    let (tick, report) = handle.join();
     let run_s = started.elapsed().as_secs_f64();
-    Ok((report, run_s, watch))
+    let contact = ContactSummary::of(&tick, setup.tick.period_s);
+    Ok((report, run_s, watch, contact))
 }
 
 fn finish(summary: &Summary, json: Option<&PathBuf>) -> anyhow::Result<()> {
@@ -451,6 +559,8 @@ fn finish(summary: &Summary, json: Option<&PathBuf>) -> anyhow::Result<()> {
 /// `haptic-loop run`: the loop with the simulated arm, no planner of its own.
 pub fn run(args: &RunArgs) -> anyhow::Result<i32> {
     let setup = args.common.to_setup()?;
+    // Build the voxmap before anything starts: it takes seconds at fine voxel sizes.
+    let contact = setup.contact_stage(&setup.arm.spec())?;
     let stop = install_stop_handler()?;
     let duration = args
         .duration_s
@@ -469,11 +579,11 @@ pub fn run(args: &RunArgs) -> anyhow::Result<i32> {
         setup.scene.name
     );
     let started = Instant::now();
-    let (report, run_s, watch) = run_loop(&setup, &stop, |_| {
+    let (report, run_s, watch, contact) = run_loop(&setup, contact, &stop, |_| {
         duration.is_some_and(|d| started.elapsed() >= d)
     })?;
     let g = watch.relay.newest();
-    let summary = Summary::new(report, run_s, &g, g.solved == 1, None, None);
+    let summary = Summary::new(report, run_s, &g, g.solved == 1, None, None, contact);
     finish(&summary, args.common.summary_json.as_ref())?;
     Ok(0)
 }
@@ -482,6 +592,8 @@ pub fn run(args: &RunArgs) -> anyhow::Result<i32> {
 /// solved within the time limit, 1 when not.
 pub fn demo(args: &DemoArgs) -> anyhow::Result<i32> {
     let setup = args.common.to_setup()?;
+    // Build the voxmap before anything starts: it takes seconds at fine voxel sizes.
+    let contact = setup.contact_stage(&setup.arm.spec())?;
     if !(args.time_limit_s.is_finite() && args.time_limit_s > 0.0) {
         bail!(
             "--time-limit-s must be a finite number > 0, got {}",
@@ -492,6 +604,12 @@ pub fn demo(args: &DemoArgs) -> anyhow::Result<i32> {
         bail!(
             "--after-solve-s must be a finite number >= 0, got {}",
             args.after_solve_s
+        );
+    }
+    if !(args.min_run_s.is_finite() && args.min_run_s >= 0.0) {
+        bail!(
+            "--min-run-s must be a finite number >= 0, got {}",
+            args.min_run_s
         );
     }
     let stop = install_stop_handler()?;
@@ -524,10 +642,11 @@ pub fn demo(args: &DemoArgs) -> anyhow::Result<i32> {
     let started = Instant::now();
     let limit = Duration::from_secs_f64(args.time_limit_s);
     let after = Duration::from_secs_f64(args.after_solve_s);
+    let min_run = Duration::from_secs_f64(args.min_run_s);
     let mut solved_at: Option<Duration> = None;
     let mut path: Option<(u64, f64)> = None;
     let mut child_exited = None;
-    let result = run_loop(&setup, &stop, |watch| {
+    let result = run_loop(&setup, contact, &stop, |watch| {
         let elapsed = started.elapsed();
         if let Some(p) = watch.newest_path() {
             path = Some(p);
@@ -545,7 +664,7 @@ pub fn demo(args: &DemoArgs) -> anyhow::Result<i32> {
             child_exited = Some(status);
         }
         match solved_at {
-            Some(t) => elapsed >= t + after,
+            Some(t) => elapsed >= (t + after).max(min_run),
             None => elapsed >= limit,
         }
     });
@@ -564,13 +683,21 @@ pub fn demo(args: &DemoArgs) -> anyhow::Result<i32> {
         }
         let _ = child.wait();
     }
-    let (report, run_s, watch) = result?;
+    let (report, run_s, watch, contact) = result?;
 
     let g = watch.relay.newest();
     if let Some(p) = watch.newest_path() {
         path = Some(p);
     }
-    let summary = Summary::new(report, run_s, &g, solved_at.is_some(), solved_at, path);
+    let summary = Summary::new(
+        report,
+        run_s,
+        &g,
+        solved_at.is_some(),
+        solved_at,
+        path,
+        contact,
+    );
     finish(&summary, args.common.summary_json.as_ref())?;
     if stop.load(Ordering::Acquire) && !summary.solved {
         return Ok(130);

@@ -13,6 +13,7 @@
 
 pub mod alloc_count;
 pub mod app;
+pub mod contact;
 pub mod guidance;
 pub mod mapping;
 pub mod relay;

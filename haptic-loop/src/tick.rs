@@ -4,6 +4,7 @@
 //! what the RT thread calls once per period (see `runner`). It reads no clock itself: the
 //! tick time is passed in, so tests and benches drive it in lockstep.
 
+use crate::contact::{Anchor, ContactStage};
 use crate::guidance::{GuidanceConfig, GuidanceFilter, RenderedGuidance};
 use crate::mapping::{Mapping, MappingConfig};
 use crate::safety::{Safety, SafetyConfig};
@@ -91,6 +92,9 @@ pub struct Tick<D, G, S> {
     state: HapticState,
     guidance_age_ns: u64,
     pid: u32,
+    contact: Option<ContactStage>,
+    contact_ticks: u64,
+    max_penetration_m: f64,
 }
 
 impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
@@ -118,7 +122,31 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
             state: HapticState::default(),
             guidance_age_ns: 0,
             pid: std::process::id(),
+            contact: None,
+            contact_ticks: 0,
+            max_penetration_m: 0.0,
         })
+    }
+
+    /// Turns contact rendering on with `stage` (built at init: voxmap, pointshell, coupling).
+    pub fn with_contact(mut self, stage: ContactStage) -> Self {
+        self.contact = Some(stage);
+        self
+    }
+
+    /// The contact stage, when contact rendering is on.
+    pub fn contact(&self) -> Option<&ContactStage> {
+        self.contact.as_ref()
+    }
+
+    /// Ticks spent in contact (contact code CONTACT) since start.
+    pub fn contact_ticks(&self) -> u64 {
+        self.contact_ticks
+    }
+
+    /// Deepest penetration of the proxy into the scene since start, m.
+    pub fn max_penetration_m(&self) -> f64 {
+        self.max_penetration_m
     }
 
     /// The device's specification.
@@ -193,12 +221,23 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
         // 2. Map into the scene.
         let user = self.mapping.to_scene(&device.pose, device.buttons);
 
-        // 3. Contact rendering (voxmap-pointshell + virtual coupling) goes here: it moves
-        //    the proxy out of the obstacles and yields the contact wrench and contact fields.
-        //    Until it is in place the proxy follows the user and the contact wrench is zero.
-        let proxy = user;
-        let contact_force = Vector3::zeros();
-        let contact_torque = Vector3::zeros();
+        // 3. Contact: the proxy is pulled towards the user's pose by the virtual coupling
+        //    and held out of the obstacles; the device gets the negated coupling wrench.
+        let contact = self.contact.as_mut().map(|stage| {
+            let rot = self.mapping.rotation();
+            let anchor = Anchor {
+                pose: user,
+                linear_velocity: rot * device.linear_velocity * self.mapping.scale(),
+                angular_velocity: rot * device.angular_velocity,
+            };
+            stage.step(&anchor, self.period_s)
+        });
+        let proxy = contact.as_ref().map_or(user, |c| c.proxy);
+        let (device_force, device_torque) = contact
+            .as_ref()
+            .map_or((Vector3::zeros(), Vector3::zeros()), |c| {
+                (c.device_force_n, c.device_torque_nm)
+            });
         let displacement = self.last_proxy.map_or(Vector3::zeros(), |p| {
             proxy.translation.vector - p.translation.vector
         });
@@ -211,10 +250,10 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
 
         // 5. Sum in the scene frame, rotate to the device frame, apply safety.
         let wanted = Wrench {
-            force: self.mapping.vector_to_device(&(contact_force + g.force_n)),
+            force: self.mapping.vector_to_device(&(device_force + g.force_n)),
             torque: self
                 .mapping
-                .vector_to_device(&(contact_torque + g.torque_nm)),
+                .vector_to_device(&(device_torque + g.torque_nm)),
         };
         let (out, fault) = self.safety.apply(&wanted, fault, self.period_s);
 
@@ -237,15 +276,30 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
         s.user_pose = wire::pose(&user);
         s.proxy_pose = wire::pose(&proxy);
         s.commanded_wrench = wire::wrench(&out.force, &out.torque);
-        s.contact_wrench = wire::wrench(&contact_force, &contact_torque);
+        match &contact {
+            Some(c) => {
+                s.contact_wrench = wire::wrench(&c.contact_force_n, &c.contact_torque_nm);
+                s.contact = c.code;
+                s.contact_normal = c.normal.into();
+                s.contact_point_m = c.point_m.into();
+                s.operator_force_n = c.operator_force_n.into();
+                s.penetration_m = c.penetration_m;
+                self.contact_ticks += u64::from(c.code == ContactCode::CONTACT);
+                self.max_penetration_m = self.max_penetration_m.max(c.penetration_m);
+            }
+            None => {
+                s.contact_wrench = ipc_types::Wrench::ZERO;
+                s.contact = ContactCode::DISABLED;
+                s.contact_normal = [0.0; 3];
+                s.contact_point_m = [0.0; 3];
+                s.operator_force_n = [0.0; 3];
+                s.penetration_m = 0.0;
+            }
+        }
         s.guidance_wrench = wire::wrench(&g.force_n, &g.torque_nm);
-        s.contact = ContactCode::DISABLED;
         s.fault = fault;
         s.buttons = device.buttons;
         s.guidance_freshness = g.freshness;
-        s.contact_normal = [0.0; 3];
-        s.contact_point_m = [0.0; 3];
-        s.operator_force_n = [0.0; 3];
         s.displacement_m = displacement.into();
         s.guidance_sequence = g.sequence;
         s.prev_wake_latency_ns = prev.wake_latency_ns;

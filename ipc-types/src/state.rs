@@ -10,7 +10,7 @@ use iceoryx2::prelude::ZeroCopySend;
 /// it skipped.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
-#[type_name("hrrtc::HapticState.v1")]
+#[type_name("hrrtc::HapticState.v2")]
 pub struct HapticState {
     /// Sequence = tick number since the loop started (from 1); timestamp = start of the tick.
     pub header: Header,
@@ -56,6 +56,9 @@ pub struct HapticState {
     pub operator_force_n: [f64; 3],
     /// Δp: proxy displacement since the previous tick, scene frame, m.
     pub displacement_m: [f64; 3],
+    /// Deepest penetration of a pointshell point into the scene this tick, m (0 when not
+    /// penetrating or contact rendering is off).
+    pub penetration_m: f64,
 
     /// `header.sequence` of the [`crate::Guidance`] rendered this tick, 0 if none.
     pub guidance_sequence: u64,
@@ -70,6 +73,6 @@ pub struct HapticState {
 }
 
 const _: () = {
-    assert!(core::mem::size_of::<HapticState>() == 536);
+    assert!(core::mem::size_of::<HapticState>() == 544);
     assert!(core::mem::align_of::<HapticState>() == 8);
 };

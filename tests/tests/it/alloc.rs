@@ -1,6 +1,8 @@
-//! Invariant 1: the RT thread allocates nothing after init, with IPC live on both sides.
+//! Invariant 1: the RT thread allocates nothing after init, with IPC live on both sides and
+//! contact rendering on (the simulated operator drives the S into the wall).
 
 use devices::sim::{ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmConfig, Waypoint};
+use haptic_loop::contact::{ContactConfig, ContactModel, ContactStage, Coupling, VoxmapConfig};
 use haptic_loop::guidance::GuidanceConfig;
 use haptic_loop::mapping::MappingConfig;
 use haptic_loop::rt::RtOptions;
@@ -14,7 +16,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 #[test]
-fn rt_thread_allocates_nothing_over_6000_ticks_with_ipc_attached() {
+fn rt_thread_allocates_nothing_over_6000_ticks_with_ipc_and_contact() {
     assert!(
         haptic_loop::alloc_count::is_installed(),
         "the counting allocator must be the global allocator of this test binary"
@@ -74,7 +76,20 @@ fn rt_thread_allocates_nothing_over_6000_ticks_with_ipc_attached() {
         safety: SafetyConfig::default(),
         period_s: 1.0 / 2000.0,
     };
-    let tick = Tick::new(arm, &config, guidance_source, state_writer).unwrap();
+    let contact_config = ContactConfig {
+        voxmap: VoxmapConfig {
+            voxel_m: 0.002,
+            ..VoxmapConfig::default()
+        },
+        ..ContactConfig::default()
+    };
+    let model = ContactModel::from_scene(&planner::Scene::wall_with_hole(), &contact_config.voxmap)
+        .unwrap();
+    let coupling = Coupling::from_spec(&SimulatedArmConfig::default().spec(), 1.0, 0.75);
+    let stage = ContactStage::new(Arc::new(model), contact_config, coupling);
+    let tick = Tick::new(arm, &config, guidance_source, state_writer)
+        .unwrap()
+        .with_contact(stage);
     let handle = runner::spawn(
         tick,
         RunnerConfig {
@@ -110,5 +125,10 @@ fn rt_thread_allocates_nothing_over_6000_ticks_with_ipc_attached() {
     assert!(
         tick.state().guidance_sequence > 0,
         "the loop rendered the peer's guidance"
+    );
+    assert!(
+        tick.contact_ticks() > 100,
+        "the S touched the wall (only {} ticks in contact)",
+        tick.contact_ticks()
     );
 }

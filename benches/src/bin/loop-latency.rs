@@ -1,0 +1,475 @@
+//! Latency of the real haptic loop next to the machine's own floor, measured in the same
+//! run at the same priority and interval.
+//!
+//! Two phases, one after the other (interleaved, so they do not compete for the 2 cores):
+//! 1. **floor**: `cyclictest` (Debian `rt-tests`) with one thread at `--priority` and a
+//!    `--rate-hz` interval, histogram mode; when it is not installed, a built-in bare
+//!    absolute-deadline sleeper thread (the same `clock_nanosleep(TIMER_ABSTIME)` loop the RT
+//!    thread uses, doing nothing else), named `builtin-sleeper` in the report.
+//! 2. **loop**: the haptic loop's RT thread (`haptic_loop::runner`) on the simulated arm with
+//!    contact rendering on, the simulated operator pushing the S against the wall beside the
+//!    hole and sliding it, and optionally a planner process attached over iceoryx2.
+//!
+//! Prints a table (p50 / p90 / p99 / p99.9 / max, µs) with the loop/floor ratios, and writes
+//! JSON with `--json`.
+//!
+//! `cargo build --release -p planner -p benches && target/release/loop-latency --seconds 30 --json out.json`
+
+use anyhow::{Context, bail};
+use clap::Parser;
+use devices::sim::{ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmConfig, Waypoint};
+use haptic_loop::contact::{ContactConfig, ContactModel, ContactStage, Coupling, VoxmapConfig};
+use haptic_loop::guidance::GuidanceConfig;
+use haptic_loop::mapping::MappingConfig;
+use haptic_loop::relay::Relay;
+use haptic_loop::rt::{self, RtOptions};
+use haptic_loop::runner::{self, LoopReport, RunnerConfig};
+use haptic_loop::safety::SafetyConfig;
+use haptic_loop::stats::{NsHistogram, Percentiles};
+use haptic_loop::tick::{Tick, TickConfig};
+use ipc_types::services;
+use nalgebra::{Isometry3, Translation3};
+use planner::Scene;
+use serde::Serialize;
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+#[global_allocator]
+static ALLOC: haptic_loop::alloc_count::CountingAllocator =
+    haptic_loop::alloc_count::CountingAllocator;
+
+/// Haptic-loop latency versus the machine's floor (cyclictest or a bare sleeper).
+#[derive(Debug, Parser)]
+struct Args {
+    /// Seconds of each phase (floor, then loop).
+    #[arg(long, default_value_t = 20.0)]
+    seconds: f64,
+    /// Tick rate and floor interval, Hz.
+    #[arg(long, default_value_t = 1000.0)]
+    rate_hz: f64,
+    /// SCHED_FIFO priority of the RT thread and the floor thread (1–99; 0 = normal).
+    #[arg(long, default_value_t = 80)]
+    priority: u8,
+    /// Pin both to this CPU.
+    #[arg(long)]
+    cpu: Option<usize>,
+    /// Floor tool: `auto` (cyclictest if installed, else the built-in sleeper),
+    /// `cyclictest`, or `builtin`.
+    #[arg(long, default_value = "auto")]
+    floor: String,
+    /// Attach a planner process (`planner serve`, from the same target directory).
+    #[arg(long)]
+    planner: bool,
+    /// Render no contact.
+    #[arg(long)]
+    no_contact: bool,
+    /// Voxel size, mm.
+    #[arg(long, default_value_t = 1.0)]
+    voxel_mm: f64,
+    /// Write the figures as JSON here.
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+#[derive(Debug, Serialize)]
+struct Floor {
+    tool: String,
+    wake_latency_us: Percentiles,
+}
+
+#[derive(Debug, Serialize)]
+struct LoopFigures {
+    ticks: u64,
+    deadline_misses: u64,
+    wake_latency_us: Percentiles,
+    period_us: Percentiles,
+    compute_us: Percentiles,
+    guidance_age_us: Percentiles,
+    fifo: bool,
+    pinned: bool,
+    memory_locked: bool,
+    contact: bool,
+    planner: bool,
+}
+
+#[derive(Debug, Serialize)]
+struct Ratios {
+    p50: f64,
+    p90: f64,
+    p99: f64,
+    p999: f64,
+    max: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct Report {
+    rate_hz: f64,
+    priority: u8,
+    cpu: Option<usize>,
+    seconds_per_phase: f64,
+    floor: Floor,
+    #[serde(rename = "loop")]
+    loop_: LoopFigures,
+    /// Loop wake-up latency / floor wake-up latency, per percentile.
+    wake_ratio: Ratios,
+    allocations_per_tick: Option<f64>,
+}
+
+fn main() -> anyhow::Result<()> {
+    let args = Args::parse();
+    if !(args.seconds.is_finite() && args.seconds >= 1.0 && args.seconds <= 3600.0) {
+        bail!("--seconds must be within 1–3600, got {}", args.seconds);
+    }
+    if !(args.rate_hz.is_finite() && (500.0..=4000.0).contains(&args.rate_hz)) {
+        bail!("--rate-hz must be within 500–4000, got {}", args.rate_hz);
+    }
+    if args.priority > 99 {
+        bail!("--priority must be 0–99, got {}", args.priority);
+    }
+    if !matches!(args.floor.as_str(), "auto" | "cyclictest" | "builtin") {
+        bail!(
+            "--floor must be auto, cyclictest or builtin, got '{}'",
+            args.floor
+        );
+    }
+    let rt = RtOptions {
+        fifo_priority: (args.priority > 0).then_some(args.priority),
+        cpu: args.cpu,
+        lock_memory: true,
+    };
+    let period_ns = (1e9 / args.rate_hz).round() as u64;
+    let phase = Duration::from_secs_f64(args.seconds);
+
+    let use_cyclictest = match args.floor.as_str() {
+        "builtin" => false,
+        "cyclictest" => true,
+        _ => cyclictest_available(),
+    };
+    eprintln!(
+        "floor: {} for {:.0} s at {} Hz, priority {}",
+        if use_cyclictest {
+            "cyclictest"
+        } else {
+            "built-in sleeper"
+        },
+        args.seconds,
+        args.rate_hz,
+        args.priority
+    );
+    let floor = if use_cyclictest {
+        Floor {
+            tool: "cyclictest".into(),
+            wake_latency_us: cyclictest(&args, period_ns, phase)?,
+        }
+    } else {
+        Floor {
+            tool: "builtin-sleeper".into(),
+            wake_latency_us: builtin_floor(rt, period_ns, phase)?,
+        }
+    };
+
+    eprintln!("loop: {:.0} s", args.seconds);
+    let (report, contact, planner) = run_loop(&args, rt, phase)?;
+    let loop_ = LoopFigures {
+        ticks: report.ticks,
+        deadline_misses: report.deadline_misses,
+        wake_latency_us: report.wake_latency_us,
+        period_us: report.period_us,
+        compute_us: report.compute_us,
+        guidance_age_us: report.guidance_age_us,
+        fifo: report.fifo,
+        pinned: report.pinned,
+        memory_locked: report.memory_locked,
+        contact,
+        planner,
+    };
+    let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { f64::NAN };
+    let (l, f) = (&loop_.wake_latency_us, &floor.wake_latency_us);
+    let out = Report {
+        rate_hz: args.rate_hz,
+        priority: args.priority,
+        cpu: args.cpu,
+        seconds_per_phase: args.seconds,
+        wake_ratio: Ratios {
+            p50: ratio(l.p50, f.p50),
+            p90: ratio(l.p90, f.p90),
+            p99: ratio(l.p99, f.p99),
+            p999: ratio(l.p999, f.p999),
+            max: ratio(l.max, f.max),
+        },
+        allocations_per_tick: report.allocations_per_tick,
+        floor,
+        loop_,
+    };
+    print_table(&out);
+    if let Some(p) = &args.json {
+        std::fs::write(p, serde_json::to_string_pretty(&out)? + "\n")
+            .with_context(|| format!("cannot write {}", p.display()))?;
+    }
+    Ok(())
+}
+
+fn print_table(r: &Report) {
+    let row = |name: &str, p: &Percentiles| {
+        println!(
+            "| {name} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |",
+            p.p50, p.p90, p.p99, p.p999, p.max
+        )
+    };
+    println!(
+        "haptic loop at {} Hz, priority {}, contact {}, planner {}: {} ticks, {} deadline misses, allocations/tick {}",
+        r.rate_hz,
+        r.priority,
+        r.loop_.contact,
+        r.loop_.planner,
+        r.loop_.ticks,
+        r.loop_.deadline_misses,
+        r.allocations_per_tick
+            .map_or("n/a".into(), |a| a.to_string())
+    );
+    println!("| µs | p50 | p90 | p99 | p99.9 | max |");
+    println!("|---|---|---|---|---|---|");
+    row(
+        &format!("floor wake-up ({})", r.floor.tool),
+        &r.floor.wake_latency_us,
+    );
+    row("loop wake-up", &r.loop_.wake_latency_us);
+    let w = &r.wake_ratio;
+    println!(
+        "| loop / floor | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
+        w.p50, w.p90, w.p99, w.p999, w.max
+    );
+    row("loop period", &r.loop_.period_us);
+    row("loop compute", &r.loop_.compute_us);
+    row("guidance age", &r.loop_.guidance_age_us);
+}
+
+fn cyclictest_available() -> bool {
+    Command::new("cyclictest")
+        .arg("--help")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok()
+}
+
+/// Runs cyclictest with one measuring thread and reads its per-µs histogram.
+fn cyclictest(args: &Args, period_ns: u64, phase: Duration) -> anyhow::Result<Percentiles> {
+    let loops = (phase.as_nanos() / u128::from(period_ns)).max(1);
+    let mut cmd = Command::new("cyclictest");
+    cmd.args([
+        "-m".to_string(),
+        "-q".into(),
+        "-t1".into(),
+        format!("-p{}", args.priority),
+        format!("-i{}", period_ns / 1000),
+        format!("-l{loops}"),
+        "-h20000".into(),
+    ]);
+    if let Some(cpu) = args.cpu {
+        cmd.arg(format!("-a{cpu}"));
+    }
+    let out = cmd
+        .output()
+        .context("cannot run cyclictest (install Debian's rt-tests, or use --floor builtin)")?;
+    if !out.status.success() {
+        bail!(
+            "cyclictest failed ({}): {}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr).trim()
+        );
+    }
+    parse_cyclictest_histogram(&String::from_utf8_lossy(&out.stdout))
+}
+
+/// Percentiles from cyclictest's `-h` output: lines `bucket_us count` (one thread), plus
+/// `# Max Latencies:` for the exact maximum.
+fn parse_cyclictest_histogram(text: &str) -> anyhow::Result<Percentiles> {
+    let mut hist = NsHistogram::new();
+    let mut max_us = None;
+    let mut total = 0u64;
+    for line in text.lines() {
+        let line = line.trim();
+        if let Some(rest) = line.strip_prefix("# Max Latencies:") {
+            max_us = rest
+                .split_whitespace()
+                .next()
+                .and_then(|v| v.parse::<f64>().ok());
+            continue;
+        }
+        if line.starts_with('#') || line.is_empty() {
+            continue;
+        }
+        let mut it = line.split_whitespace();
+        let (Some(b), Some(c)) = (it.next(), it.next()) else {
+            continue;
+        };
+        let (Ok(bucket_us), Ok(count)) = (b.parse::<u64>(), c.parse::<u64>()) else {
+            continue;
+        };
+        for _ in 0..count {
+            hist.record(bucket_us * 1000);
+        }
+        total += count;
+    }
+    if total == 0 {
+        bail!("cyclictest printed no histogram");
+    }
+    let mut p = hist.percentiles_us();
+    if let Some(m) = max_us {
+        p.max = m;
+    }
+    Ok(p)
+}
+
+/// A bare absolute-deadline sleeper at the RT options: the floor without cyclictest.
+fn builtin_floor(rt: RtOptions, period_ns: u64, phase: Duration) -> anyhow::Result<Percentiles> {
+    let handle = std::thread::Builder::new()
+        .name("floor".into())
+        .spawn(move || {
+            let _setup = rt::setup_current_thread(&rt);
+            let mut hist = NsHistogram::new();
+            let end = Instant::now() + phase;
+            let mut deadline = rt::monotonic_ns() + period_ns;
+            while Instant::now() < end {
+                let wake = rt::sleep_until(deadline, 0);
+                hist.record(wake.saturating_sub(deadline));
+                deadline += period_ns;
+                let now = rt::monotonic_ns();
+                while deadline < now {
+                    deadline += period_ns;
+                }
+            }
+            hist.percentiles_us()
+        })
+        .context("cannot start the floor thread")?;
+    handle
+        .join()
+        .map_err(|_| anyhow::anyhow!("the floor thread panicked"))
+}
+
+/// Kills the planner child on drop.
+struct ChildGuard(Child);
+
+impl Drop for ChildGuard {
+    fn drop(&mut self) {
+        // SAFETY: kill(2) on a child we spawned and have not reaped.
+        unsafe { libc::kill(self.0.id() as libc::pid_t, libc::SIGTERM) };
+        let deadline = Instant::now() + Duration::from_secs(5);
+        while Instant::now() < deadline && matches!(self.0.try_wait(), Ok(None)) {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn run_loop(
+    args: &Args,
+    rt: RtOptions,
+    phase: Duration,
+) -> anyhow::Result<(LoopReport, bool, bool)> {
+    let ns = format!("latency_{}", std::process::id());
+    let scene = Scene::wall_with_hole();
+    let (node, _) = services::create_node(&format!("loop_latency_{}", std::process::id()))?;
+    let writer = services::state_writer(&node, &ns)?;
+    let (_relay, guidance) = Relay::spawn(&ns, Duration::from_millis(1))?;
+
+    let _planner = if args.planner {
+        let exe = std::env::current_exe()?;
+        let planner = exe.with_file_name("planner");
+        if !planner.exists() {
+            bail!(
+                "--planner needs the planner binary next to this one ({}): run `cargo build --release -p planner`",
+                planner.display()
+            );
+        }
+        let child = Command::new(&planner)
+            .args(["serve", "--namespace", &ns, "--scene", "wall-hole"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .with_context(|| format!("cannot start {}", planner.display()))?;
+        Some(ChildGuard(child))
+    } else {
+        None
+    };
+
+    // The operator pushes the S against the wall beside the hole and slides it (see
+    // tick-budget), over and over.
+    let origin = Isometry3::from_parts(Translation3::new(-0.08, 0.15, 0.1), scene.start.rot);
+    let device = |x: f64, y: f64| Waypoint::new(Isometry3::translation(x, y, 0.0));
+    let mut route = vec![device(0.0, 0.0)];
+    for _ in 0..((phase.as_secs_f64() / 8.0).ceil() as usize).max(1) {
+        route.extend([device(0.06, 0.05), device(0.06, -0.05), device(0.0, 0.0)]);
+    }
+    let arm_config = SimulatedArmConfig::default();
+    let spec = arm_config.spec();
+    let user = ScriptedUser::new(
+        ScriptedUserConfig {
+            max_force_n: spec.max_force_n,
+            linear_speed_m_per_s: 0.05,
+            ..ScriptedUserConfig::default()
+        },
+        route,
+    )?;
+    let arm = SimulatedArm::with_user(arm_config, user)?;
+    let config = TickConfig {
+        mapping: MappingConfig {
+            position_scale: 1.0,
+            origin,
+            clutch_button: None,
+        },
+        guidance: GuidanceConfig::default(),
+        safety: SafetyConfig::default(),
+        period_s: 1.0 / args.rate_hz,
+    };
+    let mut tick = Tick::new(arm, &config, guidance, writer).map_err(|e| anyhow::anyhow!("{e}"))?;
+    if !args.no_contact {
+        let contact = ContactConfig {
+            voxmap: VoxmapConfig {
+                voxel_m: args.voxel_mm / 1000.0,
+                ..VoxmapConfig::default()
+            },
+            ..ContactConfig::default()
+        };
+        let model =
+            ContactModel::from_scene(&scene, &contact.voxmap).map_err(anyhow::Error::msg)?;
+        eprintln!("{}", model.describe());
+        let coupling = Coupling::from_spec(&spec, 1.0, contact.coupling_fraction);
+        tick = tick.with_contact(ContactStage::new(Arc::new(model), contact, coupling));
+    }
+    let handle = runner::spawn(
+        tick,
+        RunnerConfig {
+            rate_hz: args.rate_hz,
+            rt,
+            spin_ns: 0,
+            max_ticks: Some((phase.as_secs_f64() * args.rate_hz) as u64),
+        },
+        |_| {},
+    )?;
+    while !handle.is_finished() {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let (_tick, report) = handle.join();
+    Ok((report, !args.no_contact, args.planner))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_cyclictest_histogram;
+
+    #[test]
+    fn reads_a_cyclictest_histogram() {
+        let text = "# /dev/cpu_dma_latency set to 0us\n000000 000000\n000001 000090\n000002 000009\n000010 000001\n# Total: 000000100\n# Min Latencies: 00001\n# Avg Latencies: 00001\n# Max Latencies: 00010\n";
+        let p = parse_cyclictest_histogram(text).unwrap();
+        assert_eq!(p.count, 100);
+        assert!((p.p50 - 1.0).abs() < 0.01, "{p:?}");
+        assert!((p.p99 - 2.0).abs() < 0.01, "{p:?}");
+        assert_eq!(p.max, 10.0);
+        assert!(parse_cyclictest_histogram("# nothing\n").is_err());
+    }
+}

@@ -1,0 +1,178 @@
+//! Compute time of the full haptic tick with contact rendering on, in lockstep (no RT
+//! scheduling, so wake-up latency is not part of it): the simulated operator pushes the
+//! wall-hole scene's S against the wall beside the hole and slides it along the wall, the
+//! hardest steady case for the contact stage. Prints p50 / p90 / p99 / p99.9 / max of the
+//! compute time per tick from an HDR histogram.
+//!
+//! `cargo run --release -p benches --bin tick-budget -- --seconds 20 [--voxel-mm 1] [--json F]`
+
+use anyhow::{Context, bail};
+use clap::Parser;
+use devices::sim::{ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmConfig, Waypoint};
+use haptic_loop::contact::{ContactConfig, ContactModel, ContactStage, Coupling, VoxmapConfig};
+use haptic_loop::guidance::GuidanceConfig;
+use haptic_loop::mapping::MappingConfig;
+use haptic_loop::safety::SafetyConfig;
+use haptic_loop::tick::{NoGuidance, NoSink, PrevTiming, Tick, TickConfig};
+use hdrhistogram::Histogram;
+use ipc_types::ContactCode;
+use nalgebra::{Isometry3, Translation3};
+use planner::Scene;
+use serde::Serialize;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Tick compute budget with contact rendering (lockstep, simulated arm).
+#[derive(Debug, Parser)]
+struct Args {
+    /// Simulated seconds to run (1000 ticks each).
+    #[arg(long, default_value_t = 20.0)]
+    seconds: f64,
+    /// Voxel size and pointshell spacing, mm.
+    #[arg(long, default_value_t = 1.0)]
+    voxel_mm: f64,
+    /// Write the figures as JSON here.
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+#[derive(Debug, Serialize)]
+struct Report {
+    ticks: u64,
+    points: usize,
+    voxel_mm: f64,
+    contact_fraction: f64,
+    max_penetration_mm: f64,
+    compute_us: Percentiles,
+    points_tested_max: u32,
+}
+
+#[derive(Debug, Serialize)]
+struct Percentiles {
+    p50: f64,
+    p90: f64,
+    p99: f64,
+    p999: f64,
+    max: f64,
+}
+
+fn main() -> anyhow::Result<()> {
+    let args = Args::parse();
+    if !(args.seconds.is_finite() && args.seconds > 0.0 && args.seconds <= 3600.0) {
+        bail!("--seconds must be within (0, 3600], got {}", args.seconds);
+    }
+    if !(args.voxel_mm.is_finite() && (0.25..=20.0).contains(&args.voxel_mm)) {
+        bail!("--voxel-mm must be within 0.25–20, got {}", args.voxel_mm);
+    }
+    let scene = Scene::wall_with_hole();
+    let config = ContactConfig {
+        voxmap: VoxmapConfig {
+            voxel_m: args.voxel_mm / 1000.0,
+            ..VoxmapConfig::default()
+        },
+        ..ContactConfig::default()
+    };
+    let model = ContactModel::from_scene(&scene, &config.voxmap).map_err(anyhow::Error::msg)?;
+    eprintln!("{}", model.describe());
+    let points = model.pointshell().len();
+
+    // Device origin 80 mm in front of the wall beside the hole, S in its start orientation.
+    let origin = Isometry3::from_parts(Translation3::new(-0.08, 0.15, 0.1), scene.start.rot);
+    let device = |x: f64, y: f64| Isometry3::translation(x, y, 0.0);
+    let route = [
+        Waypoint::new(device(0.0, 0.0)),
+        Waypoint::new(device(0.06, 0.0)).with_dwell(0.5),
+        Waypoint::new(device(0.06, 0.05)),
+        Waypoint::new(device(0.06, -0.05)),
+        Waypoint::new(device(0.06, 0.0)).with_dwell(1.0),
+    ];
+    let arm_config = SimulatedArmConfig::default();
+    let spec = arm_config.spec();
+    let user = ScriptedUser::new(
+        ScriptedUserConfig {
+            max_force_n: spec.max_force_n,
+            ..ScriptedUserConfig::default()
+        },
+        route,
+    )
+    .context("simulated operator")?;
+    let arm = SimulatedArm::with_user(arm_config, user).context("simulated arm")?;
+    let tick_config = TickConfig {
+        mapping: MappingConfig {
+            position_scale: 1.0,
+            origin,
+            clutch_button: None,
+        },
+        guidance: GuidanceConfig::default(),
+        safety: SafetyConfig::default(),
+        period_s: 0.001,
+    };
+    let stage = ContactStage::new(
+        Arc::new(model),
+        config,
+        Coupling::from_spec(&spec, 1.0, config.coupling_fraction),
+    );
+    let mut tick = Tick::new(arm, &tick_config, NoGuidance, NoSink)
+        .context("open the simulated arm")?
+        .with_contact(stage);
+
+    let ticks = (args.seconds * 1000.0) as u64;
+    let mut hist = Histogram::<u64>::new_with_bounds(1, 1_000_000_000, 3).context("histogram")?;
+    let mut in_contact = 0u64;
+    let mut tested_max = 0u32;
+    for i in 1..=ticks {
+        let t0 = Instant::now();
+        let s = *tick.step(i * 1_000_000, PrevTiming::default());
+        let ns = t0.elapsed().as_nanos() as u64;
+        hist.saturating_record(ns.max(1));
+        in_contact += u64::from(s.contact == ContactCode::CONTACT);
+        if let Some(c) = tick.contact() {
+            tested_max = tested_max.max(c.last_points_tested());
+            if ns > 2_000_000 && std::env::var("DBG").is_ok() {
+                eprintln!(
+                    "tick {i}: {ns} ns, tested {}, contact {:?}",
+                    c.last_points_tested(),
+                    s.contact
+                );
+            }
+        }
+    }
+    let us = |q: f64| hist.value_at_quantile(q) as f64 / 1000.0;
+    let report = Report {
+        ticks,
+        points,
+        voxel_mm: args.voxel_mm,
+        contact_fraction: in_contact as f64 / ticks as f64,
+        max_penetration_mm: tick.max_penetration_m() * 1e3,
+        compute_us: Percentiles {
+            p50: us(0.5),
+            p90: us(0.9),
+            p99: us(0.99),
+            p999: us(0.999),
+            max: hist.max() as f64 / 1000.0,
+        },
+        points_tested_max: tested_max,
+    };
+    let c = &report.compute_us;
+    println!(
+        "tick compute with contact: {} ticks, {} points at {} mm, in contact {:.0} % of ticks, max penetration {:.3} mm, up to {} points tested per tick",
+        report.ticks,
+        report.points,
+        report.voxel_mm,
+        report.contact_fraction * 100.0,
+        report.max_penetration_mm,
+        report.points_tested_max
+    );
+    println!("| p50 | p90 | p99 | p99.9 | max |");
+    println!("|---|---|---|---|---|");
+    println!(
+        "| {:.1} µs | {:.1} µs | {:.1} µs | {:.1} µs | {:.1} µs |",
+        c.p50, c.p90, c.p99, c.p999, c.max
+    );
+    if let Some(p) = &args.json {
+        std::fs::write(p, serde_json::to_string_pretty(&report)? + "\n")
+            .with_context(|| format!("cannot write {}", p.display()))?;
+    }
+    Ok(())
+}

@@ -1,0 +1,871 @@
+//! Contact rendering: voxmap-pointshell (McNeely, Puterbaugh, Troy 1999; distance layers and
+//! pre-contact braking from their 2006 paper) with a 6-DOF virtual coupling.
+//!
+//! * [`Voxmap`]: the static scene as a sparse signed-distance field (scene frame).
+//! * [`Pointshell`]: the moving object as surface points with inward normals (object frame).
+//! * [`ContactStage`]: the dynamic proxy object. Once per tick it sums the scene's penalty
+//!   wrench on the pointshell, adds the coupling spring-damper towards the device-mapped
+//!   pose, and integrates one step. The device receives the negated coupling wrench.
+//!
+//! # Force model (written down because the papers leave a choice)
+//!
+//! *Tangent-plane model on the distance field.* For a point at signed distance s < 0 the
+//! depth is d = −s and the force is `k_p·d` along the field's gradient n at the point, i.e.
+//! along the outward normal of the obstacle surface nearest the point, which on a locally
+//! flat surface is exactly the tangent-plane force of VPS 1999 (the stored distance *is* the
+//! distance to the tangent plane). Using the scene's normal, not the point's, makes the
+//! total force agree with the geometric contact normal also for corners and edges of the
+//! object. The point's inward normal culls points on the side of the object facing away
+//! from that surface (n_inward · n < 0), which happen only after tunnelling through thin
+//! features and would pull the object further in.
+//!
+//! Per-point stiffness `k_p` is not averaged over the number of contacts (VPS 1999 divides by
+//! N/10 for stability): the proxy is integrated with linearly implicit (backward) Euler using
+//! the 6×6 contact stiffness Σ k_p JᵀJ (J = [nᵀ, (r×n)ᵀ]), which is stable for any number of
+//! contacts and dissipates energy instead of creating it. What the hand feels is bounded by
+//! the coupling, whose gains come from the device's stable stiffness and damping.
+//!
+//! Contact damping along each normal, and the pre-contact braking of points approaching the
+//! surface inside the proximity layer (weighted by 1 − s/proximity so it fades in), are each
+//! a total damping shared among the points that produce it, so a face touching with 2000
+//! points brakes like an edge touching with 20. Neither term ever pulls.
+//!
+//! # Frames
+//!
+//! Everything here is in the scene frame except pointshell data (object frame). The proxy's
+//! pose is the pose of the object's reference point; its dynamics are about the centre of
+//! mass (the volume centroid of the object's parts, uniform density). The coupling joins the
+//! centre of mass of the device-mapped object to the proxy's.
+
+mod pointshell;
+#[cfg(test)]
+mod tests;
+mod voxmap;
+
+pub use pointshell::{Cluster, Pointshell};
+pub use voxmap::{Sample, Voxmap, VoxmapConfig, VoxmapError, VoxmapReport};
+
+use devices::DeviceSpec;
+use ipc_types::ContactCode;
+use nalgebra::{
+    Isometry3, Matrix3, Matrix6, Point3, Translation3, UnitQuaternion, Vector3, Vector6,
+};
+use parry3d_f64::math::Pose;
+use parry3d_f64::shape::{Compound, Shape, SharedShape};
+use planner::Scene;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Parameters of contact rendering. Gains of the coupling are not here: they are derived from
+/// the device's specification (see [`Coupling::from_spec`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactConfig {
+    /// The voxmap's voxel size and distance layers; the pointshell uses the same spacing.
+    pub voxmap: VoxmapConfig,
+    /// Penalty stiffness per penetrating point, N/m.
+    pub point_stiffness_n_per_m: f64,
+    /// Total contact damping along the normals, shared among the penetrating points, N·s/m.
+    pub contact_damping_n_s_per_m: f64,
+    /// Thickness of the proximity layer, in voxels (≤ `voxmap.layers_out` − 1).
+    pub proximity_voxels: f64,
+    /// Total pre-contact braking damping, shared among the approaching points in the
+    /// proximity layer, N·s/m.
+    pub braking_n_s_per_m: f64,
+    /// Mass of the proxy object, kg. Its inertia follows from its shape at uniform density.
+    pub proxy_mass_kg: f64,
+    /// Fraction (0, 1] of the device's stable stiffness and damping the coupling uses.
+    pub coupling_fraction: f64,
+    /// Contact is released only when no point is closer than this to the surface, in
+    /// voxels (hysteresis against chatter of the contact flag).
+    pub release_voxels: f64,
+}
+
+impl Default for ContactConfig {
+    fn default() -> Self {
+        Self {
+            voxmap: VoxmapConfig::default(),
+            point_stiffness_n_per_m: 10_000.0,
+            contact_damping_n_s_per_m: 40.0,
+            proximity_voxels: 2.0,
+            braking_n_s_per_m: 20.0,
+            proxy_mass_kg: 0.05,
+            coupling_fraction: 0.75,
+            release_voxels: 0.25,
+        }
+    }
+}
+
+impl ContactConfig {
+    /// Checks every field; the message names the field.
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = [
+            (self.point_stiffness_n_per_m, "point stiffness (N/m)"),
+            (self.proxy_mass_kg, "proxy mass (kg)"),
+            (self.coupling_fraction, "coupling fraction"),
+        ];
+        for (v, name) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("contact: {name} must be positive, got {v}"));
+            }
+        }
+        let non_negative = [
+            (self.contact_damping_n_s_per_m, "contact damping (N·s/m)"),
+            (self.braking_n_s_per_m, "braking damping (N·s/m)"),
+            (self.proximity_voxels, "proximity layer (voxels)"),
+            (self.release_voxels, "release distance (voxels)"),
+        ];
+        for (v, name) in non_negative {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(format!("contact: {name} must be ≥ 0, got {v}"));
+            }
+        }
+        if self.coupling_fraction > 1.0 {
+            return Err(format!(
+                "contact: coupling fraction must be ≤ 1, got {}",
+                self.coupling_fraction
+            ));
+        }
+        let layer = f64::from(self.voxmap.layers_out) - 1.0;
+        if self.proximity_voxels > layer || self.release_voxels > layer {
+            return Err(format!(
+                "contact: proximity ({}) and release ({}) must fit in the stored layers outside minus one ({layer} voxels)",
+                self.proximity_voxels, self.release_voxels
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Spring-damper gains of the virtual coupling, scene side.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Coupling {
+    /// Translational stiffness, N per scene metre.
+    pub k_n_per_m: f64,
+    /// Translational damping, N·s per scene metre.
+    pub b_n_s_per_m: f64,
+    /// Rotational stiffness, N·m/rad.
+    pub k_nm_per_rad: f64,
+    /// Rotational damping, N·m·s/rad.
+    pub b_nm_s_per_rad: f64,
+}
+
+impl Coupling {
+    /// Gains such that the device feels `fraction` of its stable limits: a scene-side
+    /// stiffness k is felt as `position_scale·k` per device metre (see `mapping`), so the
+    /// translational gains are divided by the scale; rotations are not scaled.
+    pub fn from_spec(spec: &DeviceSpec, position_scale: f64, fraction: f64) -> Self {
+        Self {
+            k_n_per_m: fraction * spec.max_stiffness_n_per_m / position_scale,
+            b_n_s_per_m: fraction * spec.max_damping_n_s_per_m / position_scale,
+            k_nm_per_rad: fraction * spec.max_rot_stiffness_nm_per_rad,
+            b_nm_s_per_rad: fraction * spec.max_rot_damping_nm_s_per_rad,
+        }
+    }
+}
+
+/// What init builds once per scene: voxmap, pointshell, and the object's mass properties.
+/// Shared read-only (`Arc`) between the contact stage and, e.g., tests.
+#[derive(Debug)]
+pub struct ContactModel {
+    voxmap: Voxmap,
+    shell: Pointshell,
+    /// Centre of mass, object frame, m.
+    com_local: Vector3<f64>,
+    /// Inertia tensor about the centre of mass per kg of mass, object frame, m².
+    inertia_per_kg: Matrix3<f64>,
+    /// Radius about the centre of mass holding every point, m.
+    radius_m: f64,
+    /// Pointshell build time, s.
+    shell_build_s: f64,
+}
+
+impl ContactModel {
+    /// Builds the voxmap of `scene.obstacles` and the pointshell of `scene.moving_object`.
+    pub fn from_scene(scene: &Scene, voxmap: &VoxmapConfig) -> Result<Self, String> {
+        let obstacles = planner::collision::part_shapes(&scene.obstacles);
+        let object = planner::collision::part_shapes(&scene.moving_object);
+        Self::build(&obstacles, &object, voxmap)
+    }
+
+    /// Builds from parry shapes: obstacles in the scene frame, object parts in the object
+    /// frame.
+    pub fn build(
+        obstacles: &[(Pose, SharedShape)],
+        object: &[(Pose, SharedShape)],
+        voxmap: &VoxmapConfig,
+    ) -> Result<Self, String> {
+        let voxmap = Voxmap::build(obstacles, voxmap).map_err(|e| e.to_string())?;
+        let started = Instant::now();
+        let shell = Pointshell::build(object, voxmap.voxel_m())?;
+        let shell_build_s = started.elapsed().as_secs_f64();
+        let mp = Compound::new(object.to_vec()).mass_properties(1.0);
+        let volume = mp.mass();
+        if !(volume.is_finite() && volume > 0.0) {
+            return Err("contact: the moving object has no volume".into());
+        }
+        let c = mp.local_com;
+        let com_local = Vector3::new(c.x, c.y, c.z);
+        let r = mp.principal_inertia_local_frame;
+        let frame = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(r.w, r.x, r.y, r.z))
+            .to_rotation_matrix();
+        let inv = mp.inv_principal_inertia;
+        let principal =
+            Vector3::new(inv.x, inv.y, inv.z).map(|i| if i > 0.0 { 1.0 / i } else { 0.0 });
+        let inertia_per_kg =
+            frame.matrix() * Matrix3::from_diagonal(&principal) * frame.matrix().transpose()
+                / volume;
+        let radius_m = shell.radius_about(&com_local);
+        Ok(Self {
+            voxmap,
+            shell,
+            com_local,
+            inertia_per_kg,
+            radius_m,
+            shell_build_s,
+        })
+    }
+
+    /// The scene's voxmap.
+    pub fn voxmap(&self) -> &Voxmap {
+        &self.voxmap
+    }
+
+    /// The object's pointshell.
+    pub fn pointshell(&self) -> &Pointshell {
+        &self.shell
+    }
+
+    /// Centre of mass, object frame, m.
+    pub fn com_local(&self) -> Vector3<f64> {
+        self.com_local
+    }
+
+    /// One line for the start-up log: voxmap size, memory, build times, point count.
+    pub fn describe(&self) -> String {
+        format!(
+            "{}; pointshell {} points in {} clusters, built in {:.2} s",
+            self.voxmap.report(),
+            self.shell.len(),
+            self.shell.clusters().len(),
+            self.shell_build_s
+        )
+    }
+}
+
+/// The motion of the device-mapped object this tick (scene frame).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Anchor {
+    /// Pose of the reference point.
+    pub pose: Isometry3<f64>,
+    /// Linear velocity of the reference point, m/s.
+    pub linear_velocity: Vector3<f64>,
+    /// Angular velocity, rad/s.
+    pub angular_velocity: Vector3<f64>,
+}
+
+/// What one contact step produces (scene frame).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactOutput {
+    /// Proxy pose (reference point) after the step.
+    pub proxy: Isometry3<f64>,
+    /// Wrench of the scene on the proxy: force (N) and torque about the reference point (N·m).
+    pub contact_force_n: Vector3<f64>,
+    /// See `contact_force_n`.
+    pub contact_torque_nm: Vector3<f64>,
+    /// Wrench for the device: the negated coupling wrench, torque about the device-mapped
+    /// reference point.
+    pub device_force_n: Vector3<f64>,
+    /// See `device_force_n`.
+    pub device_torque_nm: Vector3<f64>,
+    /// Coupling force on the proxy: what the operator pushes with (f_u), N.
+    pub operator_force_n: Vector3<f64>,
+    /// FREE, PROXIMITY or CONTACT.
+    pub code: ContactCode,
+    /// Normal of the first contact, held while contact lasts; zero when not in contact.
+    pub normal: Vector3<f64>,
+    /// Depth-weighted mean of the penetrating points projected on the surface, m; held
+    /// while contact lasts without penetration; zero when not in contact.
+    pub point_m: Vector3<f64>,
+    /// Deepest penetration this tick, m.
+    pub penetration_m: f64,
+    /// Points that penetrate.
+    pub contacts: u32,
+    /// Points tested against the voxmap (after cluster culling).
+    pub points_tested: u32,
+}
+
+/// Σ w·JJᵀ for J = [n; r×n], kept as the three 3×3 blocks (21 numbers): the per-point cost
+/// of the implicit step's contact stiffness is 21 multiply-adds instead of a 6×6 update.
+#[derive(Debug, Default, Clone, Copy, PartialEq)]
+struct JtJ {
+    nn: [f64; 6],
+    mn: [f64; 9],
+    mm: [f64; 6],
+}
+
+impl JtJ {
+    #[inline]
+    fn add(&mut self, w: f64, n: &Vector3<f64>, m: &Vector3<f64>) {
+        let (wn, wm) = (n * w, m * w);
+        self.nn[0] += wn.x * n.x;
+        self.nn[1] += wn.x * n.y;
+        self.nn[2] += wn.x * n.z;
+        self.nn[3] += wn.y * n.y;
+        self.nn[4] += wn.y * n.z;
+        self.nn[5] += wn.z * n.z;
+        for a in 0..3 {
+            for b in 0..3 {
+                self.mn[3 * a + b] += wm[a] * n[b];
+            }
+        }
+        self.mm[0] += wm.x * m.x;
+        self.mm[1] += wm.x * m.y;
+        self.mm[2] += wm.x * m.z;
+        self.mm[3] += wm.y * m.y;
+        self.mm[4] += wm.y * m.z;
+        self.mm[5] += wm.z * m.z;
+    }
+
+    /// `scale · Σ w JJᵀ` as a 6×6 matrix ([force; torque] order).
+    fn matrix(&self, scale: f64) -> Matrix6<f64> {
+        let sym = |v: &[f64; 6]| Matrix3::new(v[0], v[1], v[2], v[1], v[3], v[4], v[2], v[4], v[5]);
+        let nn = sym(&self.nn) * scale;
+        let mm = sym(&self.mm) * scale;
+        let mn = Matrix3::from_row_slice(&self.mn) * scale;
+        let mut out = Matrix6::zeros();
+        out.fixed_view_mut::<3, 3>(0, 0).copy_from(&nn);
+        out.fixed_view_mut::<3, 3>(3, 0).copy_from(&mn);
+        out.fixed_view_mut::<3, 3>(0, 3).copy_from(&mn.transpose());
+        out.fixed_view_mut::<3, 3>(3, 3).copy_from(&mm);
+        out
+    }
+}
+
+/// The scene's wrench on an object held still at a pose (see [`ContactStage::probe`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Probe {
+    /// Force, N.
+    pub force_n: Vector3<f64>,
+    /// Torque about the reference point, N·m.
+    pub torque_nm: Vector3<f64>,
+    /// Deepest penetration, m.
+    pub penetration_m: f64,
+    /// Penetrating points.
+    pub contacts: u32,
+    /// Depth-weighted mean contact point on the surface, m.
+    pub point_m: Vector3<f64>,
+}
+
+/// The scene's wrench on the proxy and what went into it, at the current pose.
+#[derive(Debug, Default, Clone, Copy, PartialEq)]
+struct Sums {
+    /// Generalised force about the centre of mass: [force; torque].
+    wrench: Vector6<f64>,
+    /// Σ JᵀJ over penetrating points (stiffness and contact damping are multiples of it).
+    contact_jj: JtJ,
+    /// Σ w JᵀJ over braking points, w the braking weight.
+    braking_jj: JtJ,
+    contacts: u32,
+    braking_points: u32,
+    near: bool,
+    within_release: bool,
+    weighted_point: Vector3<f64>,
+    weight: f64,
+    normal_sum: Vector3<f64>,
+    max_depth: f64,
+    tested: u32,
+}
+
+/// Temporal coherence of the contact search: each point, each cluster and the whole object
+/// carry the total proxy motion (m, any point's worst-case travel, summed over steps) at
+/// which they can first come within reach of the surface. Until the running total passes
+/// it, they are skipped without a voxmap look-up; a point 5 mm from the wall is looked at
+/// again only after the object has moved about 3 mm. Preallocated; reset on `place`.
+#[derive(Debug, Clone, Default)]
+struct Coherence {
+    /// Running total of the bound on any point's motion, m.
+    motion_m: f64,
+    /// Pose at the last search.
+    last: Option<Isometry3<f64>>,
+    object: f64,
+    clusters: Vec<f64>,
+    points: Vec<f64>,
+}
+
+impl Coherence {
+    fn new(clusters: usize, points: usize) -> Self {
+        Self {
+            motion_m: 0.0,
+            last: None,
+            object: 0.0,
+            clusters: vec![0.0; clusters],
+            points: vec![0.0; points],
+        }
+    }
+
+    /// Forget everything (the object jumped).
+    fn reset(&mut self) {
+        self.motion_m = 0.0;
+        self.last = None;
+        self.object = 0.0;
+        self.clusters.fill(0.0);
+        self.points.fill(0.0);
+    }
+
+    /// Adds the motion from the last search to `pose`: the centre of mass's travel plus
+    /// the rotation angle times the object's radius about it bounds every point's travel.
+    fn advance(&mut self, pose: &Isometry3<f64>, com_local: &Vector3<f64>, radius_m: f64) {
+        if let Some(last) = self.last {
+            let c0 = last.transform_point(&Point3::from(*com_local));
+            let c1 = pose.transform_point(&Point3::from(*com_local));
+            let angle = last.rotation.angle_to(&pose.rotation);
+            self.motion_m += (c1 - c0).norm() + angle * radius_m;
+        }
+        self.last = Some(*pose);
+    }
+}
+
+/// Adds `f` along the unit direction `n` with moment arm cross product `rxn` (= r × n).
+#[inline]
+fn add_wrench(w: &mut Vector6<f64>, f: f64, n: &Vector3<f64>, rxn: &Vector3<f64>) {
+    w[0] += f * n.x;
+    w[1] += f * n.y;
+    w[2] += f * n.z;
+    w[3] += f * rxn.x;
+    w[4] += f * rxn.y;
+    w[5] += f * rxn.z;
+}
+
+/// The dynamic proxy with its coupling. `step` is allocation-free.
+#[derive(Debug, Clone)]
+pub struct ContactStage {
+    model: Arc<ContactModel>,
+    config: ContactConfig,
+    coupling: Coupling,
+    /// Proxy reference-point pose.
+    pose: Isometry3<f64>,
+    /// Velocity of the centre of mass, m/s.
+    velocity: Vector3<f64>,
+    /// Angular velocity, rad/s.
+    angular_velocity: Vector3<f64>,
+    in_contact: bool,
+    held_normal: Vector3<f64>,
+    held_point: Vector3<f64>,
+    started: bool,
+    /// Penetrating and braking points of the previous step: the shared damping of this
+    /// step is divided among that many points (one tick of lag, no second pass).
+    previous_contacts: u32,
+    previous_braking: u32,
+    last_tested: u32,
+    cache: Coherence,
+}
+
+impl ContactStage {
+    /// A proxy for `model`; it is placed at the first anchor it sees.
+    pub fn new(model: Arc<ContactModel>, config: ContactConfig, coupling: Coupling) -> Self {
+        Self {
+            cache: Coherence::new(model.shell.clusters().len(), model.shell.len()),
+            model,
+            config,
+            coupling,
+            pose: Isometry3::identity(),
+            velocity: Vector3::zeros(),
+            angular_velocity: Vector3::zeros(),
+            in_contact: false,
+            held_normal: Vector3::zeros(),
+            held_point: Vector3::zeros(),
+            started: false,
+            previous_contacts: 0,
+            previous_braking: 0,
+            last_tested: 0,
+        }
+    }
+
+    /// The coupling gains in use.
+    pub fn coupling(&self) -> &Coupling {
+        &self.coupling
+    }
+
+    /// Pointshell points tested against the voxmap in the last step (after culling).
+    pub fn last_points_tested(&self) -> u32 {
+        self.last_tested
+    }
+
+    /// The model.
+    pub fn model(&self) -> &ContactModel {
+        &self.model
+    }
+
+    /// Proxy pose (reference point), scene frame.
+    pub fn pose(&self) -> &Isometry3<f64> {
+        &self.pose
+    }
+
+    /// Puts the proxy at `pose` at rest (start-up, tests).
+    pub fn place(&mut self, pose: Isometry3<f64>) {
+        self.pose = pose;
+        self.velocity = Vector3::zeros();
+        self.angular_velocity = Vector3::zeros();
+        self.in_contact = false;
+        self.started = true;
+        self.cache.reset();
+    }
+
+    /// Sets the proxy's velocities (centre of mass, m/s; rad/s) — for tests.
+    pub fn set_velocity(&mut self, linear: Vector3<f64>, angular: Vector3<f64>) {
+        self.velocity = linear;
+        self.angular_velocity = angular;
+    }
+
+    fn mass_matrix(&self) -> Matrix6<f64> {
+        let m = self.config.proxy_mass_kg;
+        let r = self.pose.rotation.to_rotation_matrix();
+        let inertia = r.matrix() * self.model.inertia_per_kg * r.matrix().transpose() * m;
+        let mut mm = Matrix6::zeros();
+        mm.fixed_view_mut::<3, 3>(0, 0)
+            .copy_from(&(Matrix3::identity() * m));
+        mm.fixed_view_mut::<3, 3>(3, 3).copy_from(&inertia);
+        mm
+    }
+
+    /// Total energy of proxy and coupling towards a fixed `anchor` plus the contact springs,
+    /// J: ½uᵀMu + ½k|Δx|² + ½k_r|Δθ|² + Σ½k_p d². For the passivity test.
+    pub fn energy(&self, anchor: &Isometry3<f64>) -> f64 {
+        let u = Vector6::new(
+            self.velocity.x,
+            self.velocity.y,
+            self.velocity.z,
+            self.angular_velocity.x,
+            self.angular_velocity.y,
+            self.angular_velocity.z,
+        );
+        let kinetic = 0.5 * u.dot(&(self.mass_matrix() * u));
+        let c = &self.coupling;
+        let dx = anchor.transform_point(&Point3::from(self.model.com_local)) - self.com();
+        let dtheta = (anchor.rotation * self.pose.rotation.inverse()).scaled_axis();
+        let coupling =
+            0.5 * c.k_n_per_m * dx.norm_squared() + 0.5 * c.k_nm_per_rad * dtheta.norm_squared();
+        let shell = &self.model.shell;
+        let contact: f64 = shell
+            .points()
+            .iter()
+            .map(|p| {
+                match self
+                    .model
+                    .voxmap
+                    .sample(&self.pose.transform_point(&Point3::from(*p)).coords)
+                {
+                    Sample::Near { distance_m, .. } if distance_m < 0.0 => {
+                        0.5 * self.config.point_stiffness_n_per_m * distance_m * distance_m
+                    }
+                    _ => 0.0,
+                }
+            })
+            .sum();
+        kinetic + coupling + contact
+    }
+
+    /// The scene's wrench on the object held still at `pose` (reference point, scene frame):
+    /// force (N), torque about the reference point (N·m), deepest penetration (m) and the
+    /// number of penetrating points. Does not move the proxy.
+    pub fn probe(&self, pose: &Isometry3<f64>) -> Probe {
+        // A fresh cache: a full search. (Allocates: a diagnostic, not for the RT thread.)
+        let mut cache = Coherence::new(self.model.shell.clusters().len(), self.model.shell.len());
+        let s = self.sum_contacts(pose, &Vector3::zeros(), &Vector3::zeros(), &mut cache);
+        let force: Vector3<f64> = s.wrench.fixed_rows::<3>(0).into_owned();
+        let com = pose
+            .transform_point(&Point3::from(self.model.com_local))
+            .coords;
+        let lever = com - pose.translation.vector;
+        Probe {
+            force_n: force,
+            torque_nm: s.wrench.fixed_rows::<3>(3).into_owned() + lever.cross(&force),
+            penetration_m: s.max_depth,
+            contacts: s.contacts,
+            point_m: if s.weight > 0.0 {
+                s.weighted_point / s.weight
+            } else {
+                Vector3::zeros()
+            },
+        }
+    }
+
+    fn com(&self) -> Point3<f64> {
+        self.pose
+            .transform_point(&Point3::from(self.model.com_local))
+    }
+
+    /// The scene's wrench on the object at `pose` moving with `velocity` (centre of mass,
+    /// m/s) and `angular_velocity` (rad/s). Points and clusters whose motion budget in
+    /// `cache` is not used up are skipped (see [`Coherence`]) and the budgets are renewed.
+    ///
+    /// This is the hot loop of the tick: accumulators are locals and the per-point work is
+    /// kept to one voxmap look-up and a few dozen multiply-adds.
+    fn sum_contacts(
+        &self,
+        pose: &Isometry3<f64>,
+        velocity: &Vector3<f64>,
+        angular_velocity: &Vector3<f64>,
+        cache: &mut Coherence,
+    ) -> Sums {
+        let model = &*self.model;
+        let vox = &model.voxmap;
+        let shell = &model.shell;
+        let h = vox.voxel_m();
+        let prox = self.config.proximity_voxels * h;
+        let release = self.config.release_voxels * h;
+        let reach = prox.max(release);
+        let kp = self.config.point_stiffness_n_per_m;
+        let b_contact =
+            self.config.contact_damping_n_s_per_m / f64::from(self.previous_contacts.max(1));
+        let b_brake = self.config.braking_n_s_per_m / f64::from(self.previous_braking.max(1));
+        let mut s = Sums::default();
+        let moved = cache.motion_m;
+        let com = pose.transform_point(&Point3::from(model.com_local)).coords;
+        if moved < cache.object {
+            return s;
+        }
+        cache.object = moved + vox.clearance(&com) - model.radius_m - reach;
+        if moved < cache.object {
+            return s;
+        }
+        let rot = pose.rotation.to_rotation_matrix().into_inner();
+        let t = pose.translation.vector;
+        let points = shell.points();
+        let normals = shell.normals();
+        let expiry = &mut cache.points[..points.len()];
+        let (mut wrench, mut contact_jj, mut braking_jj) =
+            (Vector6::zeros(), JtJ::default(), JtJ::default());
+        let (mut weighted_point, mut normal_sum) = (Vector3::zeros(), Vector3::zeros());
+        let (mut weight, mut max_depth) = (0.0, 0.0_f64);
+        let (mut contacts, mut braking_points, mut tested) = (0u32, 0u32, 0u32);
+        let (mut near, mut within_release) = (false, false);
+        for (c, cl) in shell.clusters().iter().enumerate() {
+            if moved < cache.clusters[c] {
+                continue;
+            }
+            let centre = rot * cl.centre + t;
+            let slack = vox.clearance(&centre) - cl.radius_m - reach;
+            cache.clusters[c] = moved + slack;
+            if slack > 0.0 {
+                continue;
+            }
+            let range = cl.start as usize..cl.end as usize;
+            for ((point, normal), exp) in points[range.clone()]
+                .iter()
+                .zip(&normals[range.clone()])
+                .zip(&mut expiry[range])
+            {
+                if moved < *exp {
+                    continue;
+                }
+                tested += 1;
+                let p = rot * point + t;
+                let (sd, gradient) = match vox.sample(&p) {
+                    Sample::Near {
+                        distance_m,
+                        gradient,
+                    } => (distance_m, gradient),
+                    Sample::Far { clearance_m } => {
+                        *exp = moved + clearance_m - reach;
+                        continue;
+                    }
+                    Sample::Deep => {
+                        *exp = moved;
+                        continue;
+                    }
+                };
+                *exp = moved + sd - reach;
+                if sd >= reach {
+                    continue;
+                }
+                let g2 = gradient.norm_squared();
+                if g2 < 1e-18 {
+                    continue; // flat field (midway inside a thin plate): no direction
+                }
+                let n = gradient * (1.0 / g2.sqrt());
+                if (rot * normal).dot(&n) < 0.0 {
+                    continue; // faces away from this surface: see module docs
+                }
+                near = true;
+                within_release |= sd < release;
+                let r = p - com;
+                let rxn = r.cross(&n);
+                // Normal velocity of the point: v·n + (ω × r)·n = v·n + ω·(r × n).
+                let vn = velocity.dot(&n) + angular_velocity.dot(&rxn);
+                if sd < 0.0 {
+                    let d = -sd;
+                    // Damping never pulls the point into the surface. (The implicit step
+                    // keeps its damping term also for a clamped point: numerical damping.)
+                    let push = (kp * d - b_contact * vn).max(0.0);
+                    add_wrench(&mut wrench, push, &n, &rxn);
+                    contact_jj.add(1.0, &n, &rxn);
+                    contacts += 1;
+                    weighted_point += d * (p + d * n);
+                    weight += d;
+                    normal_sum += d * n;
+                    max_depth = max_depth.max(d);
+                } else if sd < prox && vn < 0.0 {
+                    // Pre-contact braking: opposes approach only, fading in over the layer.
+                    let w = 1.0 - sd / prox;
+                    add_wrench(&mut wrench, -b_brake * w * vn, &n, &rxn);
+                    braking_jj.add(w, &n, &rxn);
+                    braking_points += 1;
+                }
+            }
+        }
+        s.wrench = wrench;
+        s.contact_jj = contact_jj;
+        s.braking_jj = braking_jj;
+        s.contacts = contacts;
+        s.braking_points = braking_points;
+        s.near = near;
+        s.within_release = within_release;
+        s.weighted_point = weighted_point;
+        s.weight = weight;
+        s.normal_sum = normal_sum;
+        s.max_depth = max_depth;
+        s.tested = tested;
+        s
+    }
+
+    /// One step of `dt_s` towards `anchor`. Allocation-free.
+    pub fn step(&mut self, anchor: &Anchor, dt_s: f64) -> ContactOutput {
+        if !self.started {
+            self.place(anchor.pose);
+        }
+        let before = self.pose;
+        let mut cache = std::mem::take(&mut self.cache);
+        cache.advance(&self.pose, &self.model.com_local, self.model.radius_m);
+        let s = self.sum_contacts(
+            &self.pose,
+            &self.velocity,
+            &self.angular_velocity,
+            &mut cache,
+        );
+        self.cache = cache;
+
+        let b_contact =
+            self.config.contact_damping_n_s_per_m / f64::from(self.previous_contacts.max(1));
+        let b_brake = self.config.braking_n_s_per_m / f64::from(self.previous_braking.max(1));
+        self.previous_contacts = s.contacts;
+        self.last_tested = s.tested;
+        self.previous_braking = s.braking_points;
+        let contact_wrench = s.wrench;
+        let mut force = s.wrench;
+        let mut damping = s.contact_jj.matrix(b_contact) + s.braking_jj.matrix(b_brake);
+
+        // Coupling between the centres of mass.
+        let c = self.coupling;
+        let com = self.com().coords;
+        let anchor_com = anchor
+            .pose
+            .transform_point(&Point3::from(self.model.com_local))
+            .coords;
+        let anchor_v = anchor.linear_velocity
+            + anchor
+                .angular_velocity
+                .cross(&(anchor_com - anchor.pose.translation.vector));
+        let dtheta = (anchor.pose.rotation * self.pose.rotation.inverse()).scaled_axis();
+        let f_spring = c.k_n_per_m * (anchor_com - com);
+        let f_coupling = f_spring + c.b_n_s_per_m * (anchor_v - self.velocity);
+        let t_coupling = c.k_nm_per_rad * dtheta
+            + c.b_nm_s_per_rad * (anchor.angular_velocity - self.angular_velocity);
+        force += Vector6::new(
+            f_coupling.x,
+            f_coupling.y,
+            f_coupling.z,
+            t_coupling.x,
+            t_coupling.y,
+            t_coupling.z,
+        );
+        let mut stiffness = s.contact_jj.matrix(self.config.point_stiffness_n_per_m);
+        let mut coupling_damping = Matrix6::zeros();
+        for a in 0..3 {
+            stiffness[(a, a)] += c.k_n_per_m;
+            stiffness[(a + 3, a + 3)] += c.k_nm_per_rad;
+            coupling_damping[(a, a)] = c.b_n_s_per_m;
+            coupling_damping[(a + 3, a + 3)] = c.b_nm_s_per_rad;
+        }
+        damping += coupling_damping;
+
+        // Linearly implicit Euler: (M + dt·D + dt²·K) u' = (M + dt·D) u + dt·F, where F already
+        // holds the damping forces at u.
+        let mass = self.mass_matrix();
+        let u = Vector6::new(
+            self.velocity.x,
+            self.velocity.y,
+            self.velocity.z,
+            self.angular_velocity.x,
+            self.angular_velocity.y,
+            self.angular_velocity.z,
+        );
+        let lhs = mass + damping * dt_s + stiffness * (dt_s * dt_s);
+        let rhs = (mass + damping * dt_s) * u + force * dt_s;
+        let u_next = match lhs.cholesky() {
+            Some(ch) => ch.solve(&rhs),
+            // Not positive definite only with non-finite input: stop rather than explode.
+            None => Vector6::zeros(),
+        };
+        let u_next = if u_next.iter().all(|x| x.is_finite()) {
+            u_next
+        } else {
+            Vector6::zeros()
+        };
+        self.velocity = u_next.fixed_rows::<3>(0).into_owned();
+        self.angular_velocity = u_next.fixed_rows::<3>(3).into_owned();
+        let new_com = com + self.velocity * dt_s;
+        let rotation =
+            UnitQuaternion::from_scaled_axis(self.angular_velocity * dt_s) * self.pose.rotation;
+        let translation = new_com - rotation * self.model.com_local;
+        self.pose = Isometry3::from_parts(Translation3::from(translation), rotation);
+
+        // Contact state with hysteresis: enter on penetration, leave only when no point is
+        // within the release distance.
+        let entering = s.contacts > 0 && !self.in_contact;
+        if s.contacts > 0 {
+            self.in_contact = true;
+        } else if !s.within_release {
+            self.in_contact = false;
+        }
+        if entering {
+            self.held_normal = s
+                .normal_sum
+                .try_normalize(1e-12)
+                .unwrap_or_else(Vector3::zeros);
+        }
+        if s.weight > 0.0 {
+            self.held_point = s.weighted_point / s.weight;
+        }
+        let code = if self.in_contact {
+            ContactCode::CONTACT
+        } else if s.near {
+            ContactCode::PROXIMITY
+        } else {
+            ContactCode::FREE
+        };
+        if !self.in_contact {
+            self.held_normal = Vector3::zeros();
+            self.held_point = Vector3::zeros();
+        }
+
+        // Wrench about the reference points: moment of a force at the centre of mass.
+        let lever = com - before.translation.vector;
+        let contact_force: Vector3<f64> = contact_wrench.fixed_rows::<3>(0).into_owned();
+        let anchor_lever = anchor_com - anchor.pose.translation.vector;
+        ContactOutput {
+            proxy: self.pose,
+            contact_force_n: contact_force,
+            contact_torque_nm: contact_wrench.fixed_rows::<3>(3) + lever.cross(&contact_force),
+            device_force_n: -f_coupling,
+            device_torque_nm: -t_coupling + anchor_lever.cross(&(-f_coupling)),
+            operator_force_n: f_coupling,
+            code,
+            normal: self.held_normal,
+            point_m: self.held_point,
+            penetration_m: s.max_depth,
+            contacts: s.contacts,
+            points_tested: s.tested,
+        }
+    }
+}

@@ -1,0 +1,532 @@
+//! Correctness of contact rendering: values with tolerances, no timings.
+
+use super::*;
+use devices::sim::{ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmConfig, Waypoint};
+use nalgebra::{Translation3, UnitQuaternion, Vector3};
+use parry3d_f64::query::{contact, intersection_test};
+use parry3d_f64::shape::{Compound, SharedShape};
+use planner::collision::to_parry;
+use planner::pose::Se3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+const MM: f64 = 1e-3;
+
+fn iso(p: Vector3<f64>, r: UnitQuaternion<f64>) -> Isometry3<f64> {
+    Isometry3::from_parts(Translation3::from(p), r)
+}
+
+/// The wall-hole scene's moving object: three 20 × 20 × 100 mm sticks (I-RRT §5.3).
+fn s_object() -> Vec<(Pose, SharedShape)> {
+    planner::collision::part_shapes(&planner::Scene::wall_with_hole().moving_object)
+}
+
+fn bar() -> Vec<(Pose, SharedShape)> {
+    vec![(Pose::IDENTITY, SharedShape::cuboid(0.05, 0.01, 0.01))]
+}
+
+fn plane() -> Vec<(Pose, SharedShape)> {
+    // A 300 × 300 mm plate whose top face is z = 0.
+    vec![(
+        Pose::translation(0.0, 0.0, -0.01),
+        SharedShape::cuboid(0.15, 0.15, 0.01),
+    )]
+}
+
+/// A 200 mm box: the S (100 mm) approaching a face centre touches that face, not an edge.
+/// Edge-across-edge contacts are not compared with parry: there each penetrating point
+/// pushes along its nearest face's normal (VPS), parry along the minimal translation.
+fn cube() -> Vec<(Pose, SharedShape)> {
+    vec![(Pose::IDENTITY, SharedShape::cuboid(0.1, 0.1, 0.1))]
+}
+
+fn stage(
+    obstacles: &[(Pose, SharedShape)],
+    object: &[(Pose, SharedShape)],
+    voxel_m: f64,
+) -> ContactStage {
+    let config = ContactConfig {
+        voxmap: VoxmapConfig {
+            voxel_m,
+            ..VoxmapConfig::default()
+        },
+        ..ContactConfig::default()
+    };
+    let model = ContactModel::build(obstacles, object, &config.voxmap).unwrap();
+    let spec = SimulatedArmConfig::default().spec();
+    ContactStage::new(
+        Arc::new(model),
+        config,
+        Coupling::from_spec(&spec, 1.0, config.coupling_fraction),
+    )
+}
+
+fn random_rotation(rng: &mut ChaCha8Rng) -> UnitQuaternion<f64> {
+    let q = nalgebra::Quaternion::new(
+        rng.random::<f64>() - 0.5,
+        rng.random::<f64>() - 0.5,
+        rng.random::<f64>() - 0.5,
+        rng.random::<f64>() - 0.5,
+    );
+    UnitQuaternion::from_quaternion(q)
+}
+
+/// Exact geometry with parry: the object at `pose` against the obstacles.
+struct Exact {
+    obstacles: Compound,
+    object: Compound,
+}
+
+impl Exact {
+    fn new(obstacles: &[(Pose, SharedShape)], object: &[(Pose, SharedShape)]) -> Self {
+        Self {
+            obstacles: Compound::new(obstacles.to_vec()),
+            object: Compound::new(object.to_vec()),
+        }
+    }
+
+    fn pose(p: &Isometry3<f64>) -> Pose {
+        to_parry(&Se3::from_isometry(p))
+    }
+
+    fn touching(&self, p: &Isometry3<f64>) -> bool {
+        intersection_test(
+            &Pose::IDENTITY,
+            &self.obstacles,
+            &Self::pose(p),
+            &self.object,
+        )
+        .unwrap()
+        .intersecting
+    }
+
+    /// Outward normal of the obstacle at the deepest contact, and the depth (m).
+    fn contact(&self, p: &Isometry3<f64>) -> Option<(Vector3<f64>, f64)> {
+        contact(
+            &Pose::IDENTITY,
+            &self.obstacles,
+            &Self::pose(p),
+            &self.object,
+            0.0,
+        )
+        .unwrap()
+        .map(|c| (Vector3::new(c.normal1.x, c.normal1.y, c.normal1.z), -c.dist))
+    }
+
+    /// Moving from `from` along `dir` with orientation `r`, the first pose that touches.
+    /// `from` must be within 0.25 m of the obstacle along `dir`.
+    fn first_touch(
+        &self,
+        from: Vector3<f64>,
+        dir: Vector3<f64>,
+        r: UnitQuaternion<f64>,
+    ) -> Option<f64> {
+        let (mut lo, mut hi) = (0.0, 0.25);
+        if self.touching(&iso(from, r)) || !self.touching(&iso(from + dir * hi, r)) {
+            return None;
+        }
+        for _ in 0..60 {
+            let mid = 0.5 * (lo + hi);
+            if self.touching(&iso(from + dir * mid, r)) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        Some(hi)
+    }
+}
+
+/// For random orientations, approaches `target` along `dir` from `back_m` before it until the
+/// object touches, then
+/// pushes in: the contact force must agree with parry's normal within 10° and grow with
+/// depth. Returns the number of orientations checked.
+fn check_direction_and_monotonicity(
+    obstacles: &[(Pose, SharedShape)],
+    object: &[(Pose, SharedShape)],
+    target: Vector3<f64>,
+    dirs: &[Vector3<f64>],
+    back_m: f64,
+    seed: u64,
+    cases: usize,
+) -> usize {
+    let st = stage(obstacles, object, 1.0 * MM);
+    let exact = Exact::new(obstacles, object);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut checked = 0;
+    for case in 0..cases {
+        let r = random_rotation(&mut rng);
+        let dir = dirs[case % dirs.len()].normalize();
+        let from = target - dir * back_m;
+        let Some(t) = exact.first_touch(from, dir, r) else {
+            continue;
+        };
+        let mut last = 0.0;
+        for step in 1..=6 {
+            let push = step as f64 * 0.25 * MM;
+            let pose = iso(from + dir * (t + push), r);
+            let (normal, depth) = exact.contact(&pose).expect("in contact");
+            let probe = st.probe(&pose);
+            let f = probe.force_n;
+            assert!(f.norm() > 0.0, "case {case}: no force at depth {depth}");
+            let angle = f.angle(&normal).to_degrees();
+            assert!(
+                angle <= 10.0,
+                "case {case} push {push}: force {f:?} vs parry normal {normal:?}: {angle:.1}°"
+            );
+            assert!(
+                f.norm() > last,
+                "case {case}: force {} not above {} at push {push}",
+                f.norm(),
+                last
+            );
+            // The voxmap sees the same depth as parry, within a voxel's quantisation.
+            assert!(
+                (probe.penetration_m - depth).abs() < 0.6 * MM,
+                "depth {} vs {depth}",
+                probe.penetration_m
+            );
+            last = f.norm();
+        }
+        checked += 1;
+    }
+    checked
+}
+
+#[test]
+fn force_follows_the_normal_on_a_plane() {
+    let n = check_direction_and_monotonicity(
+        &plane(),
+        &s_object(),
+        Vector3::zeros(),
+        &[-Vector3::z()],
+        0.2,
+        1,
+        12,
+    );
+    assert_eq!(n, 12);
+}
+
+#[test]
+fn force_follows_the_normal_on_the_faces_of_a_box() {
+    let dirs = [
+        -Vector3::z(),
+        Vector3::z(),
+        -Vector3::x(),
+        Vector3::x(),
+        -Vector3::y(),
+        Vector3::y(),
+    ];
+    let n =
+        check_direction_and_monotonicity(&cube(), &s_object(), Vector3::zeros(), &dirs, 0.2, 2, 12);
+    assert!(n >= 10, "only {n} cases reached the box");
+}
+
+#[test]
+fn force_follows_the_normal_on_the_wall_with_a_hole() {
+    let wall = planner::collision::part_shapes(&planner::Scene::wall_with_hole().obstacles);
+    // The wall's face beside the hole, and the hole's side faces from inside the hole.
+    let n = check_direction_and_monotonicity(
+        &wall,
+        &s_object(),
+        Vector3::new(0.0, 0.15, 0.1),
+        &[Vector3::x()],
+        0.2,
+        3,
+        6,
+    );
+    assert_eq!(n, 6);
+    // The S does not fit in the 80 mm hole in most orientations: a 10 mm cube, whose
+    // corners stay inside the wall's thickness, tests the hole's four side faces.
+    let small = vec![(Pose::IDENTITY, SharedShape::cuboid(0.005, 0.005, 0.005))];
+    let sides = [Vector3::y(), -Vector3::y(), Vector3::z(), -Vector3::z()];
+    let n = check_direction_and_monotonicity(&wall, &small, Vector3::zeros(), &sides, 0.0, 4, 8);
+    assert_eq!(n, 8);
+}
+
+#[test]
+fn off_centre_contact_gives_r_cross_f() {
+    // A 100 mm bar tilted by 2° about y: only its +x end dips 1 mm into the plane.
+    let st = stage(&plane(), &bar(), 1.0 * MM);
+    let tilt = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), 2f64.to_radians());
+    let a = 2f64.to_radians();
+    // Lowest corner (x = +50 mm, z = −10 mm in the bar) 1 mm below the plane.
+    let z = 0.05 * a.sin() + 0.01 * a.cos() - 0.001;
+    let pose = iso(Vector3::new(0.0, 0.0, z), tilt);
+    let probe = st.probe(&pose);
+    assert!(probe.contacts > 0);
+    let f = probe.force_n;
+    assert!(
+        f.z > 0.0 && f.x.abs() < 0.05 * f.z && f.y.abs() < 0.05 * f.z,
+        "{f:?}"
+    );
+    // The bottom face dips in over L = 1 mm / tan 2° ≈ 28.6 mm from the +x end, depth
+    // growing linearly to the end: the force acts L/3 from the end, ≈ 40.5 mm from the
+    // centre, and turns the bar about −y.
+    let tau = probe.torque_nm;
+    assert!(tau.y < 0.0, "{tau:?}");
+    let lever = tau.y.abs() / f.z;
+    let expected_lever = 0.05 * a.cos() - (0.001 / a.tan()) / 3.0;
+    assert!(
+        (lever - expected_lever).abs() < 0.002,
+        "lever {lever} m, expected {expected_lever}"
+    );
+    // And exactly the moment of the force at the mean contact point.
+    let expected = (probe.point_m - pose.translation.vector).cross(&f);
+    assert!(
+        (tau - expected).norm() < 0.02 * tau.norm(),
+        "{tau:?} vs {expected:?}"
+    );
+}
+
+/// Steps a stage against a fixed anchor for `ticks` and returns every output.
+fn run(st: &mut ContactStage, anchor: &Anchor, ticks: usize) -> Vec<ContactOutput> {
+    (0..ticks).map(|_| st.step(anchor, 0.001)).collect()
+}
+
+#[test]
+fn proxy_stays_out_of_the_wall_while_the_hand_pushes_with_full_force() {
+    // The simulated operator pushes the arm 10 cm into the plane: the hand saturates at the
+    // device's maximum force, the coupling transmits it, the proxy must stop within 2 voxels.
+    let h = 1.0 * MM;
+    let mut st = stage(&plane(), &s_object(), h);
+    let arm_cfg = SimulatedArmConfig::default();
+    let max_force = arm_cfg.max_force_n;
+    let r = UnitQuaternion::from_euler_angles(0.3, -0.2, 0.7);
+    let exact = Exact::new(&plane(), &s_object());
+    let from = Vector3::new(0.0, 0.0, 0.2);
+    let t = exact.first_touch(from, -Vector3::z(), r).unwrap();
+    let touch = from - Vector3::z() * t;
+    let start = touch + Vector3::z() * 0.02;
+    let user = ScriptedUser::new(
+        ScriptedUserConfig {
+            max_force_n: max_force,
+            hand_stiffness_n_per_m: 600.0,
+            ..ScriptedUserConfig::default()
+        },
+        [
+            Waypoint::new(iso(start, r)),
+            Waypoint::new(iso(touch - Vector3::z() * 0.1, r)).with_dwell(3.0),
+        ],
+    )
+    .unwrap();
+    let mut arm = SimulatedArm::with_user(arm_cfg, user).unwrap();
+    arm.set_true_pose(iso(start, r));
+    use devices::HapticDevice;
+    arm.open().unwrap();
+    let mut deepest = 0.0_f64;
+    let mut pushed = 0.0_f64;
+    for i in 1..=6000u64 {
+        let s = arm.read(i * 1_000_000).unwrap();
+        let anchor = Anchor {
+            pose: s.pose,
+            linear_velocity: s.linear_velocity,
+            angular_velocity: s.angular_velocity,
+        };
+        let out = st.step(&anchor, 0.001);
+        let wrench = devices::Wrench {
+            force: out.device_force_n,
+            torque: out.device_torque_nm,
+        };
+        let limited = arm.spec().saturate(&wrench);
+        arm.write(&limited).unwrap();
+        deepest = deepest.max(out.penetration_m);
+        pushed = pushed.max(out.operator_force_n.norm());
+        // The exact geometry agrees: the proxy is never deeper than 2 voxels.
+        if let Some((_, depth)) = exact.contact(&out.proxy) {
+            assert!(depth <= 2.0 * h, "tick {i}: parry depth {depth}");
+        }
+    }
+    assert!(pushed > 0.9 * max_force, "the hand only pushed {pushed} N");
+    assert!(deepest > 0.0, "never touched");
+    assert!(deepest <= 2.0 * h, "penetration {deepest} m");
+}
+
+#[test]
+fn released_proxy_never_gains_energy() {
+    // Pressed 1.5 voxels into the plate with random orientations, then let go: the anchor
+    // stays where it was (the hand holds still). Over 10 s the total energy of proxy,
+    // coupling and contact springs must not grow.
+    let h = 1.0 * MM;
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let exact = Exact::new(&plane(), &s_object());
+    for case in 0..3 {
+        let mut st = stage(&plane(), &s_object(), h);
+        let r = random_rotation(&mut rng);
+        let from = Vector3::new(0.0, 0.0, 0.2);
+        let t = exact.first_touch(from, -Vector3::z(), r).unwrap();
+        let pressed = iso(from - Vector3::z() * (t + 1.5 * h), r);
+        // The anchor 5 mm above the pressed pose: coupling and contact both loaded.
+        let anchor_pose = iso(pressed.translation.vector + Vector3::z() * 0.005, r);
+        st.place(pressed);
+        let anchor = Anchor {
+            pose: anchor_pose,
+            linear_velocity: Vector3::zeros(),
+            angular_velocity: Vector3::zeros(),
+        };
+        let mut e = st.energy(&anchor_pose);
+        let e0 = e;
+        assert!(e0 > 0.0);
+        for tick in 0..10_000 {
+            st.step(&anchor, 0.001);
+            let next = st.energy(&anchor_pose);
+            assert!(
+                next <= e + 1e-9 + 1e-6 * e0,
+                "case {case} tick {tick}: energy rose from {e} to {next} J"
+            );
+            e = next;
+        }
+        assert!(e < 0.5 * e0, "case {case}: energy only fell to {e} of {e0}");
+    }
+}
+
+#[test]
+fn sliding_along_a_wall_keeps_contact_without_chatter() {
+    // The anchor 4 mm inside a vertical wall face (a push of about k·4 mm) slides 10 cm
+    // along it at 5 cm/s: contact must hold, the flag may toggle at most twice per second.
+    let h = 1.0 * MM;
+    let wall = vec![(
+        Pose::translation(0.01, 0.0, 0.0),
+        SharedShape::cuboid(0.01, 0.12, 0.05),
+    )];
+    let mut st = stage(&wall, &bar(), h);
+    let r = UnitQuaternion::from_euler_angles(0.0, 0.0, std::f64::consts::FRAC_PI_2 + 0.1);
+    let exact = Exact::new(&wall, &bar());
+    let from = Vector3::new(-0.24, -0.05, 0.0);
+    let t = exact.first_touch(from, Vector3::x(), r).unwrap();
+    let touch = from + Vector3::x() * t;
+    st.place(iso(touch - Vector3::x() * 0.001, r));
+    let mut toggles = 0;
+    let mut was = None;
+    let mut in_contact = 0;
+    let ticks = 2000;
+    for i in 0..ticks {
+        let y = 0.05 * (i as f64 * 0.001);
+        let anchor = Anchor {
+            pose: iso(touch + Vector3::new(0.004, y, 0.0), r),
+            linear_velocity: Vector3::new(0.0, 0.05, 0.0),
+            angular_velocity: Vector3::zeros(),
+        };
+        let out = st.step(&anchor, 0.001);
+        let c = out.code == ContactCode::CONTACT;
+        if i >= 200 {
+            in_contact += usize::from(c);
+            if was.is_some_and(|w| w != c) {
+                toggles += 1;
+            }
+            was = Some(c);
+            assert!(out.penetration_m <= 2.0 * h);
+        }
+    }
+    assert_eq!(in_contact, ticks - 200, "lost contact while pushing");
+    assert!(toggles <= 2 * (ticks - 200) / 1000, "{toggles} toggles");
+}
+
+#[test]
+fn contact_state_holds_the_first_normal_and_reports_the_operator_force() {
+    let h = 1.0 * MM;
+    let mut st = stage(&plane(), &bar(), h);
+    st.place(iso(
+        Vector3::new(0.0, 0.0, 0.0105),
+        UnitQuaternion::identity(),
+    ));
+    // Press down, then drag sideways: n_c stays the first normal (+z).
+    let mut saw_contact = false;
+    for i in 0..1500 {
+        let x = if i < 500 {
+            0.0
+        } else {
+            0.03 * ((i - 500) as f64 / 1000.0)
+        };
+        let anchor = Anchor {
+            pose: iso(Vector3::new(x, 0.0, 0.004), UnitQuaternion::identity()),
+            linear_velocity: Vector3::zeros(),
+            angular_velocity: Vector3::zeros(),
+        };
+        let out = st.step(&anchor, 0.001);
+        if out.code == ContactCode::CONTACT {
+            saw_contact = true;
+            assert!(
+                (out.normal - Vector3::z()).norm() < 1e-6,
+                "{:?}",
+                out.normal
+            );
+            assert!(
+                out.point_m.z.abs() < 1.5 * h,
+                "contact point {:?}",
+                out.point_m
+            );
+        }
+        if i > 400 {
+            // The operator pushes down through the coupling; the device is pushed up.
+            assert!(out.operator_force_n.z < 0.0);
+            assert!((out.device_force_n + out.operator_force_n).norm() < 1e-12);
+        }
+    }
+    assert!(saw_contact);
+}
+
+#[test]
+fn free_space_costs_no_point_tests() {
+    let mut st = stage(&plane(), &s_object(), 1.0 * MM);
+    let anchor = Anchor {
+        pose: iso(Vector3::new(0.0, 0.0, 0.3), UnitQuaternion::identity()),
+        linear_velocity: Vector3::zeros(),
+        angular_velocity: Vector3::zeros(),
+    };
+    let out = run(&mut st, &anchor, 3).pop().unwrap();
+    assert_eq!(out.points_tested, 0);
+    assert_eq!(out.code, ContactCode::FREE);
+    assert_eq!(out.device_force_n, Vector3::zeros());
+}
+
+#[test]
+fn random_placements_never_produce_non_finite_output() {
+    let mut st = stage(&cube(), &s_object(), 2.0 * MM);
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    for _ in 0..200 {
+        let p = Vector3::new(
+            rng.random_range(-0.1..0.1),
+            rng.random_range(-0.1..0.1),
+            rng.random_range(-0.1..0.1),
+        );
+        st.place(iso(p, random_rotation(&mut rng)));
+        let anchor = Anchor {
+            pose: iso(p, UnitQuaternion::identity()),
+            linear_velocity: Vector3::zeros(),
+            angular_velocity: Vector3::zeros(),
+        };
+        let out = st.step(&anchor, 0.001);
+        assert!(out.device_force_n.iter().all(|x| x.is_finite()));
+        assert!(out.proxy.translation.vector.iter().all(|x| x.is_finite()));
+    }
+}
+
+#[test]
+fn coherent_search_finds_exactly_what_a_full_search_finds() {
+    // The motion-budget cache only skips points that cannot be within reach: penetration
+    // and contact count must equal an uncached search at the same pose, tick by tick, while
+    // the object approaches, slides, turns and leaves.
+    let mut st = stage(&plane(), &s_object(), 1.0 * MM);
+    let r0 = UnitQuaternion::from_euler_angles(0.2, 0.1, 0.0);
+    st.place(iso(Vector3::new(0.0, 0.0, 0.08), r0));
+    let mut touching = 0;
+    for i in 0..3000 {
+        let t = i as f64 * 0.001;
+        let z = 0.08 - 0.04 * t.min(1.5) + 0.03 * (t - 2.0).max(0.0);
+        let anchor = Anchor {
+            pose: iso(
+                Vector3::new(0.02 * t, 0.0, z),
+                UnitQuaternion::from_euler_angles(0.0, 0.0, 0.3 * t) * r0,
+            ),
+            linear_velocity: Vector3::zeros(),
+            angular_velocity: Vector3::zeros(),
+        };
+        let full = st.probe(st.pose());
+        let out = st.step(&anchor, 0.001);
+        assert_eq!(out.contacts, full.contacts, "tick {i}");
+        assert_eq!(out.penetration_m, full.penetration_m, "tick {i}");
+        touching += usize::from(out.contacts > 0);
+    }
+    assert!(touching > 500, "touched in only {touching} ticks");
+}
