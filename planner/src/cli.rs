@@ -28,7 +28,7 @@ pub enum Command {
     /// Run next to a haptic loop: read its state over iceoryx2, grow the trees, publish
     /// guidance and the solution path. Stops on Ctrl-C / SIGTERM or after --duration-s.
     Serve(ServeArgs),
-    /// Plan automatically (no operator) with RRT-Connect and report.
+    /// Plan automatically (no operator) with RRT-Connect or RRT (--algorithm) and report.
     Solve(SolveArgs),
     /// List the built-in scenes, or write them as TOML files (with OBJ meshes).
     Scenes(ScenesArgs),
