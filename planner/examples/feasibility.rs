@@ -4,10 +4,10 @@
 //! ```text
 //! cargo run -p planner --release --example feasibility -- \
 //!     [--scene wall-hole|PATH] [--hole-mm 80] [--seeds 10] [--first-seed 1] [--limit-s 60] \
-//!     [--user-bias 0.0] [--user-sigma 0.03] [--user-speed 0.02]
+//!     [--alpha 1.0] [--user-sigma 0.03] [--user-speed 0.02]
 //! ```
 //!
-//! With `--user-bias > 0`, a scripted user moves the object's reference point along the
+//! With `--alpha < 1` (H-RRT-C authority sharing), a scripted user moves the object's reference point along the
 //! straight line from start to goal (through the hole centre, identity orientation, passing
 //! through the wall if need be, like the simulated user of I-RRT §6) at `--user-speed`
 //! m/s of wall-clock time, then stays at the goal.
@@ -31,7 +31,9 @@ fn main() {
     let first: u64 = arg(&args, "--first-seed", 1);
     let limit_s: f64 = arg(&args, "--limit-s", 60.0);
     let params = PlannerParams {
-        user_bias: arg(&args, "--user-bias", 0.0),
+        sampling: planner::Sampling::Hrrtc {
+            alpha: arg(&args, "--alpha", 1.0),
+        },
         user_sigma: arg(&args, "--user-sigma", 0.03),
         ..Default::default()
     };
@@ -48,8 +50,8 @@ fn main() {
         }
     };
     println!(
-        "scene {} | step {} res {} | user_bias {} sigma {} speed {} m/s | limit {limit_s} s",
-        scene.name, params.step, params.edge_resolution, params.user_bias, params.user_sigma, speed
+        "scene {} | step {} res {} | sampling {:?} sigma {} speed {} m/s | limit {limit_s} s",
+        scene.name, params.step, params.edge_resolution, params.sampling, params.user_sigma, speed
     );
     println!("seed solved time_s iterations nodes checks us/check path_len best_d");
     let mut times = Vec::new();

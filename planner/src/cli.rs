@@ -28,14 +28,78 @@ pub enum Command {
     /// Run next to a haptic loop: read its state over iceoryx2, grow the trees, publish
     /// guidance and the solution path. Stops on Ctrl-C / SIGTERM or after --duration-s.
     Serve(ServeArgs),
-    /// Plan automatically (no operator) with RRT-Connect and report.
+    /// Plan automatically (no operator) with RRT-Connect or RRT (--algorithm) and report.
     Solve(SolveArgs),
+    /// List the built-in scenes, or write them as TOML files (with OBJ meshes).
+    Scenes(ScenesArgs),
+    /// Rerun the papers' experiments with a simulated operator in lockstep and write
+    /// runs.csv, summary.md and PNG plots.
+    Experiment(ExperimentArgs),
+}
+
+/// Options of `planner experiment`.
+#[derive(Debug, Args, Clone)]
+pub struct ExperimentArgs {
+    /// `irrt`: sampling method × σ × ε_v on the maze with a pass-through operator (I-RRT
+    /// §6). `hrrtc`: α on narrow tunnels and crossing planes with a contact-seeking
+    /// operator, beside automatic RRT-Connect (H-RRT-C Tables I and III).
+    #[arg(value_parser = ["irrt", "hrrtc"])]
+    pub sweep: String,
+    /// Runs (seeds 1..=N) per configuration.
+    #[arg(long, default_value_t = 5)]
+    pub seeds: u64,
+    /// Wall-clock limit per run, s (unsolved runs count at the limit in medians).
+    #[arg(long, default_value_t = 10.0)]
+    pub time_limit: f64,
+    /// Output directory (created).
+    #[arg(long, default_value = "experiment-out")]
+    pub out: PathBuf,
+    /// irrt: scene (a built-in with an operator path).
+    #[arg(long, default_value = "maze")]
+    pub scene: String,
+    /// irrt: methods, comma-separated, from pos, pos+cs, path, path+cs, cs.
+    #[arg(long, default_value = "pos,pos+cs,path,path+cs", value_delimiter = ',')]
+    pub methods: Vec<String>,
+    /// irrt: σ values (weighted m), comma-separated.
+    #[arg(long, default_value = "0.01,0.05", value_delimiter = ',')]
+    pub sigmas: Vec<f64>,
+    /// irrt: ε_v values (operator speed, weighted m per iteration), comma-separated.
+    #[arg(long, default_value = "0.0002,0.001,0.005", value_delimiter = ',')]
+    pub eps: Vec<f64>,
+    /// irrt: β of the +CS methods (one uniform sample in β).
+    #[arg(long, default_value_t = 3.0)]
+    pub beta: f64,
+    /// hrrtc: scenes, comma-separated built-ins.
+    #[arg(long, default_value = "tunnels,crossing-planes", value_delimiter = ',')]
+    pub scenes: Vec<String>,
+    /// hrrtc: α values (share of machine samples), comma-separated.
+    #[arg(long, default_value = "0,0.1,0.5,0.9", value_delimiter = ',')]
+    pub alphas: Vec<f64>,
+    /// hrrtc: operator speed ε_v, weighted m per iteration.
+    #[arg(long, default_value_t = 0.001)]
+    pub hrrtc_eps: f64,
+    /// hrrtc: σ of the operator's orientation error, rad per axis (its dexterity).
+    #[arg(long, default_value_t = 0.1)]
+    pub error_sigma: f64,
+    /// Hide the progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Options of `planner scenes`.
+#[derive(Debug, Args, Clone)]
+pub struct ScenesArgs {
+    /// Write every built-in scene to DIR/<name>.toml and its meshes to DIR/meshes/.
+    #[arg(long, value_name = "DIR")]
+    pub write: Option<PathBuf>,
 }
 
 /// Options shared by every planning command.
 #[derive(Debug, Args, Clone)]
 pub struct CoreArgs {
-    /// Scene: `wall-hole` (alias `default`, the I-RRT §5.3 6-D case) or a TOML scene file.
+    /// Scene: a built-in name (`wall-hole` alias `default`, `maze`, `tunnels`,
+    /// `tunnels-1axis`, `tunnels-2axes`, `crossing-planes`, `silencer`, `free`; see
+    /// `planner scenes`) or a TOML scene file.
     #[arg(long, default_value = "wall-hole")]
     pub scene: String,
     /// RNG seed: the same seed and inputs give the same trees.
@@ -50,6 +114,53 @@ pub struct CoreArgs {
     /// p: nearest nodes in F_a's barycenter (I-RRT uses 5).
     #[arg(long, default_value_t = 5)]
     pub neighbours: usize,
+    /// Tree algorithm: `rrt-connect` (two trees, greedy I-RRT Extend) or `rrt` (one tree,
+    /// one step per iteration, 5 % goal bias).
+    #[arg(long, default_value = "rrt-connect", value_parser = ["rrt-connect", "rrt"])]
+    pub algorithm: String,
+    /// Random shortcut attempts on the solution path (0 keeps the raw tree path).
+    #[arg(long, default_value_t = 100)]
+    pub shortcut_attempts: u32,
+}
+
+/// Operator-driven sampling options (I-RRT §4.2.2 and §6, H-RRT-C Algorithms 1–2).
+#[derive(Debug, Args, Clone)]
+pub struct SamplingArgs {
+    /// Sampling method: `cs` (uniform), `pos` (Gaussian around the operator along F_r),
+    /// `path` (Gaussian around the operator's travelled path), `pos+cs` / `path+cs` (one
+    /// uniform sample in β), `hrrtc` (H-RRT-C: uniform with probability α else the
+    /// operator's configuration; HapticSampling on the contact plane while in contact).
+    #[arg(long, default_value = "hrrtc",
+          value_parser = ["cs", "pos", "path", "pos+cs", "path+cs", "hrrtc"])]
+    pub sampling: String,
+    /// α of H-RRT-C: share of machine (uniform) samples in free space, in [0, 1].
+    #[arg(long, default_value_t = 0.5)]
+    pub alpha: f64,
+    /// β of the +CS methods: one sample in β is uniform (I-RRT uses 3), >= 1.
+    #[arg(long, default_value_t = 3.0)]
+    pub beta: f64,
+    /// σ: standard deviation of the POS and PATH Gaussians, weighted m (m, or rad × 0.1).
+    #[arg(long, default_value_t = 0.05)]
+    pub sigma: f64,
+    /// α of I-RRT eq. 1, F_r = α·F_u + (1−α)·F_a, in [0, 1].
+    #[arg(long, default_value_t = 0.5)]
+    pub fr_alpha: f64,
+    /// Grow I-RRT local trees at operator samples the main trees cannot reach.
+    #[arg(long)]
+    pub local_trees: bool,
+}
+
+impl SamplingArgs {
+    /// Applies the options to `params` and validates them.
+    pub fn apply(&self, params: &mut PlannerParams) -> anyhow::Result<()> {
+        params.sampling = crate::Sampling::parse(&self.sampling, self.beta, self.alpha)
+            .with_context(|| format!("unknown --sampling {}", self.sampling))?;
+        params.user_sigma = self.sigma;
+        params.fr_alpha = self.fr_alpha;
+        params.local_trees = self.local_trees;
+        params.validate()?;
+        Ok(())
+    }
 }
 
 /// Options of `planner serve`.
@@ -73,12 +184,9 @@ pub struct ServeArgs {
     /// Time-to-live of each guidance sample, ms; the loop fades it out after that.
     #[arg(long, default_value_t = 100.0)]
     pub ttl_ms: f64,
-    /// Probability of sampling around the operator's configuration instead of uniformly.
-    #[arg(long, default_value_t = 0.5)]
-    pub user_bias: f64,
-    /// Standard deviation of the Gaussian around the operator, weighted m.
-    #[arg(long, default_value_t = 0.05)]
-    pub user_sigma: f64,
+    /// How the operator's input drives sampling.
+    #[command(flatten)]
+    pub sampling: SamplingArgs,
     /// How often to poll the haptic state, Hz (above the loop rate to see every tick).
     #[arg(long, default_value_t = 2000.0)]
     pub poll_hz: f64,
@@ -96,12 +204,19 @@ pub struct SolveArgs {
     /// Scene, seed and tree parameters.
     #[command(flatten)]
     pub core: CoreArgs,
-    /// Give up after this many seconds.
+    /// Give up after this many seconds (wall clock).
     #[arg(long, default_value_t = 60.0)]
     pub time_limit: f64,
-    /// Write the result as JSON here.
+    /// Write the result as JSON here: solved, time_s, iterations, nodes,
+    /// collision_checks, path_length (weighted m), path_waypoints.
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Write the (smoothed) solution path here as CSV: x_m,y_m,z_m,qw,qx,qy,qz,arc_length.
+    #[arg(long)]
+    pub path_csv: Option<PathBuf>,
+    /// Write the (smoothed) solution path here as JSON waypoints.
+    #[arg(long)]
+    pub path_json: Option<PathBuf>,
 }
 
 fn positive(name: &str, v: f64) -> anyhow::Result<f64> {
@@ -119,6 +234,12 @@ impl CoreArgs {
             step: self.step,
             edge_resolution: self.edge_resolution,
             neighbours: self.neighbours,
+            algorithm: if self.algorithm == "rrt" {
+                crate::Algorithm::Rrt
+            } else {
+                crate::Algorithm::RrtConnect
+            },
+            shortcut_attempts: self.shortcut_attempts,
             ..PlannerParams::default()
         };
         params.validate()?;
@@ -130,9 +251,7 @@ impl ServeArgs {
     /// Validates the arguments into a [`ShellConfig`] (loads the scene).
     pub fn to_config(&self) -> anyhow::Result<ShellConfig> {
         let (scene, mut params) = self.core.load()?;
-        params.user_bias = self.user_bias;
-        params.user_sigma = self.user_sigma;
-        params.validate()?;
+        self.sampling.apply(&mut params)?;
         let gain = |name: &str, v: f64| -> anyhow::Result<f64> {
             if v.is_finite() && v >= 0.0 {
                 Ok(v)
@@ -198,6 +317,16 @@ pub fn solve(args: &SolveArgs) -> anyhow::Result<SolveReport> {
     let path_length = planner
         .solution()
         .map(|p| crate::space::path_length(planner.space(), p));
+    if let Some(p) = planner.solution() {
+        let write = |file: &Option<PathBuf>, text: String| -> anyhow::Result<()> {
+            if let Some(f) = file {
+                std::fs::write(f, text).with_context(|| format!("cannot write {}", f.display()))?;
+            }
+            Ok(())
+        };
+        write(&args.path_csv, crate::path::to_csv(planner.space(), p))?;
+        write(&args.path_json, crate::path::to_json(planner.space(), p))?;
+    }
     Ok(SolveReport {
         scene: scene.name.clone(),
         seed: args.core.seed,
@@ -287,5 +416,190 @@ where
             }
             Ok(if report.solved { 0 } else { 1 })
         }
+        Command::Experiment(a) => {
+            experiment(&a)?;
+            Ok(0)
+        }
+        Command::Scenes(a) => {
+            for name in crate::scene::BUILTIN_NAMES {
+                if name == "default" {
+                    continue;
+                }
+                let scene = Scene::builtin(name).context("built-in scene")?;
+                match &a.write {
+                    Some(dir) => {
+                        let path = scene
+                            .write_to_dir(dir)
+                            .with_context(|| format!("cannot write into {}", dir.display()))?;
+                        println!("{}", path.display());
+                    }
+                    None => println!(
+                        "{name}: {} obstacles, {} object parts, {:?} space",
+                        scene.obstacles.len(),
+                        scene.moving_object.len(),
+                        scene.space
+                    ),
+                }
+            }
+            Ok(0)
+        }
+    }
+}
+
+/// Runs `planner experiment`: the sweep, then runs.csv, summary.md and plots in `--out`.
+pub fn experiment(a: &ExperimentArgs) -> anyhow::Result<()> {
+    use crate::experiment::{self as ex, report};
+    let limit = positive("time-limit", a.time_limit)?;
+    if a.seeds == 0 {
+        bail!("--seeds must be >= 1");
+    }
+    let specs = if a.sweep == "irrt" {
+        let methods = a
+            .methods
+            .iter()
+            .map(|m| {
+                crate::Sampling::parse(m, a.beta, 0.5)
+                    .with_context(|| format!("unknown method `{m}` in --methods"))
+            })
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        ex::irrt_specs(&a.scene, &methods, &a.sigmas, &a.eps, a.seeds, limit)
+    } else {
+        ex::hrrtc_specs(
+            &a.scenes,
+            &a.alphas,
+            a.hrrtc_eps,
+            a.error_sigma,
+            a.seeds,
+            limit,
+        )
+    };
+    for s in &specs {
+        s.params.validate()?;
+        if crate::scene::Scene::builtin(&s.scene).is_none() {
+            bail!("`{}` is not a built-in scene", s.scene);
+        }
+    }
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create {}", a.out.display()))?;
+    let bar = if a.quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        indicatif::ProgressBar::new(specs.len() as u64)
+    };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{elapsed_precise} [{bar:40}] {pos}/{len} runs, eta {eta} {msg}",
+        )
+        .context("progress template")?,
+    );
+    let mut results = Vec::with_capacity(specs.len());
+    for s in &specs {
+        let r = ex::run(s)?;
+        bar.set_message(format!(
+            "{} {} seed {}: {}",
+            r.scene,
+            r.method,
+            r.seed,
+            if r.solved {
+                format!("{:.2} s", r.time_s)
+            } else {
+                "unsolved".into()
+            }
+        ));
+        bar.inc(1);
+        results.push(r);
+    }
+    bar.finish();
+    let summaries = report::summarize(&results, limit);
+    let csv = a.out.join("runs.csv");
+    std::fs::write(&csv, report::to_csv(&results))?;
+    let md = a.out.join("summary.md");
+    let header = format!(
+        "# `planner experiment {}`: {} runs, {} seeds per configuration, {} s limit\n\n",
+        a.sweep,
+        results.len(),
+        a.seeds,
+        limit
+    );
+    std::fs::write(&md, header + &report::to_markdown(&summaries))?;
+    println!("{}", report::to_markdown(&summaries));
+    println!("wrote {} and {}", csv.display(), md.display());
+    if report::register_font() {
+        let png = a.out.join(format!("{}.png", a.sweep));
+        let drawn = if a.sweep == "irrt" {
+            report::plot_irrt(&summaries, limit, &png)
+        } else {
+            report::plot_hrrtc(&summaries, limit, &png)
+        };
+        match drawn {
+            Ok(()) => println!("wrote {}", png.display()),
+            Err(e) => eprintln!("planner: cannot draw {}: {e}", png.display()),
+        }
+    } else {
+        eprintln!("planner: no TrueType font found (DejaVuSans.ttf): plots skipped");
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn every_option_has_help() {
+        let cmd = Cli::command();
+        cmd.clone().debug_assert();
+        for sub in cmd.get_subcommands() {
+            assert!(sub.get_about().is_some(), "{} has no about", sub.get_name());
+            for arg in sub.get_arguments() {
+                assert!(
+                    arg.get_help().is_some() || arg.get_long_help().is_some(),
+                    "`{} --{}` has no help",
+                    sub.get_name(),
+                    arg.get_id()
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn solve_writes_json_and_paths() {
+        let dir = std::env::temp_dir().join(format!("planner-cli-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let (json, csv, pj) = (dir.join("r.json"), dir.join("p.csv"), dir.join("p.json"));
+        let argv = [
+            "planner",
+            "solve",
+            "--scene",
+            "free",
+            "--seed",
+            "3",
+            "--time-limit",
+            "5",
+            "--json",
+        ];
+        let mut args: Vec<String> = argv.iter().map(|s| s.to_string()).collect();
+        args.push(json.display().to_string());
+        args.extend(["--path-csv".into(), csv.display().to_string()]);
+        args.extend(["--path-json".into(), pj.display().to_string()]);
+        assert_eq!(main_with_args(args).expect("runs"), 0);
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("parse");
+        assert_eq!(v["solved"], true);
+        for key in ["time_s", "nodes", "collision_checks", "path_length"] {
+            assert!(v[key].is_number(), "{key}: {v}");
+        }
+        let rows = std::fs::read_to_string(&csv).expect("csv");
+        assert!(
+            rows.starts_with("x_m,y_m,z_m,qw,qx,qy,qz,arc_length\n") && rows.lines().count() >= 3
+        );
+        let wp: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&pj).expect("pj")).expect("parse");
+        assert!(wp.as_array().is_some_and(|a| a.len() >= 2));
+        // A bad scene is an error naming it, not a panic.
+        let bad = ["planner", "solve", "--scene", "/nonexistent.toml"];
+        let e = main_with_args(bad).unwrap_err().to_string();
+        assert!(e.contains("/nonexistent.toml"), "{e}");
     }
 }

@@ -1,20 +1,22 @@
 //! Collision checking of the moving object against the static scene with parry
 //! (`parry3d-f64`), and validation of straight edges in configuration space.
 //!
-//! Both the obstacles (scene frame) and the moving object (object frame) are parry
-//! `Compound`s of exact primitives (cuboids, balls): no convex-decomposition
-//! approximation. A configuration is free when its reference point is inside the bounds
-//! and the two compounds do not intersect; touching counts as a collision.
+//! The primitives of the obstacles (scene frame) and of the moving object (object frame)
+//! are parry `Compound`s of exact shapes (cuboids, balls): no convex-decomposition
+//! approximation. Mesh parts are exact oriented `TriMesh`es kept beside the compounds
+//! (parry forbids composite shapes inside a compound) and tested pair by pair. A
+//! configuration is free when its reference point is inside the bounds and no object
+//! part intersects an obstacle part; touching counts as a collision.
 //!
 //! parry's composite-vs-composite test walks the *first* shape's leaves against the
 //! second shape's BVH, so the (small) moving object is passed first.
 
 use crate::pose::Se3;
 use crate::scene::{Bounds, Part, Primitive, Scene};
-use crate::space::{ConfigSpace, Se3Space, Weights};
+use crate::space::{ConfigSpace, Space, Weights};
 use parry3d_f64::math::{Pose, Rot3, Vector};
 use parry3d_f64::query::{contact, intersection_test};
-use parry3d_f64::shape::{Compound, SharedShape};
+use parry3d_f64::shape::{Compound, SharedShape, TriMeshFlags};
 use std::cell::Cell;
 use std::collections::VecDeque;
 
@@ -32,11 +34,27 @@ pub fn to_parry(q: &Se3) -> Pose {
     )
 }
 
-/// The parry shape of one part, in the part's local frame.
+/// The parry shape of one part, in the part's local frame. Meshes become `TriMesh`es
+/// with [`TriMeshFlags::ORIENTED`] (pseudo-normals, so point containment and signed
+/// distances with `solid = false` work on closed, outward-wound meshes) and merged
+/// duplicate vertices (STL repeats them per triangle).
 pub fn part_shape(part: &Part) -> SharedShape {
     match &part.primitive {
         Primitive::Box { half_extents_m: h } => SharedShape::cuboid(h.x, h.y, h.z),
         Primitive::Sphere { radius_m } => SharedShape::ball(*radius_m),
+        Primitive::Mesh { mesh } => {
+            let vertices = mesh
+                .vertices_m
+                .iter()
+                .map(|v| Vector::new(v.x, v.y, v.z))
+                .collect();
+            let flags = TriMeshFlags::ORIENTED | TriMeshFlags::MERGE_DUPLICATE_VERTICES;
+            // The only builder error is an empty index list, which `MeshData` and
+            // `Scene::validate` rule out; should one get here anyway, a bounding ball
+            // keeps the conversion total.
+            SharedShape::trimesh_with_flags(vertices, mesh.triangles.clone(), flags)
+                .unwrap_or_else(|_| SharedShape::ball(mesh.reach_m(|v| *v).max(1e-6)))
+        }
     }
 }
 
@@ -49,19 +67,47 @@ pub fn part_shapes(parts: &[Part]) -> Vec<(Pose, SharedShape)> {
         .collect()
 }
 
-fn compound(parts: &[Part]) -> Option<Compound> {
-    if parts.is_empty() {
-        return None; // parry's Compound::new panics on an empty list.
+/// The parts of one side (object or obstacles) as parry sees them.
+struct Side {
+    /// Every non-mesh part in one compound; `None` when there are none (parry's
+    /// `Compound::new` panics on an empty list).
+    primitives: Option<Compound>,
+    /// Mesh parts (composite shapes may not nest in a compound).
+    meshes: Vec<(Pose, SharedShape)>,
+}
+
+impl Side {
+    fn new(parts: &[Part]) -> Self {
+        let (mesh_parts, prim_parts): (Vec<Part>, Vec<Part>) = parts
+            .iter()
+            .cloned()
+            .partition(|p| matches!(p.primitive, Primitive::Mesh { .. }));
+        Side {
+            primitives: (!prim_parts.is_empty()).then(|| Compound::new(part_shapes(&prim_parts))),
+            meshes: part_shapes(&mesh_parts),
+        }
     }
-    Some(Compound::new(part_shapes(parts)))
+
+    fn is_empty(&self) -> bool {
+        self.primitives.is_none() && self.meshes.is_empty()
+    }
+
+    /// `(pose in the parent frame, shape)` of each composite piece.
+    fn pieces(&self) -> impl Iterator<Item = (Pose, &dyn parry3d_f64::shape::Shape)> {
+        let prim = self
+            .primitives
+            .iter()
+            .map(|c| (Pose::IDENTITY, c as &dyn parry3d_f64::shape::Shape));
+        prim.chain(self.meshes.iter().map(|(p, s)| (*p, s.as_ref())))
+    }
 }
 
 /// Collision checker for one scene. Not `Sync` (the check counter is a `Cell`); build one
 /// per thread.
 pub struct CollisionChecker {
-    obstacles: Option<Compound>,
-    object: Option<Compound>,
-    space: Se3Space,
+    obstacles: Side,
+    object: Side,
+    space: Space,
     resolution: f64,
     checks: Cell<u64>,
 }
@@ -81,9 +127,9 @@ impl CollisionChecker {
             DEFAULT_EDGE_RESOLUTION
         };
         CollisionChecker {
-            obstacles: compound(&scene.obstacles),
-            object: compound(&scene.moving_object),
-            space: Se3Space::new(scene.bounds, weights),
+            obstacles: Side::new(&scene.obstacles),
+            object: Side::new(&scene.moving_object),
+            space: Space::for_scene(scene, weights),
             resolution,
             checks: Cell::new(0),
         }
@@ -91,7 +137,12 @@ impl CollisionChecker {
 
     /// Bounds of the reference point (m, scene frame).
     pub fn bounds(&self) -> &Bounds {
-        &self.space.bounds
+        self.space.bounds()
+    }
+
+    /// The configuration space edges are interpolated in.
+    pub fn space(&self) -> &Space {
+        &self.space
     }
 
     /// Edge resolution (weighted m).
@@ -110,27 +161,65 @@ impl CollisionChecker {
         if !q.is_finite() || !self.space.contains(q) {
             return false;
         }
-        let (Some(object), Some(obstacles)) = (&self.object, &self.obstacles) else {
+        if self.object.is_empty() || self.obstacles.is_empty() {
             return true;
-        };
+        }
         self.checks.set(self.checks.get() + 1);
-        // Obstacles sit at the scene origin; the object first (see module docs).
-        intersection_test(&to_parry(q), object, &Pose::IDENTITY, obstacles)
-            .map(|r| !r.intersecting)
-            .unwrap_or(false) // An unsupported pair is treated as a collision.
+        let at = to_parry(q);
+        for (obj_pose, obj) in self.object.pieces() {
+            let obj_pose = at * obj_pose;
+            for (obs_pose, obs) in self.obstacles.pieces() {
+                // The object first (see module docs). An unsupported pair is treated as a
+                // collision.
+                let hit = intersection_test(&obj_pose, obj, &obs_pose, obs)
+                    .map(|r| r.intersecting)
+                    .unwrap_or(true);
+                if hit {
+                    return false;
+                }
+            }
+        }
+        true
     }
 
     /// Deepest penetration of the object into an obstacle at `q` (m, ≥ 0; 0 when
     /// separated or touching). Diagnostics only: costlier than [`Self::is_free`], not
     /// counted, and ignores the bounds.
     pub fn penetration_m(&self, q: &Se3) -> f64 {
-        let (Some(object), Some(obstacles)) = (&self.object, &self.obstacles) else {
-            return 0.0;
-        };
-        match contact(&to_parry(q), object, &Pose::IDENTITY, obstacles, 0.0) {
-            Ok(Some(c)) => (-c.dist).max(0.0),
-            _ => 0.0,
+        let at = to_parry(q);
+        let mut depth: f64 = 0.0;
+        for (obj_pose, obj) in self.object.pieces() {
+            for (obs_pose, obs) in self.obstacles.pieces() {
+                if let Ok(Some(c)) = contact(&(at * obj_pose), obj, &obs_pose, obs, 0.0) {
+                    depth = depth.max(-c.dist);
+                }
+            }
         }
+        depth
+    }
+
+    /// The deepest contact of the object at `q` with an obstacle: `(point on the obstacle
+    /// surface (m), unit normal out of the obstacle, penetration depth (m))`, scene
+    /// frame; `None` when separated. For simulated users; costlier than
+    /// [`Self::is_free`] and not counted.
+    pub fn deepest_contact(
+        &self,
+        q: &Se3,
+    ) -> Option<(nalgebra::Vector3<f64>, nalgebra::Vector3<f64>, f64)> {
+        let at = to_parry(q);
+        let mut best: Option<(nalgebra::Vector3<f64>, nalgebra::Vector3<f64>, f64)> = None;
+        let v = |p: Vector| nalgebra::Vector3::new(p.x, p.y, p.z);
+        for (obj_pose, obj) in self.object.pieces() {
+            for (obs_pose, obs) in self.obstacles.pieces() {
+                if let Ok(Some(c)) = contact(&(at * obj_pose), obj, &obs_pose, obs, 0.0) {
+                    let depth = -c.dist;
+                    if depth >= 0.0 && best.is_none_or(|b| depth > b.2) {
+                        best = Some((v(c.point2), v(c.normal2), depth));
+                    }
+                }
+            }
+        }
+        best
     }
 
     /// True when `a`, `b` and the straight segment between them (see
@@ -197,6 +286,15 @@ mod tests {
         // The cube's x-min face 0.5 mm inside the wall face.
         let depth = c.penetration_m(&Se3::from_xyz(0.0595, 0.0, 0.0));
         assert!((depth - 0.0005).abs() < 1e-9, "{depth}");
+        let (point, normal, d) = c
+            .deepest_contact(&Se3::from_xyz(0.0595, 0.0, 0.0))
+            .expect("contact");
+        assert!(
+            (d - 0.0005).abs() < 1e-9 && (normal.x - 1.0).abs() < 1e-9,
+            "{normal}"
+        );
+        assert!((point.x - 0.01).abs() < 1e-9, "{point}");
+        assert!(c.deepest_contact(&scene.start).is_none());
         assert_eq!(c.penetration_m(&scene.start), 0.0);
         // Out of bounds is never free.
         assert!(!c.is_free(&Se3::from_xyz(0.31, 0.0, 0.0)));
@@ -253,5 +351,106 @@ mod tests {
         let c = CollisionChecker::new(&scene);
         assert!(c.is_free(&Se3::identity()));
         assert!(!c.is_free(&Se3::from_xyz(1.0, 0.0, 0.0)));
+    }
+
+    #[test]
+    fn mesh_parts_collide_like_the_boxes_they_replace() {
+        use crate::scene::MeshData;
+        use std::sync::Arc;
+        let boxes = Scene::wall_with_hole();
+        let mut meshes = boxes.clone();
+        for part in meshes
+            .obstacles
+            .iter_mut()
+            .chain(meshes.moving_object.iter_mut())
+        {
+            let Primitive::Box { half_extents_m: h } = part.primitive else {
+                panic!("boxes")
+            };
+            part.primitive = Primitive::Mesh {
+                mesh: Arc::new(MeshData::cuboid("box", [h.x, h.y, h.z])),
+            };
+        }
+        let (a, b) = (
+            CollisionChecker::new(&boxes),
+            CollisionChecker::new(&meshes),
+        );
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let space = crate::space::Se3Space::new(boxes.bounds, Weights::default());
+        let mut disagreements = 0;
+        let mut collisions = 0;
+        for _ in 0..300 {
+            let q = space.sample_uniform(&mut rng);
+            collisions += u32::from(!a.is_free(&q));
+            // A mesh is hollow, but a box wholly inside another is impossible here; only
+            // exact touching could differ, which random samples do not hit.
+            disagreements += u32::from(a.is_free(&q) != b.is_free(&q));
+        }
+        assert!(collisions > 20, "{collisions}");
+        assert_eq!(disagreements, 0);
+        // The oriented mesh answers point containment (the haptic voxmap relies on it).
+        let shapes = part_shapes(&meshes.obstacles);
+        let (pose, shape) = &shapes[0];
+        let centre = pose.translation;
+        let inside = shape.project_point(pose, centre, false);
+        assert!(inside.is_inside, "centre of an obstacle box must be inside");
+        let outside = shape.project_point(pose, centre + Vector::new(0.0, 0.0, 1.0), false);
+        assert!(!outside.is_inside);
+    }
+
+    #[test]
+    fn builtin_scenes_have_free_start_and_goal_and_blocked_shortcuts() {
+        for name in crate::scene::BUILTIN_NAMES {
+            let s = Scene::builtin(name).expect("builtin");
+            s.validate(name).expect("valid");
+            let c = CollisionChecker::new(&s);
+            assert!(c.is_free(&s.start), "{name}: start collides");
+            assert!(c.is_free(&s.goal), "{name}: goal collides");
+            // Every scene but `free` needs more than the straight segment.
+            let straight = c.edge_free(&s.start, &s.goal);
+            assert_eq!(
+                straight,
+                name == "free",
+                "{name}: straight line free = {straight}"
+            );
+        }
+    }
+
+    #[test]
+    fn narrow_passages_admit_the_right_orientation_only() {
+        use std::f64::consts::FRAC_PI_2;
+        // Maze: the 45 mm passage at x = 0 takes the 60 × 30 mm block turned by 90°.
+        let maze = Scene::maze();
+        let c = CollisionChecker::new(&maze);
+        let turned = Se3::new(
+            Vector3::zeros(),
+            UnitQuaternion::from_euler_angles(0.0, 0.0, FRAC_PI_2),
+        );
+        assert!(c.is_free(&turned));
+        assert!(!c.is_free(&Se3::identity()));
+        // Crossing planes: flat in the first slit, upright in the second.
+        let cp = Scene::crossing_planes();
+        let c = CollisionChecker::new(&cp);
+        let upright = UnitQuaternion::from_euler_angles(FRAC_PI_2, 0.0, 0.0);
+        assert!(c.is_free(&Se3::from_xyz(-0.165, 0.0, 0.0)));
+        assert!(!c.is_free(&Se3::new(Vector3::new(-0.165, 0.0, 0.0), upright)));
+        assert!(c.is_free(&Se3::new(Vector3::new(0.165, 0.0, 0.0), upright)));
+        assert!(!c.is_free(&Se3::from_xyz(0.165, 0.0, 0.0)));
+        // Tunnels: the bar passes plate A (x = 0.15) only rolled to the slot's 35°.
+        let t = Scene::tunnels(1, 2);
+        let c = CollisionChecker::new(&t);
+        let rolled = UnitQuaternion::from_euler_angles(35f64.to_radians(), 0.0, 0.0);
+        assert!(c.is_free(&Se3::new(Vector3::new(0.15, 0.0, 0.0), rolled)));
+        assert!(!c.is_free(&Se3::from_xyz(0.15, 0.0, 0.0)));
+        // Silencer: it cannot drop straight out (crossmember), but can beside it.
+        let sil = Scene::silencer();
+        let c = CollisionChecker::new(&sil);
+        assert!(!c.is_free(&Se3::from_xyz(0.0, 0.0, -0.15)));
+        assert!(c.is_free(&Se3::from_xyz(-0.3, 0.0, 0.06)));
+        assert!(c.is_free(&Se3::from_xyz(-0.3, 0.0, -0.15)));
+        assert!(c.edge_free(
+            &Se3::from_xyz(-0.3, 0.0, 0.06),
+            &Se3::from_xyz(-0.3, 0.0, -0.15)
+        ));
     }
 }

@@ -12,7 +12,9 @@
 //! - [`space`]: weighted SE(3) distance (I-RRT eq. 2), interpolation, sampling, `delta`.
 //! - [`collision`]: parry compounds, `is_free`, `edge_free` at a stated resolution.
 //! - [`tree`]: tree arena, node labels, nearest / k-nearest, paths.
-//! - [`rrt`]: RRT-Connect with I-RRT Extend, the `Planner` API.
+//! - [`sampling`]: CS, POS, PATH, +CS, H-RRT-C authority sharing and HapticSampling.
+//! - [`rrt`]: RRT, RRT-Connect with I-RRT Extend and local trees, the `Planner` API.
+//! - [`path`]: shortcut smoothing, CSV / JSON export.
 //! - [`guidance`]: F_a (label-weighted barycenter) and solution-path following.
 //! - [`params`]: `PlannerParams` and `PlannerError`.
 #![warn(missing_docs)]
@@ -20,10 +22,13 @@
 
 pub mod cli;
 pub mod collision;
+pub mod experiment;
 pub mod guidance;
 pub mod params;
+pub mod path;
 pub mod pose;
 pub mod rrt;
+pub mod sampling;
 pub mod scene;
 pub mod shell;
 pub mod space;
@@ -31,8 +36,9 @@ pub mod tree;
 pub mod wire;
 
 pub use collision::CollisionChecker;
-pub use params::{PlannerError, PlannerParams};
+pub use params::{Algorithm, PlannerError, PlannerParams};
 pub use pose::Se3;
-pub use rrt::{Extend, IterReport, Planner, Stats};
+pub use rrt::{Extend, IterReport, Planner, Source, Stats};
+pub use sampling::{Contact, Sampling, UserInput};
 pub use scene::{Scene, SceneError};
-pub use space::{ConfigSpace, Se3Space, Weights};
+pub use space::{ConfigSpace, PlanarSpace, Se3Space, Space, Weights};

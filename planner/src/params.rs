@@ -1,7 +1,19 @@
 //! Planner parameters and errors.
 
+use crate::sampling::{ContactParams, Sampling};
 use crate::scene::SceneError;
 use crate::space::Weights;
+
+/// Tree-growing algorithm.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Algorithm {
+    /// Single-tree RRT (LaValle 1998), one `step` per iteration towards the sample, with
+    /// `goal_bias` goal samples; solved when a new node joins the goal by a free edge.
+    Rrt,
+    /// RRT-Connect (Kuffner & LaValle 2000) with greedy I-RRT Extend on both trees, and
+    /// I-RRT local trees when `local_trees` is on.
+    RrtConnect,
+}
 
 /// Tuning of [`crate::rrt::Planner`]. Distances are weighted distances (weighted m, see
 /// [`crate::space`]); with the default weights 0.01 weighted m is 1 cm or 0.1 rad.
@@ -20,13 +32,27 @@ pub struct PlannerParams {
     /// How far ahead of the user's nearest path point F_a pulls once solved (weighted m,
     /// default 0.05, one step).
     pub lookahead: f64,
-    /// Probability in [0, 1] of sampling around the user configuration instead of
-    /// uniformly, when one is given to `iterate` (default 0: plain RRT-Connect). I-RRT's
-    /// "+CS" mixing with β = 3 corresponds to 0.75.
-    pub user_bias: f64,
-    /// Per-axis standard deviation of the Gaussian around the user (weighted m, default
-    /// 0.03: 3 cm, 0.3 rad).
+    /// Tree algorithm (default RRT-Connect).
+    pub algorithm: Algorithm,
+    /// Sampling method (default uniform: automatic planning). See [`crate::sampling`].
+    pub sampling: Sampling,
+    /// σ, per-axis standard deviation of the Gaussians of POS and PATH (weighted m,
+    /// default 0.03: 3 cm, 0.3 rad).
     pub user_sigma: f64,
+    /// α of I-RRT eq. 1, `F_r = α·F_u + (1−α)·F_a` (default 1/2 as in I-RRT §5.1).
+    pub fr_alpha: f64,
+    /// I-RRT local trees for operator samples that cannot reach a main tree (RRT-Connect
+    /// only; default off).
+    pub local_trees: bool,
+    /// At most this many local trees at once (default 16); beyond it the oldest-made
+    /// local tree is dropped, bounding the per-iteration work.
+    pub max_local_trees: usize,
+    /// Goal-sample probability of the single-tree RRT (default 0.05).
+    pub goal_bias: f64,
+    /// HapticSampling tuning.
+    pub contact: ContactParams,
+    /// Random shortcut attempts on a new solution (default 100; 0 keeps the raw path).
+    pub shortcut_attempts: u32,
 }
 
 impl Default for PlannerParams {
@@ -38,8 +64,15 @@ impl Default for PlannerParams {
             neighbours: 5,
             label_epsilon: 0.05,
             lookahead: 0.05,
-            user_bias: 0.0,
+            algorithm: Algorithm::RrtConnect,
+            sampling: Sampling::Uniform,
             user_sigma: 0.03,
+            fr_alpha: 0.5,
+            local_trees: false,
+            max_local_trees: 16,
+            goal_bias: 0.05,
+            contact: ContactParams::default(),
+            shortcut_attempts: 100,
         }
     }
 }
@@ -69,10 +102,28 @@ impl PlannerParams {
                 reason: format!("must be finite and >= 0, got {}", self.lookahead),
             });
         }
-        if !(0.0..=1.0).contains(&self.user_bias) {
+        for (name, v) in [("fr_alpha", self.fr_alpha), ("goal_bias", self.goal_bias)] {
+            if !(0.0..=1.0).contains(&v) {
+                return Err(PlannerError::InvalidParam {
+                    name,
+                    reason: format!("must be in [0, 1], got {v}"),
+                });
+            }
+        }
+        self.sampling
+            .validate()
+            .map_err(|reason| PlannerError::InvalidParam {
+                name: "sampling",
+                reason,
+            })?;
+        let c = &self.contact;
+        pos("contact.area_per_newton_m2", c.area_per_newton_m2)?;
+        pos("contact.max_semi_axis_m", c.max_semi_axis_m)?;
+        let non_negative = |v: f64| v.is_finite() && v >= 0.0;
+        if !(non_negative(c.rotation_sigma_rad) && non_negative(c.normal_offset_m)) {
             return Err(PlannerError::InvalidParam {
-                name: "user_bias",
-                reason: format!("must be in [0, 1], got {}", self.user_bias),
+                name: "contact",
+                reason: "rotation_sigma_rad and normal_offset_m must be finite and >= 0".into(),
             });
         }
         if self.neighbours == 0 {
@@ -120,9 +171,14 @@ mod tests {
         };
         assert!(p.validate().unwrap_err().to_string().contains("`step`"));
         let p = PlannerParams {
-            user_bias: 1.5,
+            sampling: Sampling::Hrrtc { alpha: 1.5 },
             ..Default::default()
         };
-        assert!(p.validate().unwrap_err().to_string().contains("user_bias"));
+        assert!(p.validate().unwrap_err().to_string().contains("sampling"));
+        let p = PlannerParams {
+            fr_alpha: -0.1,
+            ..Default::default()
+        };
+        assert!(p.validate().unwrap_err().to_string().contains("fr_alpha"));
     }
 }

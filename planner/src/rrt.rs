@@ -1,23 +1,31 @@
-//! RRT-Connect (Kuffner & LaValle 2000) with a start and a goal tree, the I-RRT Extend
-//! method and node labels, and the attractive pseudo-force F_a.
+//! The planner: RRT and RRT-Connect baselines, I-RRT (operator-driven sampling, labels,
+//! pseudo-forces, local trees) and H-RRT-C (authority sharing, contact sampling).
 //!
-//! One [`Planner::iterate`] call: sample `q_rand` (uniform, or with probability
-//! `user_bias` a Gaussian around the user's configuration), *Extend* tree A towards it,
-//! and if A grew, *Extend* tree B towards A's newest node (the "connect" step); then swap
-//! A and B. Extend is I-RRT's: from the nearest node, steps of `step` until the target is
-//! reached or an edge collides, adding a node per step:
-//! [`Extend::Collision`] (nothing added), [`Extend::Obstacle`] (partial progress),
-//! [`Extend::Success`] (reached). Both trees thus grow greedily ("RRT-ConCon").
+//! One [`Planner::iterate_input`] call (RRT-Connect): sample `q_rand` with the configured
+//! method ([`crate::sampling`]), *Extend* tree A towards it, and if A grew, *Extend* tree
+//! B towards A's newest node (the "connect" step); then swap A and B. Extend is I-RRT's:
+//! from the nearest node, steps of `step` until the target is reached or an edge
+//! collides, adding a node per step: [`Extend::Collision`] (nothing added),
+//! [`Extend::Obstacle`] (partial progress), [`Extend::Success`] (reached).
+//!
+//! Local trees (I-RRT §4.2.2, Strandberg 2004), when enabled: an operator sample that
+//! tree A cannot reach extends the nearest local tree instead, or roots a new one. Each
+//! iteration the newest node of A (or, when A did not grow, the round-robin next local
+//! tree's newest node) is offered to the local trees / main trees by a greedy Extend; a
+//! local tree that reaches a main tree is grafted into it. Their number is capped.
+//!
+//! The single-tree RRT takes one `step` towards the sample (goal with `goal_bias`).
 //!
 //! The core is pure: deterministic for a seed and an input sequence, no I/O, no clock,
-//! no threads. Work per iteration is bounded by the bounds' diameter over `step` edges.
+//! no threads.
 
 use crate::collision::CollisionChecker;
 use crate::guidance::{PathGuide, barycenter_force};
-use crate::params::{PlannerError, PlannerParams};
+use crate::params::{Algorithm, PlannerError, PlannerParams};
 use crate::pose::Se3;
+use crate::sampling::{Sampling, UserInput, apply_delta, contact_sample};
 use crate::scene::Scene;
-use crate::space::{ConfigSpace, Se3Space};
+use crate::space::{ConfigSpace, Space};
 use crate::tree::{NodeId, Tree};
 use nalgebra::Vector6;
 use rand::{Rng, SeedableRng};
@@ -34,6 +42,17 @@ pub enum Extend {
     Success,
 }
 
+/// Where a sample came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Source {
+    /// Uniform over the space (CS, H-RRT-C machine mode, goal bias).
+    Uniform,
+    /// Operator-driven in free space (POS, PATH, H-RRT-C human mode).
+    User,
+    /// H-RRT-C HapticSampling on the contact plane.
+    Contact,
+}
+
 /// What one iteration did.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct IterReport {
@@ -41,7 +60,9 @@ pub struct IterReport {
     pub iteration: u64,
     /// The sample `q_rand` (scene frame); `None` when already solved (no work done).
     pub sample: Option<Se3>,
-    /// True when the sample came from the Gaussian around the user.
+    /// Where the sample came from.
+    pub source: Source,
+    /// True when the sample was operator-driven (User or Contact).
     pub from_user: bool,
     /// True when tree A (extended towards the sample) was the start tree.
     pub a_is_start: bool,
@@ -49,8 +70,10 @@ pub struct IterReport {
     pub extend: Option<Extend>,
     /// Extend of tree B towards A's newest node, when A grew.
     pub connect: Option<Extend>,
-    /// Nodes added to both trees.
+    /// Nodes added to all trees.
     pub nodes_added: u32,
+    /// Local trees merged into a main tree this iteration.
+    pub merged: u32,
     /// True when the problem is solved (now or before).
     pub solved: bool,
 }
@@ -62,30 +85,41 @@ pub struct Stats {
     pub iterations: u64,
     /// Nodes in all trees.
     pub nodes: usize,
-    /// Number of trees.
+    /// Number of trees (start, goal and local).
     pub trees: usize,
     /// Geometric collision checks performed.
     pub collision_checks: u64,
     /// Smallest distance label in the start tree (weighted m); 0 once solved.
     pub best_distance_to_goal: f64,
+    /// Local trees merged so far.
+    pub merges: u64,
 }
 
 const START: usize = 0;
 const GOAL: usize = 1;
 
-/// RRT-Connect planner for one scene. See the module docs.
+/// The planner for one scene. See the module docs.
 pub struct Planner {
-    space: Se3Space,
+    space: Space,
     checker: CollisionChecker,
     params: PlannerParams,
     rng: ChaCha8Rng,
-    /// `[start tree, goal tree]`.
-    trees: [Tree; 2],
+    /// `[start tree, goal tree, local trees…]`.
+    trees: Vec<Tree>,
     goal: Se3,
     a: usize,
     iterations: u64,
+    merges: u64,
+    /// Round-robin cursor over local trees.
+    local_cursor: usize,
+    /// The operator's previous configuration (for F_u).
+    prev_user: Option<Se3>,
+    /// The operator's travelled path (PATH sampling), one entry per `step / 4` moved.
+    user_path: Vec<Se3>,
+    raw_solution: Option<Vec<Se3>>,
     solution: Option<Vec<Se3>>,
     guide: Option<PathGuide>,
+    scratch: Vec<(NodeId, f64)>,
 }
 
 impl Planner {
@@ -101,10 +135,10 @@ impl Planner {
         if !checker.is_free(&scene.goal) {
             return Err(PlannerError::GoalInCollision(scene.name.clone()));
         }
-        let space = Se3Space::new(scene.bounds, params.weights);
+        let space = Space::for_scene(scene, params.weights);
         let d = space.distance(&scene.start, &scene.goal);
         Ok(Planner {
-            trees: [Tree::new(scene.start, d), Tree::new(scene.goal, 0.0)],
+            trees: vec![Tree::new(scene.start, d), Tree::new(scene.goal, 0.0)],
             space,
             checker,
             params,
@@ -112,61 +146,248 @@ impl Planner {
             goal: scene.goal,
             a: START,
             iterations: 0,
+            merges: 0,
+            local_cursor: 0,
+            prev_user: None,
+            user_path: Vec::new(),
+            raw_solution: None,
             solution: None,
             guide: None,
+            scratch: Vec::new(),
         })
     }
 
-    /// One RRT-Connect iteration. `user` is the user's configuration (scene frame), used
-    /// by the biased sampler (`params.user_bias`); non-finite input is ignored. Does
-    /// nothing once solved.
+    /// One iteration with an operator in free space at `user` (scene frame), or none.
+    /// Non-finite input is ignored.
     pub fn iterate(&mut self, user: Option<&Se3>) -> IterReport {
+        let input = user.map(|q| UserInput::free(*q));
+        self.iterate_input(input.as_ref())
+    }
+
+    /// One iteration with the operator's full input (configuration and contact state).
+    /// Does nothing once solved.
+    pub fn iterate_input(&mut self, input: Option<&UserInput>) -> IterReport {
         self.iterations += 1;
         let mut report = IterReport {
             iteration: self.iterations,
             sample: None,
+            source: Source::Uniform,
             from_user: false,
             a_is_start: self.a == START,
             extend: None,
             connect: None,
             nodes_added: 0,
+            merged: 0,
             solved: self.solved(),
         };
         if report.solved {
             return report;
         }
-        let (q_rand, from_user) = self.sample(user);
+        let input = input.filter(|u| u.q_user.is_finite()).map(|u| UserInput {
+            q_user: self.space.project(&u.q_user),
+            contact: u.contact,
+        });
+        if let Some(u) = &input {
+            self.track_user(&u.q_user);
+        }
+        let (q_rand, source) = self.sample(input.as_ref());
         report.sample = Some(q_rand);
-        report.from_user = from_user;
+        report.source = source;
+        report.from_user = source != Source::Uniform;
+        match self.params.algorithm {
+            Algorithm::Rrt => self.rrt_step(&q_rand, &mut report),
+            Algorithm::RrtConnect => self.connect_step(&q_rand, source, &mut report),
+        }
+        if let Some(u) = &input {
+            self.prev_user = Some(u.q_user);
+        }
+        report
+    }
+
+    fn track_user(&mut self, q: &Se3) {
+        let far = self
+            .user_path
+            .last()
+            .is_none_or(|l| self.space.distance(l, q) >= 0.25 * self.params.step);
+        if far {
+            self.user_path.push(*q);
+        }
+    }
+
+    /// `q_rand` and its source. See [`crate::sampling`].
+    fn sample(&mut self, input: Option<&UserInput>) -> (Se3, Source) {
+        let sampling = self.params.sampling;
+        if self.params.algorithm == Algorithm::Rrt
+            && self.rng.random::<f64>() < self.params.goal_bias
+        {
+            return (self.goal, Source::Uniform);
+        }
+        let Some(u) = input else {
+            return (self.space.sample_uniform(&mut self.rng), Source::Uniform);
+        };
+        if let (Sampling::Hrrtc { .. }, Some(c)) = (sampling, &u.contact) {
+            // Contact mode (Algorithm 2, line 3): always HapticSampling.
+            if let Some(q) = contact_sample(&self.space, c, &self.params.contact, &mut self.rng) {
+                return (q, Source::Contact);
+            }
+        }
+        if self.rng.random::<f64>() >= sampling.user_share() {
+            return (self.space.sample_uniform(&mut self.rng), Source::Uniform);
+        }
+        let sigma = self.params.user_sigma;
+        let q = match sampling {
+            Sampling::Uniform => self.space.sample_uniform(&mut self.rng),
+            Sampling::Pos { .. } => {
+                let prev = self.prev_user.unwrap_or(u.q_user);
+                let fr = self.resulting_force(&prev, &u.q_user);
+                let centre = apply_delta(&self.space, &u.q_user, &fr);
+                self.space.sample_near(&centre, sigma, &mut self.rng)
+            }
+            Sampling::Path { .. } => {
+                let i = self.rng.random_range(0..self.user_path.len().max(1));
+                let centre = self.user_path.get(i).copied().unwrap_or(u.q_user);
+                self.space.sample_near(&centre, sigma, &mut self.rng)
+            }
+            Sampling::Hrrtc { .. } => u.q_user,
+        };
+        (q, Source::User)
+    }
+
+    /// Single-tree RRT: one step from the nearest start-tree node.
+    fn rrt_step(&mut self, q_rand: &Se3, report: &mut IterReport) {
+        let (near, d) = self.trees[START].nearest(&self.space, q_rand);
+        let from = self.trees[START].node(near).config;
+        let next = self.space.steer(&from, q_rand, self.params.step);
+        let ok = d > 0.0 && self.checker.edge_free_from(&from, &next);
+        let labels = self.trees[START].labels_mut(near);
+        labels.extension_attempts += 1;
+        labels.collisions += u32::from(!ok);
+        if !ok {
+            report.extend = Some(Extend::Collision);
+            return;
+        }
+        labels.covered_distance += d.min(self.params.step);
+        let to_goal = self.space.distance(&next, &self.goal);
+        let id = self.trees[START].add(near, next, to_goal);
+        report.nodes_added = 1;
+        report.extend = Some(if next == *q_rand {
+            Extend::Success
+        } else {
+            Extend::Obstacle
+        });
+        if to_goal <= self.params.step && self.checker.edge_free_from(&next, &self.goal) {
+            let mut path = self.trees[START].path_to_root(id);
+            path.reverse();
+            path.push(self.goal);
+            self.finish(path);
+            report.solved = true;
+        }
+    }
+
+    fn connect_step(&mut self, q_rand: &Se3, source: Source, report: &mut IterReport) {
         let (a, b) = (self.a, 1 - self.a);
-        let (ext, last_a, added_a) = self.extend(a, &q_rand);
+        let (ext, last_a, added_a) = self.extend(a, q_rand);
         report.extend = Some(ext);
         report.nodes_added = added_a;
+        let mut offer: Option<NodeId> = None;
         if ext != Extend::Collision {
             let target = self.trees[a].node(last_a).config;
+            offer = Some(last_a);
             let (con, last_b, added_b) = self.extend(b, &target);
             report.connect = Some(con);
             report.nodes_added += added_b;
             if con == Extend::Success {
                 self.build_solution(a, last_a, last_b);
                 report.solved = true;
+                self.a = b;
+                return;
             }
         }
+        if self.params.local_trees {
+            let user_missed = source != Source::Uniform && ext != Extend::Success;
+            if user_missed && self.checker.is_free(q_rand) {
+                report.nodes_added += self.grow_local(q_rand);
+            }
+            report.merged += self.link_locals(offer, report);
+        }
         self.a = b;
-        report
     }
 
-    fn sample(&mut self, user: Option<&Se3>) -> (Se3, bool) {
-        if let Some(u) = user.filter(|u| u.is_finite() && self.params.user_bias > 0.0)
-            && self.rng.random::<f64>() < self.params.user_bias
-        {
-            return (
-                self.space
-                    .sample_near(u, self.params.user_sigma, &mut self.rng),
-                true,
-            );
+    /// Extends the local tree nearest to `q` (within a few steps) towards it, or roots a
+    /// new local tree at `q` (free). Returns nodes added.
+    fn grow_local(&mut self, q: &Se3) -> u32 {
+        let reach = 4.0 * self.params.step;
+        let mut best: Option<(usize, f64)> = None;
+        for t in 2..self.trees.len() {
+            let (_, d) = self.trees[t].nearest(&self.space, q);
+            if d < reach && best.is_none_or(|(_, e)| d < e) {
+                best = Some((t, d));
+            }
         }
-        (self.space.sample_uniform(&mut self.rng), false)
+        if let Some((t, _)) = best {
+            let (e, _, added) = self.extend(t, q);
+            if e != Extend::Collision {
+                return added;
+            }
+        }
+        if self.trees.len() - 2 >= self.params.max_local_trees {
+            // Drop the oldest-made local tree: bounded work, and recent operator input
+            // matters most.
+            self.trees.remove(2);
+        }
+        let d = self.space.distance(q, &self.goal);
+        self.trees.push(Tree::new(*q, d));
+        1
+    }
+
+    /// Offers `offer` (A's newest node) to every local tree, and one local tree's newest
+    /// node (round robin) to both main trees; grafts a local tree that connects.
+    /// Returns the number of merges.
+    fn link_locals(&mut self, offer: Option<NodeId>, report: &mut IterReport) -> u32 {
+        let mut merged = 0;
+        if let Some(at_a) = offer {
+            let a = self.a;
+            let q = self.trees[a].node(at_a).config;
+            let mut t = 2;
+            while t < self.trees.len() {
+                let (e, last, added) = self.extend(t, &q);
+                report.nodes_added += added;
+                if e == Extend::Success {
+                    // `last` has the configuration of A's node `at_a`.
+                    self.merge(t, last, a, at_a);
+                    merged += 1;
+                } else {
+                    t += 1;
+                }
+            }
+        }
+        if self.trees.len() > 2 {
+            let t = 2 + self.local_cursor % (self.trees.len() - 2);
+            self.local_cursor = self.local_cursor.wrapping_add(1);
+            let tip = self.trees[t].nodes().last().map(|n| n.config);
+            if let Some(tip) = tip {
+                for main in [START, GOAL] {
+                    let (e, last, added) = self.extend(main, &tip);
+                    report.nodes_added += added;
+                    if e == Extend::Success {
+                        let local_tip = NodeId(self.trees[t].len() as u32 - 1);
+                        self.merge(t, local_tip, main, last);
+                        merged += 1;
+                        break;
+                    }
+                }
+            }
+        }
+        self.merges += u64::from(merged);
+        merged
+    }
+
+    /// Grafts local tree `t` (its node `at_local`) into main tree `main` at `at_main`,
+    /// and removes it.
+    fn merge(&mut self, t: usize, at_local: NodeId, main: usize, at_main: NodeId) {
+        let local = self.trees.remove(t);
+        let (space, goal) = (&self.space, self.goal);
+        self.trees[main].graft(at_main, &local, at_local, |q| space.distance(q, &goal));
     }
 
     /// I-RRT Extend of tree `t` towards `target`: returns the outcome, the last node
@@ -217,9 +438,21 @@ impl Planner {
         if a == GOAL {
             path.reverse();
         }
+        self.finish(path);
+    }
+
+    /// Stores the raw path, its shortcut version, and the path guide.
+    fn finish(&mut self, raw: Vec<Se3>) {
+        let smooth = crate::path::shortcut(
+            &self.checker,
+            &raw,
+            self.params.shortcut_attempts,
+            &mut self.rng,
+        );
         let resolution = 0.2 * self.params.step;
-        self.guide = Some(PathGuide::new(&self.space, &path, resolution));
-        self.solution = Some(path);
+        self.guide = Some(PathGuide::new(&self.space, &smooth, resolution));
+        self.raw_solution = Some(raw);
+        self.solution = Some(smooth);
     }
 
     /// True once a start–goal path exists.
@@ -227,10 +460,16 @@ impl Planner {
         self.solution.is_some()
     }
 
-    /// The solution waypoints, start → goal (scene frame); consecutive waypoints are
-    /// joined by collision-free edges (validated at `edge_resolution`).
+    /// The solution waypoints after shortcut smoothing, start → goal (scene frame);
+    /// consecutive waypoints are joined by collision-free edges validated at
+    /// `edge_resolution`. Edges may be longer than `step`.
     pub fn solution(&self) -> Option<&[Se3]> {
         self.solution.as_deref()
+    }
+
+    /// The solution as the trees hold it (before smoothing): edges of at most `step`.
+    pub fn raw_solution(&self) -> Option<&[Se3]> {
+        self.raw_solution.as_deref()
     }
 
     /// Statistics so far.
@@ -250,42 +489,68 @@ impl Planner {
             trees: self.trees.len(),
             collision_checks: self.checker.collision_checks(),
             best_distance_to_goal: best,
+            merges: self.merges,
         }
     }
 
     /// I-RRT's attractive pseudo-force F_a at `q_user` (scene frame), a 6-vector
     /// `(Δp (m), Δr (rad))`. Before a solution: towards the label-weighted barycenter of the
     /// `p` nodes nearest to `q_user`, all from the tree holding the single nearest node
-    /// (see [`crate::guidance`]). After: along the solution path, `lookahead` beyond the
-    /// path point nearest to `q_user`.
+    /// ("all the neighbours should remain in the same connected component", I-RRT §5.1;
+    /// local trees count). After: along the solution path, `lookahead` beyond the path
+    /// point nearest to `q_user`.
     pub fn attractive_force(&self, q_user: &Se3) -> Vector6<f64> {
+        let mut scratch = Vec::with_capacity(self.params.neighbours);
+        self.attractive_force_with(q_user, &mut scratch)
+    }
+
+    fn attractive_force_with(
+        &self,
+        q_user: &Se3,
+        scratch: &mut Vec<(NodeId, f64)>,
+    ) -> Vector6<f64> {
         if !q_user.is_finite() {
             return Vector6::zeros();
         }
+        let q = self.space.project(q_user);
         if let Some(guide) = &self.guide {
-            return guide.force(&self.space, q_user, self.params.lookahead);
+            return guide.force(&self.space, &q, self.params.lookahead);
         }
-        let (_, ds) = self.trees[START].nearest(&self.space, q_user);
-        let (_, dg) = self.trees[GOAL].nearest(&self.space, q_user);
-        let tree = &self.trees[if dg < ds { GOAL } else { START }];
-        let mut scratch = Vec::with_capacity(self.params.neighbours);
+        let mut best = (START, f64::INFINITY);
+        for (i, t) in self.trees.iter().enumerate() {
+            let (_, d) = t.nearest(&self.space, &q);
+            if d < best.1 {
+                best = (i, d);
+            }
+        }
         barycenter_force(
             &self.space,
-            tree,
-            q_user,
+            &self.trees[best.0],
+            &q,
             self.params.neighbours,
             self.params.label_epsilon,
-            &mut scratch,
+            scratch,
         )
     }
 
-    /// `[start tree, goal tree]`.
+    /// `F_r = α·F_u + (1−α)·F_a` (I-RRT eq. 1) for an operator who moved from `prev` to
+    /// `q_user` since the previous iteration.
+    pub fn resulting_force(&mut self, prev: &Se3, q_user: &Se3) -> Vector6<f64> {
+        let mut scratch = std::mem::take(&mut self.scratch);
+        let fa = self.attractive_force_with(q_user, &mut scratch);
+        self.scratch = scratch;
+        let fu = self.space.delta(prev, q_user);
+        let a = self.params.fr_alpha;
+        a * fu + (1.0 - a) * fa
+    }
+
+    /// `[start tree, goal tree, local trees…]`.
     pub fn trees(&self) -> &[Tree] {
         &self.trees
     }
 
     /// The configuration space (metric, bounds).
-    pub fn space(&self) -> &Se3Space {
+    pub fn space(&self) -> &Space {
         &self.space
     }
 
@@ -297,6 +562,11 @@ impl Planner {
     /// The parameters in use.
     pub fn params(&self) -> &PlannerParams {
         &self.params
+    }
+
+    /// The operator's travelled path as PATH sampling sees it.
+    pub fn user_path(&self) -> &[Se3] {
+        &self.user_path
     }
 }
 

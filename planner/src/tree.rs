@@ -1,9 +1,16 @@
 //! Tree arena for RRT-style planners: nodes with configuration, parent and I-RRT labels
 //! ("Node labelling"), nearest and k-nearest queries, and paths to the root.
 //!
-//! Nearest-neighbour search is a linear scan over the weighted distance, kept in the single
-//! function [`Tree::k_nearest_into`] (and [`Tree::nearest`]) so that a spatial index can
-//! replace it later.
+//! [`Tree::nearest`] uses a uniform grid over positions ([`grid`]) on trees of more than
+//! [`GRID_MIN_NODES`] nodes when the space allows pruning by translation
+//! ([`ConfigSpace::translation_factor`] > 0: the planar space), and a linear scan
+//! otherwise; both give the same answer.
+//! [`Tree::k_nearest_into`] (F_a's barycenter, once per guidance update) scans linearly.
+
+pub mod grid;
+
+/// Below this many nodes the linear scan is cheaper than the grid.
+pub const GRID_MIN_NODES: usize = 256;
 
 use crate::pose::Se3;
 use crate::space::ConfigSpace;
@@ -69,17 +76,21 @@ pub struct Node {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Tree {
     nodes: Vec<Node>,
+    grid: grid::Grid,
 }
 
 impl Tree {
     /// A tree with a single root at `root`, labelled with `distance_to_goal` (weighted m).
     pub fn new(root: Se3, distance_to_goal: f64) -> Self {
+        let mut grid = grid::Grid::new(grid::DEFAULT_CELL_M);
+        grid.insert(0, &root);
         Tree {
             nodes: vec![Node {
                 config: root,
                 parent: None,
                 labels: Labels::new(distance_to_goal),
             }],
+            grid,
         }
     }
 
@@ -111,6 +122,7 @@ impl Tree {
     /// Adds a child of `parent` at `config`; returns its id.
     pub fn add(&mut self, parent: NodeId, config: Se3, distance_to_goal: f64) -> NodeId {
         let id = NodeId(self.nodes.len() as u32);
+        self.grid.insert(id.0, &config);
         self.nodes.push(Node {
             config,
             parent: Some(parent),
@@ -122,6 +134,18 @@ impl Tree {
     /// The node nearest to `q` under the space's weighted distance, and that distance.
     /// Ties go to the oldest node.
     pub fn nearest(&self, space: &dyn ConfigSpace, q: &Se3) -> (NodeId, f64) {
+        let n = self.nodes.len();
+        if n >= GRID_MIN_NODES {
+            let configs = |id: u32| self.nodes[id as usize].config;
+            if let Some((id, d)) = self.grid.nearest(space, &configs, n, q) {
+                return (NodeId(id), d);
+            }
+        }
+        self.nearest_linear(space, q)
+    }
+
+    /// [`Tree::nearest`] by a linear scan (the reference the grid is tested against).
+    pub fn nearest_linear(&self, space: &dyn ConfigSpace, q: &Se3) -> (NodeId, f64) {
         let mut best = (NodeId(0), f64::INFINITY);
         for (i, n) in self.nodes.iter().enumerate() {
             if let Some(d) = space.distance_below(&n.config, q, best.1) {
@@ -159,6 +183,47 @@ impl Tree {
             }
             out.insert(at, (NodeId(i as u32), d));
         }
+    }
+
+    /// Grafts every node of `other` into this tree, joining `other`'s node `other_at` to
+    /// this tree's node `at` (same configuration: `other_at` itself is not copied). The
+    /// other tree is re-rooted at `other_at`: edges keep their endpoints, parents flip
+    /// where needed. Labels are copied; the distance label is recomputed by `to_goal`.
+    /// Returns the new ids of `other`'s nodes, indexed by their old ids.
+    pub fn graft(
+        &mut self,
+        at: NodeId,
+        other: &Tree,
+        other_at: NodeId,
+        to_goal: impl Fn(&Se3) -> f64,
+    ) -> Vec<NodeId> {
+        let n = other.len();
+        let mut adj: Vec<Vec<u32>> = vec![Vec::new(); n];
+        for (i, node) in other.nodes.iter().enumerate() {
+            if let Some(p) = node.parent {
+                adj[i].push(p.0);
+                adj[p.index()].push(i as u32);
+            }
+        }
+        let mut map = vec![NodeId(u32::MAX); n];
+        map[other_at.index()] = at;
+        let mut stack = vec![other_at.0];
+        while let Some(u) = stack.pop() {
+            for &v in &adj[u as usize] {
+                if map[v as usize].0 != u32::MAX {
+                    continue;
+                }
+                let src = &other.nodes[v as usize];
+                let id = self.add(map[u as usize], src.config, to_goal(&src.config));
+                let l = self.labels_mut(id);
+                l.extension_attempts = src.labels.extension_attempts;
+                l.collisions = src.labels.collisions;
+                l.covered_distance = src.labels.covered_distance;
+                map[v as usize] = id;
+                stack.push(v);
+            }
+        }
+        map
     }
 
     /// The configurations from `id` up to the root, `id` first.
@@ -228,5 +293,63 @@ mod tests {
         assert_eq!(l.freedom(), 0.25);
         l.collisions = 0;
         assert_eq!(l.freedom(), 1.0);
+    }
+
+    #[test]
+    fn graft_re_roots_and_keeps_edges() {
+        let mut main = Tree::new(Se3::from_xyz(-0.3, 0.0, 0.0), 1.0);
+        let other = line_tree(); // 0 – 1 – 2 – 3, and 4 off 1
+        // Join other's node 2 onto main's root.
+        let map = main.graft(NodeId(0), &other, NodeId(2), |q| q.pos.x.abs());
+        assert_eq!(main.len(), 1 + 4);
+        assert_eq!(map[2], NodeId(0));
+        // Every edge of `other` is an edge of `main` (in one direction or the other).
+        for (i, node) in other.nodes().iter().enumerate() {
+            if let Some(p) = node.parent {
+                let (a, b) = (map[i], map[p.index()]);
+                assert!(
+                    main.node(a).parent == Some(b) || main.node(b).parent == Some(a),
+                    "edge {i}-{}",
+                    p.0
+                );
+            }
+        }
+        // From old node 0 (the old root) the path now runs 0 → 1 → 2(= main root).
+        let path = main.path_to_root(map[0]);
+        let xs: Vec<f64> = path.iter().map(|q| q.pos.x).collect();
+        assert_eq!(xs, vec![0.0, 0.1, -0.3]);
+        assert_eq!(main.node(map[4]).labels.distance_to_goal, 0.1);
+    }
+
+    #[test]
+    fn grid_nearest_equals_linear_scan() {
+        use rand::SeedableRng;
+        // The planar space enables the grid (translation factor > 0).
+        let maze = Scene::maze();
+        let s = crate::space::PlanarSpace::new(maze.bounds, Weights::default(), &maze.start);
+        assert!(s.translation_factor() > 0.0);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+        let mut t = Tree::new(s.sample_uniform(&mut rng), 1.0);
+        for i in 1..1500u32 {
+            // Clustered nodes (near a random earlier node), like a grown tree.
+            let base = t.node(NodeId(i / 2)).config;
+            let q = s.sample_near(&base, 0.05, &mut rng);
+            t.add(NodeId(i / 2), q, 1.0);
+        }
+        // Duplicates exercise the tie rule.
+        let dup = t.node(NodeId(10)).config;
+        t.add(NodeId(0), dup, 1.0);
+        for _ in 0..150 {
+            let q = if rand::Rng::random::<bool>(&mut rng) {
+                s.sample_uniform(&mut rng)
+            } else {
+                let near = t
+                    .node(NodeId(rand::Rng::random_range(&mut rng, 0..1500)))
+                    .config;
+                s.sample_near(&near, 0.01, &mut rng)
+            };
+            assert_eq!(t.nearest(&s, &q), t.nearest_linear(&s, &q), "{q:?}");
+        }
+        assert_eq!(t.nearest(&s, &dup).0, NodeId(10));
     }
 }

@@ -28,8 +28,17 @@ fn solves_an_easy_scene_with_valid_path() {
         assert_eq!(path.last(), Some(&scene.goal));
         for w in path.windows(2) {
             assert!(p.checker().edge_free(&w[0], &w[1]), "seed {seed}: bad edge");
+        }
+        let raw = p.raw_solution().expect("raw");
+        for w in raw.windows(2) {
+            assert!(
+                p.checker().edge_free(&w[0], &w[1]),
+                "seed {seed}: bad raw edge"
+            );
             assert!(p.space().distance(&w[0], &w[1]) <= p.params().step + 1e-12);
         }
+        let len = |q: &[Se3]| crate::space::path_length(p.space(), q);
+        assert!(len(path) <= len(raw) + 1e-12 && path.len() <= raw.len());
         let s = p.stats();
         assert_eq!(
             (s.iterations, s.trees, s.best_distance_to_goal),
@@ -84,10 +93,10 @@ fn extend_labels_and_reports() {
 }
 
 #[test]
-fn user_bias_samples_around_the_user() {
+fn pos_samples_around_the_user() {
     let scene = easy();
     let params = PlannerParams {
-        user_bias: 1.0,
+        sampling: crate::Sampling::Pos { beta: None },
         ..Default::default()
     };
     let mut p = Planner::new(&scene, params, 3).expect("planner");
@@ -124,11 +133,11 @@ fn attractive_force_before_and_after_solution() {
         Vector6::zeros()
     );
     run(&mut p, 2_000, None).expect("solved");
-    // On the path: F_a leads forward along it, with the lookahead length.
+    // On the (smoothed) path: F_a leads forward along it, with the lookahead length.
     let path = p.solution().expect("path").to_vec();
-    let mid = path[path.len() / 2];
+    let mid = p.space().interpolate(&path[0], &path[1], 0.5);
     let f = p.attractive_force(&mid);
-    let next = path[path.len() / 2 + 1];
+    let next = path[1];
     let towards = p.space().delta(&mid, &next);
     assert!(f.dot(&towards) > 0.0, "{f} vs {towards}");
     let w = p.params().weights;
@@ -169,7 +178,7 @@ fn collision_check_cost() {
     let checker = CollisionChecker::new(&scene);
     let mut rng = ChaCha8Rng::seed_from_u64(9);
     // Configurations near the wall (|x| < 0.1) are the expensive ones.
-    let space = Se3Space::new(
+    let space = crate::space::Se3Space::new(
         crate::scene::Bounds {
             min_m: nalgebra::Vector3::new(-0.1, -0.25, -0.25),
             max_m: nalgebra::Vector3::new(0.1, 0.25, 0.25),
@@ -214,4 +223,164 @@ fn collision_check_cost() {
 fn planner_can_move_to_a_worker_thread() {
     fn assert_send<T: Send>() {}
     assert_send::<Planner>();
+}
+
+fn with(sampling: crate::Sampling) -> PlannerParams {
+    PlannerParams {
+        sampling,
+        ..Default::default()
+    }
+}
+
+#[test]
+fn hrrtc_authority_and_contact_mode() {
+    use crate::sampling::{Contact, UserInput};
+    use nalgebra::Vector3;
+    let scene = Scene::wall_with_hole();
+    let user = Se3::from_xyz(-0.1, 0.1, 0.0);
+    // α = 0: every free-space sample is q_device itself.
+    let mut p = Planner::new(&scene, with(crate::Sampling::Hrrtc { alpha: 0.0 }), 1).expect("p");
+    for _ in 0..20 {
+        let r = p.iterate(Some(&user));
+        assert_eq!((r.sample, r.source), (Some(user), Source::User));
+    }
+    // α = 1: always uniform.
+    let mut p = Planner::new(&scene, with(crate::Sampling::Hrrtc { alpha: 1.0 }), 1).expect("p");
+    assert!((0..20).all(|_| p.iterate(Some(&user)).source == Source::Uniform));
+    // α = 0.3: about 30 % uniform.
+    let mut p = Planner::new(&scene, with(crate::Sampling::Hrrtc { alpha: 0.3 }), 1).expect("p");
+    let uniform = (0..400)
+        .filter(|_| p.iterate(Some(&user)).source == Source::Uniform)
+        .count();
+    assert!((80..160).contains(&uniform), "{uniform}");
+    // In contact: HapticSampling whatever α, near the proxy on the wall's face.
+    let proxy = Se3::from_xyz(-0.0605, 0.0, 0.0);
+    let contact = Contact {
+        point_m: Vector3::new(-0.01, 0.0, 0.0),
+        normal: -Vector3::x(),
+        force_n: Vector3::new(5.0, 0.0, 2.0),
+        displacement_m: Vector3::new(0.0, 0.0, 0.001),
+        proxy,
+    };
+    let input = UserInput {
+        q_user: Se3::from_xyz(-0.05, 0.0, 0.0),
+        contact: Some(contact),
+    };
+    let mut p = Planner::new(&scene, with(crate::Sampling::Hrrtc { alpha: 1.0 }), 4).expect("p");
+    for _ in 0..50 {
+        let r = p.iterate_input(Some(&input));
+        assert_eq!(r.source, Source::Contact);
+        let q = r.sample.expect("sample");
+        // Lifted 2 mm off the face, spread more along z (the motion) than along y.
+        assert!((q.pos.x - (proxy.pos.x - 0.002)).abs() < 1e-12, "{q:?}");
+    }
+}
+
+#[test]
+fn rrt_baseline_solves_the_free_scene() {
+    let scene = Scene::free();
+    let params = PlannerParams {
+        algorithm: crate::Algorithm::Rrt,
+        ..Default::default()
+    };
+    let mut p = Planner::new(&scene, params, 1).expect("p");
+    run(&mut p, 5_000, None).expect("solved");
+    let raw = p.raw_solution().expect("raw");
+    assert_eq!(
+        (raw[0], *raw.last().expect("last")),
+        (scene.start, scene.goal)
+    );
+    assert!(raw.windows(2).all(|w| p.checker().edge_free(&w[0], &w[1])));
+    assert_eq!(p.stats().trees, 2);
+}
+
+#[test]
+fn local_trees_grow_at_unreachable_user_samples_and_merge() {
+    // A user on the far side of the wall: when the start tree extends towards its
+    // samples it cannot reach them, so they root local trees, which the goal tree (same
+    // side) then absorbs.
+    let scene = Scene::wall_with_square_hole(0.2);
+    let params = PlannerParams {
+        sampling: crate::Sampling::Pos { beta: None },
+        local_trees: true,
+        user_sigma: 0.01,
+        fr_alpha: 1.0, // no F_a pull: samples stay around the user
+        ..Default::default()
+    };
+    let mut p = Planner::new(&scene, params, 2).expect("p");
+    let behind = Se3::from_xyz(0.12, 0.18, 0.0);
+    let mut saw_local = false;
+    for _ in 0..30 {
+        p.iterate(Some(&behind));
+        saw_local |= p.stats().trees > 2;
+    }
+    assert!(saw_local || p.stats().merges > 0, "a local tree was rooted");
+    let merged_behind = p.stats().merges;
+    assert!(p.stats().trees <= 2 + p.params().max_local_trees);
+    // Walking the user from the start through the hole to the goal: the local trees get
+    // merged and the problem is solved.
+    let mut merges = 0;
+    for i in 0..3000 {
+        let t = (i as f64 / 1000.0).min(1.0);
+        let q = p.space().interpolate(&scene.start, &scene.goal, t);
+        merges += p.iterate(Some(&q)).merged;
+        if p.solved() {
+            break;
+        }
+    }
+    assert!(p.solved());
+    assert!(merged_behind > 0 && p.stats().merges >= merged_behind + u64::from(merges));
+    let path = p.solution().expect("path");
+    assert!(path.windows(2).all(|w| p.checker().edge_free(&w[0], &w[1])));
+}
+
+#[test]
+fn path_sampling_follows_the_travelled_path() {
+    let scene = easy();
+    let mut p = Planner::new(&scene, with(crate::Sampling::Path { beta: None }), 5).expect("p");
+    // The user walks along y at x = −0.2; samples come from around that segment.
+    for i in 0..40 {
+        let q = Se3::from_xyz(-0.2, -0.2 + 0.01 * i as f64, 0.0);
+        let r = p.iterate(Some(&q));
+        if r.solved {
+            break;
+        }
+        let s = r.sample.expect("sample");
+        assert_eq!(r.source, Source::User);
+        assert!((s.pos.x + 0.2).abs() < 0.2 && s.pos.y < -0.2 + 0.01 * i as f64 + 0.2);
+    }
+    assert!(p.user_path().len() > 5);
+}
+
+#[test]
+fn planar_maze_trees_stay_planar_and_runs_are_deterministic() {
+    let scene = Scene::maze();
+    let grow = || {
+        let mut p =
+            Planner::new(&scene, with(crate::Sampling::Pos { beta: Some(3.0) }), 9).expect("p");
+        for i in 0..200 {
+            let q = Se3::from_rpy(
+                nalgebra::Vector3::new(-0.35 + 0.001 * i as f64, -0.35, 0.02),
+                0.1,
+                0.0,
+                0.3,
+            );
+            p.iterate(Some(&q));
+        }
+        p
+    };
+    let (a, b) = (grow(), grow());
+    assert_eq!(a.trees(), b.trees());
+    for t in a.trees() {
+        for n in t.nodes() {
+            assert_eq!(n.config.pos.z, 0.0);
+            let axis = n.config.rot.axis();
+            assert!(
+                axis.is_none_or(|v| v.z.abs() > 1.0 - 1e-9),
+                "{:?}",
+                n.config
+            );
+        }
+    }
+    assert!(a.stats().nodes > 20);
 }

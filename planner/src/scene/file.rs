@@ -15,15 +15,25 @@
 //! [[moving_object]]             # pose relative to the object's reference point
 //! shape = "sphere"
 //! radius_m = 0.02
+//! [[moving_object]]
+//! shape = "mesh"                # a triangle mesh: OBJ or STL (ASCII or binary)
+//! file = "meshes/part.obj"      # relative to this scene file's directory
+//! scale = 0.001                 # optional, m per file unit (default 1: file in m)
 //! ```
 //!
+//! `space = "planar"` (top level, default `"se3"`) plans in (x, y, θ): z stays at the
+//! start's, rotations are about the scene z axis; set `min_m.z = max_m.z`.
+//!
 //! Unknown keys are rejected. Bad numbers (non-finite, non-positive sizes) are reported
-//! with toml's line and column; semantic errors name the field and the line of its table.
+//! with toml's line and column; semantic errors name the field and the line of its table;
+//! mesh errors name the scene file, the part, the mesh file and the mesh's line.
 
-use super::{Bounds, Part, Primitive, Scene, SceneError};
+use super::{Bounds, MeshData, Part, Primitive, Scene, SceneError, SpaceKind};
 use crate::pose::Se3;
 use nalgebra::Vector3;
 use serde::Deserialize;
+use std::path::Path;
+use std::sync::Arc;
 use toml::Spanned;
 
 /// A finite number; rejected during deserialisation so toml reports the value's span.
@@ -62,6 +72,8 @@ impl TryFrom<f64> for Positive {
 #[serde(deny_unknown_fields)]
 struct SceneFile {
     name: Option<String>,
+    #[serde(default)]
+    space: SpaceFile,
     bounds: Spanned<BoundsFile>,
     start: Spanned<PoseFile>,
     goal: Spanned<PoseFile>,
@@ -85,11 +97,20 @@ struct PoseFile {
     rpy_rad: [Finite; 3],
 }
 
+#[derive(Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+enum SpaceFile {
+    #[default]
+    Se3,
+    Planar,
+}
+
 #[derive(Deserialize)]
 #[serde(rename_all = "lowercase")]
 enum ShapeKind {
     Box,
     Sphere,
+    Mesh,
 }
 
 #[derive(Deserialize)]
@@ -98,6 +119,8 @@ struct PartFile {
     shape: ShapeKind,
     half_extents_m: Option<[Positive; 3]>,
     radius_m: Option<Positive>,
+    file: Option<String>,
+    scale: Option<Positive>,
     #[serde(default)]
     position_m: [Finite; 3],
     #[serde(default)]
@@ -127,6 +150,7 @@ pub(super) fn parse(text: &str, origin: &str) -> Result<Scene, SceneError> {
         origin: origin.to_owned(),
         message: e.to_string(),
     })?;
+    let base_dir = Path::new(origin).parent().unwrap_or(Path::new(""));
     // Spans of the top-level tables, to give semantic errors a line.
     let mut spans: Vec<(String, usize)> = vec![
         ("bounds".into(), raw.bounds.span().start),
@@ -139,17 +163,37 @@ pub(super) fn parse(text: &str, origin: &str) -> Result<Scene, SceneError> {
             let field = format!("{list}[{i}]");
             spans.push((field.clone(), item.span().start));
             let p = item.get_ref();
-            let primitive = match (&p.shape, &p.half_extents_m, &p.radius_m) {
-                (ShapeKind::Box, Some(h), None) => Primitive::Box {
+            let line = Some(line_of(text, item.span().start));
+            let sizes = (&p.half_extents_m, &p.radius_m, &p.file, &p.scale);
+            let primitive = match (&p.shape, sizes) {
+                (ShapeKind::Box, (Some(h), None, None, None)) => Primitive::Box {
                     half_extents_m: Vector3::new(h[0].0, h[1].0, h[2].0),
                 },
-                (ShapeKind::Sphere, None, Some(r)) => Primitive::Sphere { radius_m: r.0 },
+                (ShapeKind::Sphere, (None, Some(r), None, None)) => {
+                    Primitive::Sphere { radius_m: r.0 }
+                }
+                (ShapeKind::Mesh, (None, None, Some(f), scale)) => {
+                    let path = base_dir.join(f);
+                    let mesh =
+                        MeshData::load(&path, scale.map_or(1.0, |s| s.0)).map_err(|source| {
+                            SceneError::Mesh {
+                                origin: origin.to_owned(),
+                                line,
+                                field: format!("{field}.file"),
+                                source: Box::new(source),
+                            }
+                        })?;
+                    Primitive::Mesh {
+                        mesh: Arc::new(mesh),
+                    }
+                }
                 _ => {
                     return Err(SceneError::Invalid {
                         origin: origin.to_owned(),
-                        line: Some(line_of(text, item.span().start)),
+                        line,
                         field,
-                        reason: "a box needs exactly `half_extents_m`, a sphere exactly `radius_m`"
+                        reason: "a box needs exactly `half_extents_m`, a sphere exactly \
+                                 `radius_m`, a mesh `file` and optionally `scale`"
                             .into(),
                     });
                 }
@@ -174,6 +218,10 @@ pub(super) fn parse(text: &str, origin: &str) -> Result<Scene, SceneError> {
         },
         start: pose(&start.position_m, &start.rpy_rad),
         goal: pose(&goal.position_m, &goal.rpy_rad),
+        space: match raw.space {
+            SpaceFile::Se3 => SpaceKind::Se3,
+            SpaceFile::Planar => SpaceKind::Planar,
+        },
     };
     scene.validate(origin).map_err(|e| match e {
         SceneError::Invalid {
@@ -293,5 +341,57 @@ radius_m = 0.1
         assert!(e.starts_with("f.toml"), "{e}");
         let e = err(&MINIMAL.replace("[[moving_object]]\nshape = \"sphere\"\nradius_m = 0.1", ""));
         assert!(e.contains("moving_object"), "{e}");
+    }
+
+    #[test]
+    fn mesh_parts_load_relative_to_the_scene_file_and_errors_name_both_files() {
+        let dir = std::env::temp_dir().join(format!("planner-scene-mesh-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("m")).expect("dir");
+        std::fs::write(
+            dir.join("m/tet.obj"),
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
+        )
+        .expect("obj");
+        std::fs::write(dir.join("m/bad.obj"), "v 0 0 0\nf 1 2 3\n").expect("obj");
+        let with = |file: &str, extra: &str| {
+            MINIMAL.replace(
+                "shape = \"sphere\"\nradius_m = 0.1",
+                &format!("shape = \"mesh\"\nfile = \"{file}\"\n{extra}"),
+            )
+        };
+        let origin = dir.join("s.toml").display().to_string();
+        let s = Scene::from_toml_str(&with("m/tet.obj", "scale = 0.1"), &origin).expect("loads");
+        let Primitive::Mesh { mesh } = &s.moving_object[0].primitive else {
+            panic!("mesh part")
+        };
+        assert!((s.object_radius_m() - 0.1).abs() < 1e-9 && mesh.triangles.len() == 4);
+        let e = Scene::from_toml_str(&with("m/bad.obj", ""), &origin)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("s.toml:9")
+                && e.contains("moving_object[0].file")
+                && e.contains("bad.obj:2"),
+            "{e}"
+        );
+        let e = Scene::from_toml_str(&with("m/none.stl", ""), &origin)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("none.stl") && e.contains("moving_object[0]"),
+            "{e}"
+        );
+        let e = Scene::from_toml_str(&with("m/tet.obj", "radius_m = 1.0"), &origin)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("moving_object[0]") && e.contains("mesh"), "{e}");
+        let e = Scene::from_toml_str(&with("m/tet.obj", "scale = 0"), &origin)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("> 0"), "{e}");
+        let e = Scene::from_toml_str(&format!("space = \"plane\"\n{MINIMAL}"), &origin)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("plane") && e.contains("line 1"), "{e}");
     }
 }

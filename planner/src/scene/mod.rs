@@ -11,11 +11,18 @@
 //! goal are collision free is checked by the caller that owns a collision checker
 //! (`Planner::new` does it).
 
+mod builtin;
+mod export;
 mod file;
+mod mesh;
+
+pub use builtin::BUILTIN_NAMES;
+pub use mesh::{MeshData, MeshError};
 
 use crate::pose::Se3;
 use nalgebra::Vector3;
 use std::path::Path;
+use std::sync::Arc;
 
 /// A geometric primitive in its own local frame (centred on the local origin).
 #[derive(Clone, Debug, PartialEq)]
@@ -29,6 +36,11 @@ pub enum Primitive {
     Sphere {
         /// Radius (m), strictly positive.
         radius_m: f64,
+    },
+    /// A triangle mesh (vertices in m, local frame), shared because meshes can be large.
+    Mesh {
+        /// The validated mesh.
+        mesh: Arc<MeshData>,
     },
 }
 
@@ -56,6 +68,7 @@ impl Part {
                 r
             }
             Primitive::Sphere { radius_m } => self.pose.pos.norm() + radius_m,
+            Primitive::Mesh { mesh } => mesh.reach_m(|v| self.pose.transform_point(v)),
         }
     }
 
@@ -87,6 +100,17 @@ impl Bounds {
     }
 }
 
+/// Which configuration space a scene is planned in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SpaceKind {
+    /// Free-flying rigid object: 3 translations, 3 rotations.
+    #[default]
+    Se3,
+    /// Planar object (I-RRT §5.2 and §6): x, y and a rotation θ about z; z stays at the
+    /// start's height and the rotation is the start's tilt composed with θ about scene z.
+    Planar,
+}
+
 /// A complete planning scene. See the module docs for frames.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scene {
@@ -102,6 +126,8 @@ pub struct Scene {
     pub start: Se3,
     /// Goal configuration of the object (scene frame).
     pub goal: Se3,
+    /// Configuration space to plan in.
+    pub space: SpaceKind,
 }
 
 /// Why a scene could not be loaded or is invalid. Every variant names its origin (a file
@@ -124,6 +150,19 @@ pub enum SceneError {
         /// toml's message, with line, column and a snippet.
         message: String,
     },
+    /// A mesh referenced by `field` could not be loaded; the mesh error names its file and
+    /// line.
+    #[error("{origin}{}: field `{field}`: {source}", line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Mesh {
+        /// Scene file path.
+        origin: String,
+        /// 1-based line of the part's table in the scene file, when known.
+        line: Option<usize>,
+        /// The part, e.g. `moving_object[0]`.
+        field: String,
+        /// The mesh error (boxed: keeps `SceneError` small).
+        source: Box<MeshError>,
+    },
     /// The scene parsed but a field is invalid.
     #[error("{origin}{}: field `{field}`: {reason}", line.map(|l| format!(":{l}")).unwrap_or_default())]
     Invalid {
@@ -137,9 +176,6 @@ pub enum SceneError {
         reason: String,
     },
 }
-
-/// Built-in scene names accepted by [`Scene::by_name_or_path`].
-pub const BUILTIN_NAMES: [&str; 2] = ["wall-hole", "default"];
 
 impl Scene {
     /// The embedded default scene, I-RRT §5.3 "Simple 6D case".
@@ -191,16 +227,16 @@ impl Scene {
             },
             start: Se3::from_xyz(-0.20, 0.0, 0.0),
             goal: Se3::from_xyz(0.20, 0.0, 0.0),
+            space: SpaceKind::Se3,
         }
     }
 
-    /// `"wall-hole"` or `"default"` give [`Scene::wall_with_hole`]; anything else is read
-    /// as a TOML file path.
+    /// A built-in scene by name (see [`BUILTIN_NAMES`]; `default` is `wall-hole`);
+    /// anything else is read as a TOML file path.
     pub fn by_name_or_path(s: &str) -> Result<Scene, SceneError> {
-        if BUILTIN_NAMES.contains(&s) {
-            Ok(Scene::wall_with_hole())
-        } else {
-            Scene::load(Path::new(s))
+        match Scene::builtin(s) {
+            Some(scene) => Ok(scene),
+            None => Scene::load(Path::new(s)),
         }
     }
 
@@ -250,6 +286,18 @@ impl Scene {
                         half_extents_m.iter().all(|v| v.is_finite() && *v > 0.0)
                     }
                     Primitive::Sphere { radius_m } => radius_m.is_finite() && *radius_m > 0.0,
+                    Primitive::Mesh { mesh } => {
+                        !mesh.triangles.is_empty()
+                            && mesh
+                                .vertices_m
+                                .iter()
+                                .all(|v| v.iter().all(|c| c.is_finite()))
+                            && mesh
+                                .triangles
+                                .iter()
+                                .flatten()
+                                .all(|&i| (i as usize) < mesh.vertices_m.len())
+                    }
                 };
                 if !ok {
                     return Err(bad(format!("{list}[{i}]"), "sizes must be finite and > 0"));
@@ -263,6 +311,18 @@ impl Scene {
         let finite = b.min_m.iter().chain(b.max_m.iter()).all(|v| v.is_finite());
         if !finite || (0..3).any(|i| b.min_m[i] > b.max_m[i]) {
             return Err(bad("bounds".into(), "must be finite with min_m <= max_m"));
+        }
+        if self.space == SpaceKind::Planar {
+            let tilt = self.goal.rot * self.start.rot.inverse();
+            let about_z = tilt
+                .axis()
+                .is_none_or(|a| a.x.abs() < 1e-9 && a.y.abs() < 1e-9);
+            if (self.goal.pos.z - self.start.pos.z).abs() > 1e-9 || !about_z {
+                return Err(bad(
+                    "goal".into(),
+                    "a planar scene's goal must have the start's z and differ from it by a rotation about z",
+                ));
+            }
         }
         for (field, q) in [("start", &self.start), ("goal", &self.goal)] {
             if !q.is_finite() {

@@ -1,0 +1,85 @@
+//! Criterion benches of the planner on every built-in scene:
+//! - `collision/<scene>`: one `is_free` check at uniformly random configurations (the
+//!   per-check cost that decides iterations per second);
+//! - `iterate/<scene>`: one automatic RRT-Connect iteration on a tree grown for 2000
+//!   iterations (trees keep growing while measured: the cost includes nearest-neighbour
+//!   search at that size); scenes solved within those 2000 iterations are skipped;
+//! - `solve/<scene>`: automatic RRT-Connect from scratch to a solution, for the scenes it
+//!   solves within seconds (seed 1).
+//!
+//! `cargo bench -p benches --bench planner` (all) or `... -- collision` (one group).
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use planner::{CollisionChecker, ConfigSpace, Planner, PlannerParams, Scene, Space, Weights};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use std::hint::black_box;
+use std::time::Duration;
+
+const SCENES: [&str; 7] = [
+    "maze",
+    "wall-hole",
+    "tunnels",
+    "tunnels-2axes",
+    "crossing-planes",
+    "silencer",
+    "free",
+];
+
+fn collision(c: &mut Criterion) {
+    let mut g = c.benchmark_group("collision");
+    for name in SCENES {
+        let scene = Scene::builtin(name).expect("built-in");
+        let checker = CollisionChecker::new(&scene);
+        let space = Space::for_scene(&scene, Weights::default());
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let qs: Vec<_> = (0..1024).map(|_| space.sample_uniform(&mut rng)).collect();
+        let mut i = 0;
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                i = (i + 1) % qs.len();
+                black_box(checker.is_free(black_box(&qs[i])))
+            })
+        });
+    }
+    g.finish();
+}
+
+fn iterate(c: &mut Criterion) {
+    let mut g = c.benchmark_group("iterate");
+    for name in SCENES.iter().filter(|n| **n != "free") {
+        let scene = Scene::builtin(name).expect("built-in");
+        let mut p = Planner::new(&scene, PlannerParams::default(), 1).expect("planner");
+        for _ in 0..2000 {
+            p.iterate(None);
+        }
+        if p.solved() {
+            // A solved planner's iteration is a no-op: nothing to measure (the silencer
+            // solves within 2000 iterations; see `solve/`).
+            continue;
+        }
+        g.bench_function(*name, |b| b.iter(|| black_box(p.iterate(None).nodes_added)));
+    }
+    g.finish();
+}
+
+fn solve(c: &mut Criterion) {
+    let mut g = c.benchmark_group("solve");
+    g.sample_size(10).measurement_time(Duration::from_secs(10));
+    // Scenes RRT-Connect solves in well under a second with seed 1 (see docs/experiments.md
+    // for the others, which take seconds to minutes and are measured by the harness).
+    for name in ["silencer", "free"] {
+        let scene = Scene::builtin(name).expect("built-in");
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                let mut p = Planner::new(&scene, PlannerParams::default(), 1).expect("planner");
+                while !p.iterate(None).solved {}
+                black_box(p.stats().nodes)
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, collision, iterate, solve);
+criterion_main!(benches);

@@ -1,0 +1,275 @@
+//! Simulated operators for the experiments, in lockstep with the planner (I-RRT §6): the
+//! operator moves ε_v (weighted m) along a predetermined path per planner iteration.
+//!
+//! Two models:
+//! - *pass-through* (I-RRT §5.2/§6: "we decided to let the user go through obstacles"):
+//!   `q_user` is the path point itself, collisions or not.
+//! - *contact-seeking* (our model of the H-RRT-C operator, who pushes the object against
+//!   surfaces): the hand follows the path with a fixed per-run orientation error (a
+//!   dexterity limit, Gaussian σ per axis); the avatar (proxy) moves to the hand when the
+//!   hand's configuration is free, and otherwise stays put, in contact, while the hand
+//!   keeps pushing. In contact it reports the deepest contact's point and normal, the force
+//!   `f_u = k·(hand − proxy)` (a virtual coupling of stiffness k) and the hand's motion Δp,
+//!   as the haptic loop would. Feeling the contact, the operator straightens the object:
+//!   each iteration in contact shrinks the orientation error by [`CORRECTION_PER_STEP`]
+//!   (our assumption, the benefit of force feedback that H-RRT-C §V.B reports over a 6-D
+//!   mouse; without it a simulated hand with a fixed error never enters a tight slot).
+
+use crate::collision::CollisionChecker;
+use crate::pose::{Se3, exp_rotation};
+use crate::sampling::{Contact, UserInput};
+use crate::space::ConfigSpace;
+use nalgebra::{UnitQuaternion, Vector3};
+use rand::{Rng, RngCore};
+use rand_distr::StandardNormal;
+
+/// Coupling stiffness of the contact-seeking user (N/m, default 200: 1 cm of push is 2 N).
+pub const COUPLING_N_PER_M: f64 = 200.0;
+
+/// Fraction of the orientation error the contact-seeking operator removes per iteration
+/// in contact (0.01: the error halves in about 70 iterations of contact).
+pub const CORRECTION_PER_STEP: f64 = 0.01;
+
+/// A simulated operator. See the module docs.
+#[derive(Clone, Debug)]
+pub struct SimUser {
+    keyframes: Vec<Se3>,
+    arc: Vec<f64>,
+    s: f64,
+    eps_v: f64,
+    /// Orientation error (contact-seeking model), `None` for pass-through.
+    error: Option<UnitQuaternion<f64>>,
+    proxy: Se3,
+    prev_hand: Se3,
+    /// Iterations spent in contact.
+    pub contact_iterations: u64,
+}
+
+impl SimUser {
+    /// A pass-through user moving `eps_v` weighted m per iteration along `keyframes`
+    /// (interpolated in `space`).
+    pub fn pass_through(space: &dyn ConfigSpace, keyframes: Vec<Se3>, eps_v: f64) -> Self {
+        let mut arc = vec![0.0];
+        for w in keyframes.windows(2) {
+            let last = arc.last().copied().unwrap_or(0.0);
+            arc.push(last + space.distance(&w[0], &w[1]));
+        }
+        let first = keyframes.first().copied().unwrap_or_else(Se3::identity);
+        SimUser {
+            keyframes,
+            arc,
+            s: 0.0,
+            eps_v,
+            error: None,
+            proxy: first,
+            prev_hand: first,
+            contact_iterations: 0,
+        }
+    }
+
+    /// A contact-seeking user whose orientation error is drawn from `rng` (σ in rad per
+    /// axis).
+    pub fn contact_seeking(
+        space: &dyn ConfigSpace,
+        keyframes: Vec<Se3>,
+        eps_v: f64,
+        error_sigma_rad: f64,
+        rng: &mut dyn RngCore,
+    ) -> Self {
+        let mut u = Self::pass_through(space, keyframes, eps_v);
+        let w = Vector3::new(
+            rng.sample::<f64, _>(StandardNormal),
+            rng.sample::<f64, _>(StandardNormal),
+            rng.sample::<f64, _>(StandardNormal),
+        ) * error_sigma_rad;
+        u.error = Some(exp_rotation(&w));
+        u
+    }
+
+    /// The path point at arc length `s` (weighted m), clamped to the ends.
+    fn at(&self, space: &dyn ConfigSpace, s: f64) -> Se3 {
+        let n = self.keyframes.len();
+        if n == 0 {
+            return Se3::identity();
+        }
+        let i = self.arc.partition_point(|&a| a <= s).clamp(1, n.max(2) - 1);
+        if n == 1 {
+            return self.keyframes[0];
+        }
+        let (a, b) = (self.arc[i - 1], self.arc[i]);
+        let t = if b > a {
+            ((s - a) / (b - a)).clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
+        space.interpolate(&self.keyframes[i - 1], &self.keyframes[i], t)
+    }
+
+    /// Advances one iteration and returns the input the planner sees.
+    pub fn step(&mut self, space: &dyn ConfigSpace, checker: &CollisionChecker) -> UserInput {
+        self.s += self.eps_v;
+        let on_path = self.at(space, self.s);
+        let Some(err) = self.error else {
+            return UserInput::free(on_path);
+        };
+        let hand = space.project(&Se3::new(on_path.pos, err * on_path.rot));
+        let dp = hand.pos - self.prev_hand.pos;
+        self.prev_hand = hand;
+        if checker.is_free(&hand) {
+            self.proxy = hand;
+            return UserInput::free(hand);
+        }
+        let contact = checker
+            .deepest_contact(&hand)
+            .map(|(point, normal, _)| Contact {
+                point_m: point,
+                normal,
+                force_n: COUPLING_N_PER_M * (hand.pos - self.proxy.pos),
+                displacement_m: dp,
+                proxy: self.proxy,
+            });
+        if contact.is_some() {
+            self.contact_iterations += 1;
+            self.error = Some(err.slerp(&UnitQuaternion::identity(), CORRECTION_PER_STEP));
+        }
+        UserInput {
+            q_user: self.proxy,
+            contact,
+        }
+    }
+
+    /// Arc length travelled (weighted m) and the path's total length.
+    pub fn progress(&self) -> (f64, f64) {
+        (self.s, self.arc.last().copied().unwrap_or(0.0))
+    }
+}
+
+/// The predetermined operator path of a built-in scene (keyframes, scene frame), through
+/// its passages with the orientation each needs; `None` for scenes without one.
+pub fn keyframes(scene: &str) -> Option<Vec<Se3>> {
+    use std::f64::consts::FRAC_PI_2;
+    let rpy = |x: f64, y: f64, z: f64, r: f64, p: f64, w: f64| {
+        Se3::from_rpy(Vector3::new(x, y, z), r, p, w)
+    };
+    let deg = std::f64::consts::PI / 180.0;
+    Some(match scene {
+        "maze" => vec![
+            rpy(-0.35, -0.35, 0.0, 0.0, 0.0, 0.0),
+            rpy(0.0, -0.2, 0.0, 0.0, 0.0, FRAC_PI_2),
+            rpy(0.0, 0.12, 0.0, 0.0, 0.0, FRAC_PI_2),
+            rpy(0.33, 0.12, 0.0, 0.0, 0.0, FRAC_PI_2),
+            rpy(0.33, 0.40, 0.0, 0.0, 0.0, 0.0),
+        ],
+        "tunnels" | "tunnels-1axis" | "tunnels-2axes" => {
+            let (a2, b2) = match scene {
+                "tunnels" => (false, true),
+                "tunnels-1axis" => (false, false),
+                _ => (true, true),
+            };
+            let ra = UnitQuaternion::from_euler_angles(
+                35.0 * deg,
+                if a2 { 20.0 * deg } else { 0.0 },
+                0.0,
+            );
+            let rb = UnitQuaternion::from_euler_angles(
+                -50.0 * deg,
+                0.0,
+                if b2 { 25.0 * deg } else { 0.0 },
+            );
+            // Cross each plate along its own normal, from 45 mm before its centre to 80 mm
+            // after (the stem trails the bar by 70 mm).
+            let (ca, cb) = (Vector3::new(0.15, 0.0, 0.0), Vector3::new(-0.15, 0.0, 0.0));
+            let (na, nb) = (ra * Vector3::x(), rb * Vector3::x());
+            vec![
+                Se3::from_xyz(0.40, 0.0, 0.0),
+                Se3::new(ca + na * 0.045, ra),
+                Se3::new(ca - na * 0.08, ra),
+                Se3::new(cb + nb * 0.045, rb),
+                Se3::new(cb - nb * 0.08, rb),
+                Se3::from_xyz(-0.40, 0.0, 0.0),
+            ]
+        }
+        "crossing-planes" => {
+            let up = UnitQuaternion::from_euler_angles(FRAC_PI_2, 0.0, 0.0);
+            vec![
+                Se3::from_xyz(-0.35, 0.0, 0.0),
+                Se3::from_xyz(0.0, 0.0, 0.0),
+                Se3::new(Vector3::zeros(), up),
+                Se3::new(Vector3::new(0.35, 0.0, 0.0), up),
+            ]
+        }
+        "silencer" => vec![
+            Se3::from_xyz(0.0, 0.0, 0.06),
+            Se3::from_xyz(-0.3, 0.0, 0.06),
+            Se3::from_xyz(-0.3, 0.0, -0.25),
+            Se3::from_xyz(-0.3, 0.55, -0.25),
+            Se3::from_xyz(-0.3, 0.55, 0.35),
+            Se3::from_xyz(0.0, 0.0, 0.35),
+        ],
+        "free" => vec![
+            Se3::from_xyz(-0.15, -0.15, -0.15),
+            Se3::from_xyz(0.15, 0.15, 0.15),
+        ],
+        _ => return None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Scene;
+    use crate::space::{Space, Weights};
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+
+    #[test]
+    fn operator_paths_are_free_densely_and_run_start_to_goal() {
+        for name in [
+            "maze",
+            "tunnels",
+            "tunnels-1axis",
+            "tunnels-2axes",
+            "crossing-planes",
+            "silencer",
+            "free",
+        ] {
+            let scene = Scene::builtin(name).expect("scene");
+            let c = CollisionChecker::new(&scene);
+            let k = keyframes(name).expect("keyframes");
+            let space = Space::for_scene(&scene, Weights::default());
+            assert!(space.distance(&k[0], &scene.start) < 1e-9, "{name} start");
+            assert!(
+                space.distance(&k[k.len() - 1], &scene.goal) < 1e-9,
+                "{name} goal"
+            );
+            for (i, w) in k.windows(2).enumerate() {
+                assert!(c.edge_free(&w[0], &w[1]), "{name}: segment {i} collides");
+            }
+        }
+    }
+
+    #[test]
+    fn users_advance_eps_per_iteration_and_report_contact() {
+        let scene = Scene::crossing_planes();
+        let c = CollisionChecker::new(&scene);
+        let space = Space::for_scene(&scene, Weights::default());
+        let k = keyframes("crossing-planes").expect("k");
+        let mut u = SimUser::pass_through(&space, k.clone(), 0.01);
+        let a = u.step(&space, &c).q_user;
+        let b = u.step(&space, &c).q_user;
+        assert!((space.distance(&a, &b) - 0.01).abs() < 1e-9);
+        // A 0.3 rad error cannot pass the 14 mm slit: contact with a normal and a push.
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let mut u = SimUser::contact_seeking(&space, k, 0.002, 0.3, &mut rng);
+        let mut contacts = 0;
+        for _ in 0..400 {
+            let inp = u.step(&space, &c);
+            if let Some(ct) = inp.contact {
+                contacts += 1;
+                assert!((ct.normal.norm() - 1.0).abs() < 1e-9);
+                assert!(c.is_free(&inp.q_user) && inp.q_user == ct.proxy);
+            }
+        }
+        assert!(contacts > 0 && u.contact_iterations == contacts);
+    }
+}

@@ -1,0 +1,295 @@
+//! The papers' scenes, embedded. `planner scenes --write DIR` writes them as TOML files
+//! (the copies in `planner/scenes/` are made that way and tested equal).
+//!
+//! The papers give figures, not dimensions, except for the wall with the 80 mm hole. The
+//! sizes below are our choices, made so that each scene has the papers' difficulty: a
+//! passage that needs the right orientation to within about 0.1–0.2 rad, dead ends where
+//! the papers show them. They are written next to each scene.
+
+use super::{Bounds, MeshData, Part, Primitive, Scene, SpaceKind};
+use crate::pose::Se3;
+use nalgebra::{UnitQuaternion, Vector3};
+use std::f64::consts::PI;
+use std::sync::Arc;
+
+/// Built-in scene names accepted by [`Scene::by_name_or_path`] (`default` is
+/// `wall-hole`).
+pub const BUILTIN_NAMES: [&str; 9] = [
+    "wall-hole",
+    "default",
+    "maze",
+    "tunnels",
+    "tunnels-1axis",
+    "tunnels-2axes",
+    "crossing-planes",
+    "silencer",
+    "free",
+];
+
+/// A box of half extents `h` (m) at `pose`.
+fn boxed(h: [f64; 3], pose: Se3) -> Part {
+    Part {
+        primitive: Primitive::Box {
+            half_extents_m: Vector3::from(h),
+        },
+        pose,
+    }
+}
+
+/// A thin plate of half thickness `t` (along its local x) and half size `s` (local y, z)
+/// with a centred rectangular slot of half size `slot = [along y, along z]`, as 4 boxes,
+/// placed by `pose`.
+fn slotted_plate(t: f64, s: f64, slot: [f64; 2], pose: &Se3) -> Vec<Part> {
+    let (sy, sz) = (slot[0], slot[1]);
+    let local = [
+        // Above and below the slot, full width.
+        ([t, s, 0.5 * (s - sz)], [0.0, 0.0, 0.5 * (s + sz)]),
+        ([t, s, 0.5 * (s - sz)], [0.0, 0.0, -0.5 * (s + sz)]),
+        // Left and right of the slot.
+        ([t, 0.5 * (s - sy), sz], [0.0, 0.5 * (s + sy), 0.0]),
+        ([t, 0.5 * (s - sy), sz], [0.0, -0.5 * (s + sy), 0.0]),
+    ];
+    local
+        .iter()
+        .map(|(h, c)| boxed(*h, pose.compose(&Se3::from_xyz(c[0], c[1], c[2]))))
+        .collect()
+}
+
+/// A square tube along x: inner half size `inner` (m), wall half thickness `t`, from
+/// `x0` to `x1`.
+fn tube_x(inner: f64, t: f64, x0: f64, x1: f64) -> Vec<Part> {
+    let (hx, cx) = (0.5 * (x1 - x0), 0.5 * (x1 + x0));
+    let o = inner + t;
+    vec![
+        boxed([hx, o + t, t], Se3::from_xyz(cx, 0.0, o)),
+        boxed([hx, o + t, t], Se3::from_xyz(cx, 0.0, -o)),
+        boxed([hx, t, inner], Se3::from_xyz(cx, o, 0.0)),
+        boxed([hx, t, inner], Se3::from_xyz(cx, -o, 0.0)),
+    ]
+}
+
+impl Scene {
+    /// A built-in scene by name, `None` for an unknown name.
+    pub fn builtin(name: &str) -> Option<Scene> {
+        Some(match name {
+            "wall-hole" | "default" => Scene::wall_with_hole(),
+            "maze" => Scene::maze(),
+            "tunnels" => Scene::tunnels(1, 2),
+            "tunnels-1axis" => Scene::tunnels(1, 1),
+            "tunnels-2axes" => Scene::tunnels(2, 2),
+            "crossing-planes" => Scene::crossing_planes(),
+            "silencer" => Scene::silencer(),
+            "free" => Scene::free(),
+            _ => return None,
+        })
+    }
+
+    /// I-RRT §5.2 / §6 "simple 2D case", planar (x, y, θ): a 60 × 30 mm block crosses a
+    /// 160 mm thick wall through a 36 mm wide corridor (it must turn its long side along
+    /// the corridor, within about ±0.1 rad), reaches a lobby, and from there three openings
+    /// lead to three rooms: two are dead ends, the right one holds the goal.
+    ///
+    /// Layout (m): start (−0.35, −0.35), goal (0.33, 0.40), both θ = 0. Wall band
+    /// y ∈ [−0.08, 0.08] with the corridor at x ∈ [−0.018, 0.018]. Lobby
+    /// y ∈ [0.08, 0.16]; wall y ∈ [0.16, 0.20] with 100 mm openings centred at
+    /// x = −0.33, 0.0, 0.33; room walls at x = ±0.15 (20 mm) up to y = 0.5. Bounds
+    /// ±0.44 m: the block reaches 34 mm from its centre, so it can never pass around a
+    /// wall (walls span ±0.5 m).
+    pub fn maze() -> Scene {
+        let z = 0.05; // wall half height; the block lives in z = 0
+        let mut obstacles = vec![
+            boxed([0.241, 0.08, z], Se3::from_xyz(-0.259, 0.0, 0.0)),
+            boxed([0.241, 0.08, z], Se3::from_xyz(0.259, 0.0, 0.0)),
+        ];
+        // Wall above the lobby with three 100 mm openings at x = −0.33, 0, 0.33.
+        let (y, hy) = (0.18, 0.02);
+        for (x0, x1) in [(-0.5, -0.38), (-0.28, -0.05), (0.05, 0.28), (0.38, 0.5)] {
+            obstacles.push(boxed(
+                [0.5 * (x1 - x0), hy, z],
+                Se3::from_xyz(0.5 * (x0 + x1), y, 0.0),
+            ));
+        }
+        // Room walls from the lobby wall up past the bounds.
+        for x in [-0.15, 0.15] {
+            obstacles.push(boxed([0.01, 0.16, z], Se3::from_xyz(x, 0.36, 0.0)));
+        }
+        Scene {
+            name: "maze".into(),
+            obstacles,
+            moving_object: vec![boxed([0.03, 0.015, 0.01], Se3::identity())],
+            bounds: Bounds {
+                min_m: Vector3::new(-0.44, -0.44, 0.0),
+                max_m: Vector3::new(0.44, 0.44, 0.0),
+            },
+            start: Se3::from_xyz(-0.35, -0.35, 0.0),
+            goal: Se3::from_xyz(0.33, 0.40, 0.0),
+            space: SpaceKind::Planar,
+        }
+    }
+
+    /// H-RRT-C §V.A "narrow tunnels": a 1.1 m square tube (160 mm inside) along x with two
+    /// 4 mm plates, each with a 100 × 26 mm slot. The object is a T: a 90 × 20 × 20 mm
+    /// cross-bar with a 60 mm stem along +x; the bar must be turned to the slot's angle
+    /// within about 0.07 rad to pass. Plate A (x = 0.15) is rotated by 35° about the tube
+    /// axis; plate B (x = −0.15) by −50° about the axis and, when `b_axes` = 2, tilted by
+    /// 25° about z as well (its normal leaves the tube axis). `a_axes` = 2 tilts plate A
+    /// by 20° about y. The paper's scene is `(1, 2)`. Start x = 0.40, goal x = −0.40
+    /// (the goal is on the left in the paper's figure), identity orientation.
+    pub fn tunnels(a_axes: u8, b_axes: u8) -> Scene {
+        let deg = PI / 180.0;
+        let mut obstacles = tube_x(0.08, 0.005, -0.55, 0.55);
+        let a_tilt = if a_axes >= 2 { 20.0 * deg } else { 0.0 };
+        let b_tilt = if b_axes >= 2 { 25.0 * deg } else { 0.0 };
+        let plate_a = Se3::from_rpy(Vector3::new(0.15, 0.0, 0.0), 35.0 * deg, a_tilt, 0.0);
+        let plate_b = Se3::from_rpy(Vector3::new(-0.15, 0.0, 0.0), -50.0 * deg, 0.0, b_tilt);
+        // Plates reach 0.16 m from the tube axis: even tilted they close the tube.
+        obstacles.extend(slotted_plate(0.002, 0.16, [0.05, 0.013], &plate_a));
+        obstacles.extend(slotted_plate(0.002, 0.16, [0.05, 0.013], &plate_b));
+        let name = match (a_axes, b_axes) {
+            (1, 2) => "tunnels".to_owned(),
+            (1, 1) => "tunnels-1axis".to_owned(),
+            (2, 2) => "tunnels-2axes".to_owned(),
+            (a, b) => format!("tunnels-{a}-{b}"),
+        };
+        Scene {
+            name,
+            obstacles,
+            moving_object: vec![
+                boxed([0.01, 0.045, 0.01], Se3::identity()),
+                boxed([0.03, 0.01, 0.01], Se3::from_xyz(0.04, 0.0, 0.0)),
+            ],
+            bounds: Bounds {
+                min_m: Vector3::new(-0.45, -0.04, -0.04),
+                max_m: Vector3::new(0.45, 0.04, 0.04),
+            },
+            start: Se3::from_xyz(0.40, 0.0, 0.0),
+            goal: Se3::from_xyz(-0.40, 0.0, 0.0),
+            space: SpaceKind::Se3,
+        }
+    }
+
+    /// H-RRT-C §V.B "crossing planes": in a square tube (200 mm inside) two pairs of
+    /// planes leave narrow free space: the first pair (x ∈ [−0.25, −0.08]) a horizontal
+    /// 14 mm slit, the second (x ∈ [0.08, 0.25]) a vertical 14 mm slit, crossing the first.
+    /// The object is a 120 × 120 × 8 mm plate: it must slide flat through the first pair
+    /// (within about 0.05 rad), turn a quarter about x in the chamber between them, and
+    /// slide upright through the second. Start x = −0.35 (flat), goal x = 0.35 (upright).
+    pub fn crossing_planes() -> Scene {
+        let mut obstacles = tube_x(0.1, 0.005, -0.45, 0.45);
+        let (hx, cx1, cx2) = (0.085, -0.165, 0.165);
+        let g = 0.007; // half slit
+        let h = 0.5 * (0.1 - g);
+        let c = g + h;
+        // First pair: above and below a horizontal slit.
+        obstacles.push(boxed([hx, 0.1, h], Se3::from_xyz(cx1, 0.0, c)));
+        obstacles.push(boxed([hx, 0.1, h], Se3::from_xyz(cx1, 0.0, -c)));
+        // Second pair: left and right of a vertical slit.
+        obstacles.push(boxed([hx, h, 0.1], Se3::from_xyz(cx2, c, 0.0)));
+        obstacles.push(boxed([hx, h, 0.1], Se3::from_xyz(cx2, -c, 0.0)));
+        Scene {
+            name: "crossing-planes".into(),
+            obstacles,
+            moving_object: vec![boxed([0.06, 0.06, 0.004], Se3::identity())],
+            bounds: Bounds {
+                min_m: Vector3::new(-0.38, -0.04, -0.04),
+                max_m: Vector3::new(0.38, 0.04, 0.04),
+            },
+            start: Se3::from_xyz(-0.35, 0.0, 0.0),
+            goal: Se3::new(
+                Vector3::new(0.35, 0.0, 0.0),
+                UnitQuaternion::from_euler_angles(0.5 * PI, 0.0, 0.0),
+            ),
+            space: SpaceKind::Se3,
+        }
+    }
+
+    /// The octagonal silencer body of [`Scene::silencer`]: a prism along x, 400 mm long,
+    /// circumradius 80 mm, outward winding.
+    pub fn silencer_body_mesh() -> MeshData {
+        let (hl, r, n) = (0.2, 0.08, 8usize);
+        let mut v = Vec::with_capacity(2 * n + 2);
+        for x in [-hl, hl] {
+            for k in 0..n {
+                let a = 2.0 * PI * (k as f64 + 0.5) / n as f64;
+                v.push(Vector3::new(x, r * a.cos(), r * a.sin()));
+            }
+        }
+        v.push(Vector3::new(-hl, 0.0, 0.0));
+        v.push(Vector3::new(hl, 0.0, 0.0));
+        let (c0, c1) = (2 * n as u32, 2 * n as u32 + 1);
+        let mut t = Vec::new();
+        for k in 0..n as u32 {
+            let k1 = (k + 1) % n as u32;
+            let (a0, a1, b0, b1) = (k, k1, k + n as u32, k1 + n as u32);
+            // Side quad, outward: counter-clockwise seen from outside.
+            t.push([a0, a1, b1]);
+            t.push([a0, b1, b0]);
+            t.push([c0, a1, a0]); // −x cap
+            t.push([c1, b0, b1]); // +x cap
+        }
+        MeshData {
+            source: "silencer-body.obj".into(),
+            vertices_m: v,
+            triangles: t,
+        }
+    }
+
+    /// I-RRT §5.4 "industrial case", a car silencer disassembly: the silencer (octagonal
+    /// mesh body, 400 × 160 mm, with a 300 mm inlet pipe) hangs in the floor tunnel
+    /// under the floor panel, between two rails, above a crossmember. It has to slide
+    /// along the tunnel until it clears the crossmember, drop out, move sideways past
+    /// the panel edge and rise to the goal above the panel ("removed from the bottom to be
+    /// placed on the top"). The goal is in wide free space, as in the paper.
+    pub fn silencer() -> Scene {
+        let obstacles = vec![
+            // Floor panel.
+            boxed([0.55, 0.35, 0.01], Se3::from_xyz(0.0, 0.0, 0.16)),
+            // Tunnel rails.
+            boxed([0.55, 0.01, 0.075], Se3::from_xyz(0.0, 0.105, 0.075)),
+            boxed([0.55, 0.01, 0.075], Se3::from_xyz(0.0, -0.105, 0.075)),
+            // Crossmember under the silencer.
+            boxed([0.03, 0.3, 0.02], Se3::from_xyz(0.0, 0.0, -0.06)),
+        ];
+        let moving_object = vec![
+            Part {
+                primitive: Primitive::Mesh {
+                    mesh: Arc::new(Scene::silencer_body_mesh()),
+                },
+                pose: Se3::identity(),
+            },
+            boxed([0.15, 0.015, 0.015], Se3::from_xyz(-0.35, 0.0, 0.03)),
+        ];
+        Scene {
+            name: "silencer".into(),
+            obstacles,
+            moving_object,
+            bounds: Bounds {
+                min_m: Vector3::new(-0.7, -0.7, -0.45),
+                max_m: Vector3::new(0.7, 0.7, 0.45),
+            },
+            start: Se3::from_xyz(0.0, 0.0, 0.06),
+            goal: Se3::from_xyz(0.0, 0.0, 0.35),
+            space: SpaceKind::Se3,
+        }
+    }
+
+    /// An obstacle-free 0.4 m cube with a small sphere: a trivially easy scene for tests
+    /// and for measuring planner overhead without collision cost.
+    pub fn free() -> Scene {
+        Scene {
+            name: "free".into(),
+            obstacles: vec![],
+            moving_object: vec![Part {
+                primitive: Primitive::Sphere { radius_m: 0.02 },
+                pose: Se3::identity(),
+            }],
+            bounds: Bounds {
+                min_m: Vector3::new(-0.2, -0.2, -0.2),
+                max_m: Vector3::new(0.2, 0.2, 0.2),
+            },
+            start: Se3::from_xyz(-0.15, -0.15, -0.15),
+            goal: Se3::from_xyz(0.15, 0.15, 0.15),
+            space: SpaceKind::Se3,
+        }
+    }
+}

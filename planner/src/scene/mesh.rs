@@ -1,0 +1,349 @@
+//! Triangle meshes for scene parts, read from Wavefront OBJ (`tobj`) or STL (`stl_io`,
+//! ASCII or binary).
+//!
+//! Vertices are in the part's local frame; a file's numbers are multiplied by `scale` to
+//! give metres (e.g. `scale = 0.001` for a CAD file in millimetres). Triangles must be
+//! wound counter-clockwise seen from outside (outward normals) for point containment and
+//! signed distances to be right; the loader does not fix winding.
+//!
+//! Every failure is a [`MeshError`] naming the file and, where the format allows, the line
+//! (OBJ) or the triangle; nothing here panics on bad input.
+
+use nalgebra::Vector3;
+use std::io::BufReader;
+use std::path::Path;
+
+/// A validated triangle mesh: finite vertices (m, local frame), at least one triangle,
+/// every index in range.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshData {
+    /// Where it came from (a path, or a label for generated meshes).
+    pub source: String,
+    /// Vertices (m, part frame).
+    pub vertices_m: Vec<Vector3<f64>>,
+    /// Triangles as vertex indices, counter-clockwise seen from outside.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// Why a mesh could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum MeshError {
+    /// The file could not be opened or read.
+    #[error("{path}: cannot read mesh: {source}")]
+    Io {
+        /// Mesh file path.
+        path: String,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The file is not a valid mesh; `line` is the 1-based line when known.
+    #[error("{path}{}: {reason}", line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Format {
+        /// Mesh file path.
+        path: String,
+        /// 1-based line of the offending statement, when known (OBJ).
+        line: Option<usize>,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The extension is neither `.obj` nor `.stl`.
+    #[error("{path}: unknown mesh format (expected a .obj or .stl file)")]
+    UnknownFormat {
+        /// Mesh file path.
+        path: String,
+    },
+}
+
+impl MeshData {
+    /// Builds and validates a mesh; `source` names it in errors.
+    pub fn new(
+        source: &str,
+        vertices_m: Vec<Vector3<f64>>,
+        triangles: Vec<[u32; 3]>,
+    ) -> Result<Self, MeshError> {
+        let bad = |reason: String| MeshError::Format {
+            path: source.to_owned(),
+            line: None,
+            reason,
+        };
+        if triangles.is_empty() {
+            return Err(bad("mesh has no triangles".into()));
+        }
+        if let Some(i) = vertices_m
+            .iter()
+            .position(|v| !v.iter().all(|c| c.is_finite()))
+        {
+            return Err(bad(format!("vertex {i} is not finite")));
+        }
+        let n = vertices_m.len();
+        if let Some(t) = triangles
+            .iter()
+            .position(|t| t.iter().any(|&i| i as usize >= n))
+        {
+            return Err(bad(format!(
+                "triangle {t} indexes a vertex beyond the {n} vertices"
+            )));
+        }
+        Ok(MeshData {
+            source: source.to_owned(),
+            vertices_m,
+            triangles,
+        })
+    }
+
+    /// Loads `path` (`.obj` or `.stl`, case-insensitive), multiplying coordinates by
+    /// `scale` (m per file unit, finite and > 0).
+    pub fn load(path: &Path, scale: f64) -> Result<Self, MeshError> {
+        let name = path.display().to_string();
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        let (vertices, triangles) = match ext.as_deref() {
+            Some("obj") => read_obj(path, &name)?,
+            Some("stl") => read_stl(path, &name)?,
+            _ => return Err(MeshError::UnknownFormat { path: name }),
+        };
+        let vertices = vertices.into_iter().map(|v| v * scale).collect();
+        Self::new(&name, vertices, triangles)
+    }
+
+    /// Largest distance of a vertex from the local origin after `transform` (m).
+    pub fn reach_m(&self, transform: impl Fn(&Vector3<f64>) -> Vector3<f64>) -> f64 {
+        self.vertices_m
+            .iter()
+            .map(|v| transform(v).norm())
+            .fold(0.0, f64::max)
+    }
+
+    /// A closed box mesh of half extents `h` (m), outward winding. Used by generated
+    /// scenes and tests.
+    pub fn cuboid(source: &str, h: [f64; 3]) -> Self {
+        let mut v = Vec::with_capacity(8);
+        for i in 0..8 {
+            let s = |bit: u32| if i & (1 << bit) == 0 { -1.0 } else { 1.0 };
+            v.push(Vector3::new(s(0) * h[0], s(1) * h[1], s(2) * h[2]));
+        }
+        // Faces (−x, +x, −y, +y, −z, +z) as two counter-clockwise triangles each.
+        let t = vec![
+            [0, 4, 6],
+            [0, 6, 2],
+            [1, 3, 7],
+            [1, 7, 5],
+            [0, 1, 5],
+            [0, 5, 4],
+            [2, 6, 7],
+            [2, 7, 3],
+            [0, 2, 3],
+            [0, 3, 1],
+            [4, 5, 7],
+            [4, 7, 6],
+        ];
+        MeshData {
+            source: source.to_owned(),
+            vertices_m: v,
+            triangles: t,
+        }
+    }
+}
+
+/// Vertices (file units) and triangles as read, before scaling and validation.
+type RawMesh = (Vec<Vector3<f64>>, Vec<[u32; 3]>);
+
+fn read_obj(path: &Path, name: &str) -> Result<RawMesh, MeshError> {
+    let text = std::fs::read_to_string(path).map_err(|source| MeshError::Io {
+        path: name.to_owned(),
+        source,
+    })?;
+    // tobj reports what went wrong but not where: find the line ourselves first.
+    if let Some((line, reason)) = obj_first_bad_line(&text) {
+        return Err(MeshError::Format {
+            path: name.to_owned(),
+            line: Some(line),
+            reason,
+        });
+    }
+    let opts = tobj::LoadOptions {
+        triangulate: true,
+        single_index: true,
+        ..Default::default()
+    };
+    let mut reader = BufReader::new(text.as_bytes());
+    // Materials are irrelevant to collision: ignore any `mtllib`.
+    let (models, _) =
+        tobj::load_obj_buf(&mut reader, &opts, |_| Err(tobj::LoadError::GenericFailure)).map_err(
+            |e| MeshError::Format {
+                path: name.to_owned(),
+                line: None,
+                reason: format!("OBJ: {e}"),
+            },
+        )?;
+    let mut vertices = Vec::new();
+    let mut triangles = Vec::new();
+    for m in &models {
+        let base = vertices.len() as u32;
+        for p in m.mesh.positions.chunks_exact(3) {
+            vertices.push(Vector3::new(
+                f64::from(p[0]),
+                f64::from(p[1]),
+                f64::from(p[2]),
+            ));
+        }
+        for t in m.mesh.indices.chunks_exact(3) {
+            triangles.push([base + t[0], base + t[1], base + t[2]]);
+        }
+    }
+    Ok((vertices, triangles))
+}
+
+/// The first `v` line with other than 3–4 finite numbers, or `f` line with fewer than 3
+/// vertices or an index outside the vertices defined so far (1-based, negative relative).
+fn obj_first_bad_line(text: &str) -> Option<(usize, String)> {
+    let mut nv: i64 = 0;
+    for (i, raw) in text.lines().enumerate() {
+        let line = raw.split('#').next().unwrap_or("").trim();
+        let mut it = line.split_whitespace();
+        match it.next() {
+            Some("v") => {
+                let nums: Vec<Option<f64>> = it.map(|s| s.parse::<f64>().ok()).collect();
+                let ok = (3..=7).contains(&nums.len())
+                    && nums.iter().take(3).all(|n| n.is_some_and(f64::is_finite))
+                    && nums.iter().all(Option::is_some);
+                if !ok {
+                    return Some((i + 1, "vertex needs 3 finite numbers".into()));
+                }
+                nv += 1;
+            }
+            Some("f") => {
+                let mut count = 0;
+                for tok in it {
+                    count += 1;
+                    let idx = tok.split('/').next().and_then(|s| s.parse::<i64>().ok());
+                    let ok = match idx {
+                        Some(k) if k > 0 => k <= nv,
+                        Some(k) if k < 0 => -k <= nv,
+                        _ => false,
+                    };
+                    if !ok {
+                        return Some((
+                            i + 1,
+                            format!("face index `{tok}` is not one of the {nv} vertices so far"),
+                        ));
+                    }
+                }
+                if count < 3 {
+                    return Some((i + 1, "face needs at least 3 vertices".into()));
+                }
+            }
+            _ => {}
+        }
+    }
+    None
+}
+
+fn read_stl(path: &Path, name: &str) -> Result<RawMesh, MeshError> {
+    let file = std::fs::File::open(path).map_err(|source| MeshError::Io {
+        path: name.to_owned(),
+        source,
+    })?;
+    let mut reader = BufReader::new(file);
+    let mesh = stl_io::read_stl(&mut reader).map_err(|e| MeshError::Format {
+        path: name.to_owned(),
+        line: None,
+        reason: format!("STL: {e}"),
+    })?;
+    let vertices = mesh
+        .vertices
+        .iter()
+        .map(|v| Vector3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2])))
+        .collect();
+    let mut triangles = Vec::with_capacity(mesh.faces.len());
+    for f in &mesh.faces {
+        let idx = f.vertices.map(|i| u32::try_from(i).unwrap_or(u32::MAX));
+        triangles.push(idx);
+    }
+    Ok((vertices, triangles))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tmp(name: &str, contents: &[u8]) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("planner-mesh-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("tmp dir");
+        let p = dir.join(name);
+        std::fs::write(&p, contents).expect("write");
+        p
+    }
+
+    const TETRA_OBJ: &str = "# tetrahedron\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n\
+f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+
+    #[test]
+    fn obj_loads_and_scales() {
+        let p = tmp("tetra.obj", TETRA_OBJ.as_bytes());
+        let m = MeshData::load(&p, 0.001).expect("loads");
+        assert_eq!(m.vertices_m.len(), 4);
+        assert_eq!(m.triangles.len(), 4);
+        assert!((m.reach_m(|v| *v) - 0.001).abs() < 1e-12);
+    }
+
+    #[test]
+    fn obj_errors_name_file_and_line() {
+        let p = tmp("bad-v.obj", b"v 0 0 0\nv 1 x 0\nf 1 2 1\n");
+        let e = MeshData::load(&p, 1.0).unwrap_err().to_string();
+        assert!(e.contains("bad-v.obj:2") && e.contains("vertex"), "{e}");
+        let p = tmp("bad-f.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 9\n");
+        let e = MeshData::load(&p, 1.0).unwrap_err().to_string();
+        assert!(e.contains("bad-f.obj:5") && e.contains("`9`"), "{e}");
+        let p = tmp("empty.obj", b"# nothing\n");
+        let e = MeshData::load(&p, 1.0).unwrap_err().to_string();
+        assert!(e.contains("empty.obj") && e.contains("no triangles"), "{e}");
+        let e = MeshData::load(Path::new("/nonexistent/m.obj"), 1.0)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("/nonexistent/m.obj"), "{e}");
+        let p = tmp("m.ply", b"ply\n");
+        assert!(matches!(
+            MeshData::load(&p, 1.0),
+            Err(MeshError::UnknownFormat { .. })
+        ));
+    }
+
+    #[test]
+    fn stl_ascii_and_binary_load() {
+        let ascii = "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n\
+vertex 0 1 0\nendloop\nendfacet\nendsolid t\n";
+        let m = MeshData::load(&tmp("t.stl", ascii.as_bytes()), 2.0).expect("ascii");
+        assert_eq!(m.triangles.len(), 1);
+        assert!((m.reach_m(|v| *v) - 2.0).abs() < 1e-12);
+        let tri = stl_io::Triangle {
+            normal: stl_io::Normal::new([0.0, 0.0, 1.0]),
+            vertices: [
+                stl_io::Vertex::new([0.0, 0.0, 0.0]),
+                stl_io::Vertex::new([1.0, 0.0, 0.0]),
+                stl_io::Vertex::new([0.0, 1.0, 0.0]),
+            ],
+        };
+        let mut bin = Vec::new();
+        stl_io::write_stl(&mut bin, [tri].iter()).expect("write");
+        let m = MeshData::load(&tmp("b.STL", &bin), 1.0).expect("binary");
+        assert_eq!(m.triangles.len(), 1);
+        // Truncated binary and garbage ASCII are errors, not panics.
+        let e = MeshData::load(&tmp("cut.stl", &bin[..100]), 1.0).unwrap_err();
+        assert!(e.to_string().contains("cut.stl"), "{e}");
+        let e = MeshData::load(&tmp("junk.stl", b"solid x\nfacet nonsense\n"), 1.0).unwrap_err();
+        assert!(e.to_string().contains("junk.stl"), "{e}");
+    }
+
+    #[test]
+    fn new_rejects_bad_data() {
+        let v = vec![Vector3::zeros(), Vector3::x(), Vector3::y()];
+        assert!(MeshData::new("m", v.clone(), vec![[0, 1, 2]]).is_ok());
+        assert!(MeshData::new("m", v.clone(), vec![[0, 1, 3]]).is_err());
+        assert!(MeshData::new("m", v.clone(), vec![]).is_err());
+        let mut nan = v;
+        nan[1].x = f64::NAN;
+        assert!(MeshData::new("m", nan, vec![[0, 1, 2]]).is_err());
+    }
+}
