@@ -3,13 +3,12 @@
 
 use devices::sim::SimulatedArmConfig;
 use haptic_loop::contact::{
-    Anchor, ContactConfig, ContactModel, ContactStage, Coupling, Voxmap, VoxmapConfig, VoxmapReport,
+    Anchor, ContactConfig, ContactStage, Voxmap, VoxmapConfig, VoxmapReport,
 };
 use nalgebra::{Isometry3, Translation3, Vector3};
 use parry3d_f64::math::Pose;
 use parry3d_f64::shape::SharedShape;
 use planner::Scene;
-use std::sync::Arc;
 
 /// Where the object is relative to the scene.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -62,10 +61,8 @@ fn stage(
         },
         ..ContactConfig::default()
     };
-    let model = ContactModel::build(obstacles, object, &config.voxmap).expect("fixture builds");
     let spec = SimulatedArmConfig::default().spec();
-    let coupling = Coupling::from_spec(&spec, 1.0, config.coupling_fraction);
-    ContactStage::new(Arc::new(model), config, coupling)
+    ContactStage::from_shapes(obstacles, object, config, &spec, 1.0).expect("fixture builds")
 }
 
 impl Fixture {

@@ -91,18 +91,18 @@ impl std::fmt::Debug for RunningLoop {
     }
 }
 
-/// Starts the real haptic loop on namespace `ns`: the simulated operator pushes the
-/// wall-hole scene's S against the wall beside the hole and slides it back and forth (the
-/// hardest steady contact case), for as long as the loop runs.
-pub fn wall_loop(ns: &str, run: &WallLoop) -> anyhow::Result<RunningLoop> {
+/// The simulated arm whose operator pushes the wall-hole scene's S against the wall beside
+/// the hole and slides it back and forth for `seconds` (the hardest steady contact case),
+/// the tick configuration at `rate_hz`, and the contact stage at `voxel_m` (`None`: no
+/// contact).
+pub fn wall_setup(
+    rate_hz: f64,
+    seconds: f64,
+    voxel_m: Option<f64>,
+) -> anyhow::Result<(SimulatedArm, TickConfig, Option<ContactStage>)> {
     let scene = Scene::wall_with_hole();
-    let (node, _) = services::create_node(&format!("harness_loop_{}", std::process::id()))?;
-    let writer = services::state_writer(&node, ns)?;
-    let (relay, guidance) = Relay::spawn(ns, Duration::from_millis(1))?;
-
     let origin = Isometry3::from_parts(Translation3::new(-0.08, 0.15, 0.1), scene.start.rot);
     let device = |x: f64, y: f64| Waypoint::new(Isometry3::translation(x, y, 0.0));
-    let seconds = run.ticks as f64 / run.rate_hz;
     let mut route = vec![device(0.0, 0.0)];
     for _ in 0..((seconds / 8.0).ceil() as usize).max(1) {
         route.extend([device(0.06, 0.05), device(0.06, -0.05), device(0.0, 0.0)]);
@@ -126,22 +126,38 @@ pub fn wall_loop(ns: &str, run: &WallLoop) -> anyhow::Result<RunningLoop> {
         },
         guidance: GuidanceConfig::default(),
         safety: SafetyConfig::default(),
-        period_s: 1.0 / run.rate_hz,
+        period_s: 1.0 / rate_hz,
     };
+    let contact = match voxel_m {
+        Some(voxel_m) => {
+            let contact = ContactConfig {
+                voxmap: VoxmapConfig {
+                    voxel_m,
+                    ..VoxmapConfig::default()
+                },
+                ..ContactConfig::default()
+            };
+            let model =
+                ContactModel::from_scene(&scene, &contact.voxmap).map_err(anyhow::Error::msg)?;
+            eprintln!("{}", model.describe());
+            let coupling = Coupling::from_spec(&spec, 1.0, contact.coupling_fraction);
+            Some(ContactStage::new(Arc::new(model), contact, coupling))
+        }
+        None => None,
+    };
+    Ok((arm, config, contact))
+}
+
+/// Starts the real haptic loop of [`wall_setup`] on namespace `ns`, with IPC.
+pub fn wall_loop(ns: &str, run: &WallLoop) -> anyhow::Result<RunningLoop> {
+    let (node, _) = services::create_node(&format!("harness_loop_{}", std::process::id()))?;
+    let writer = services::state_writer(&node, ns)?;
+    let (relay, guidance) = Relay::spawn(ns, Duration::from_millis(1))?;
+    let (arm, config, contact) =
+        wall_setup(run.rate_hz, run.ticks as f64 / run.rate_hz, run.voxel_m)?;
     let mut tick = Tick::new(arm, &config, guidance, writer).map_err(|e| anyhow::anyhow!("{e}"))?;
-    if let Some(voxel_m) = run.voxel_m {
-        let contact = ContactConfig {
-            voxmap: VoxmapConfig {
-                voxel_m,
-                ..VoxmapConfig::default()
-            },
-            ..ContactConfig::default()
-        };
-        let model =
-            ContactModel::from_scene(&scene, &contact.voxmap).map_err(anyhow::Error::msg)?;
-        eprintln!("{}", model.describe());
-        let coupling = Coupling::from_spec(&spec, 1.0, contact.coupling_fraction);
-        tick = tick.with_contact(ContactStage::new(Arc::new(model), contact, coupling));
+    if let Some(stage) = contact {
+        tick = tick.with_contact(stage);
     }
     let handle = runner::spawn(
         tick,

@@ -1,26 +1,19 @@
 //! Compute time of the full haptic tick with contact rendering on, in lockstep (no RT
 //! scheduling, so wake-up latency is not part of it): the simulated operator pushes the
 //! wall-hole scene's S against the wall beside the hole and slides it along the wall, the
-//! hardest steady case for the contact stage. Prints p50 / p90 / p99 / p99.9 / max of the
+//! hardest steady case for the contact stage (`benches::harness::wall_setup`). Prints p50 / p90 / p99 / p99.9 / max of the
 //! compute time per tick from an HDR histogram.
 //!
 //! `cargo run --release -p benches --bin tick-budget -- --seconds 20 [--voxel-mm 1] [--json F]`
 
 use anyhow::{Context, bail};
+use benches::harness::wall_setup;
 use clap::Parser;
-use devices::sim::{ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmConfig, Waypoint};
-use haptic_loop::contact::{ContactConfig, ContactModel, ContactStage, Coupling, VoxmapConfig};
-use haptic_loop::guidance::GuidanceConfig;
-use haptic_loop::mapping::MappingConfig;
-use haptic_loop::safety::SafetyConfig;
-use haptic_loop::tick::{NoGuidance, NoSink, PrevTiming, Tick, TickConfig};
+use haptic_loop::tick::{NoGuidance, NoSink, PrevTiming, Tick};
 use hdrhistogram::Histogram;
 use ipc_types::ContactCode;
-use nalgebra::{Isometry3, Translation3};
-use planner::Scene;
 use serde::Serialize;
 use std::path::PathBuf;
-use std::sync::Arc;
 use std::time::Instant;
 
 /// Tick compute budget with contact rendering (lockstep, simulated arm).
@@ -65,54 +58,10 @@ fn main() -> anyhow::Result<()> {
     if !(args.voxel_mm.is_finite() && (0.25..=20.0).contains(&args.voxel_mm)) {
         bail!("--voxel-mm must be within 0.25–20, got {}", args.voxel_mm);
     }
-    let scene = Scene::wall_with_hole();
-    let config = ContactConfig {
-        voxmap: VoxmapConfig {
-            voxel_m: args.voxel_mm / 1000.0,
-            ..VoxmapConfig::default()
-        },
-        ..ContactConfig::default()
-    };
-    let model = ContactModel::from_scene(&scene, &config.voxmap).map_err(anyhow::Error::msg)?;
-    eprintln!("{}", model.describe());
-    let points = model.pointshell().len();
-
-    // Device origin 80 mm in front of the wall beside the hole, S in its start orientation.
-    let origin = Isometry3::from_parts(Translation3::new(-0.08, 0.15, 0.1), scene.start.rot);
-    let device = |x: f64, y: f64| Isometry3::translation(x, y, 0.0);
-    let route = [
-        Waypoint::new(device(0.0, 0.0)),
-        Waypoint::new(device(0.06, 0.0)).with_dwell(0.5),
-        Waypoint::new(device(0.06, 0.05)),
-        Waypoint::new(device(0.06, -0.05)),
-        Waypoint::new(device(0.06, 0.0)).with_dwell(1.0),
-    ];
-    let arm_config = SimulatedArmConfig::default();
-    let spec = arm_config.spec();
-    let user = ScriptedUser::new(
-        ScriptedUserConfig {
-            max_force_n: spec.max_force_n,
-            ..ScriptedUserConfig::default()
-        },
-        route,
-    )
-    .context("simulated operator")?;
-    let arm = SimulatedArm::with_user(arm_config, user).context("simulated arm")?;
-    let tick_config = TickConfig {
-        mapping: MappingConfig {
-            position_scale: 1.0,
-            origin,
-            clutch_button: None,
-        },
-        guidance: GuidanceConfig::default(),
-        safety: SafetyConfig::default(),
-        period_s: 0.001,
-    };
-    let stage = ContactStage::new(
-        Arc::new(model),
-        config,
-        Coupling::from_spec(&spec, 1.0, config.coupling_fraction),
-    );
+    let (arm, tick_config, contact) =
+        wall_setup(1000.0, args.seconds, Some(args.voxel_mm / 1000.0))?;
+    let stage = contact.context("contact stage")?;
+    let points = stage.model().pointshell().len();
     let mut tick = Tick::new(arm, &tick_config, NoGuidance, NoSink)
         .context("open the simulated arm")?
         .with_contact(stage);
@@ -129,13 +78,6 @@ fn main() -> anyhow::Result<()> {
         in_contact += u64::from(s.contact == ContactCode::CONTACT);
         if let Some(c) = tick.contact() {
             tested_max = tested_max.max(c.last_points_tested());
-            if ns > 2_000_000 && std::env::var("DBG").is_ok() {
-                eprintln!(
-                    "tick {i}: {ns} ns, tested {}, contact {:?}",
-                    c.last_points_tested(),
-                    s.contact
-                );
-            }
         }
     }
     let us = |q: f64| hist.value_at_quantile(q) as f64 / 1000.0;

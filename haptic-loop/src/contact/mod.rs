@@ -425,6 +425,11 @@ impl Coherence {
     }
 }
 
+/// `[a; b]` as one 6-vector (velocity and angular velocity, or force and torque).
+fn stack(a: &Vector3<f64>, b: &Vector3<f64>) -> Vector6<f64> {
+    Vector6::new(a.x, a.y, a.z, b.x, b.y, b.z)
+}
+
 /// Adds `f` along the unit direction `n` with moment arm cross product `rxn` (= r × n).
 #[inline]
 fn add_wrench(w: &mut Vector6<f64>, f: f64, n: &Vector3<f64>, rxn: &Vector3<f64>) {
@@ -481,6 +486,20 @@ impl ContactStage {
         }
     }
 
+    /// Builds model and stage in one go: obstacles (scene frame) and object parts (object
+    /// frame) at `config`'s voxel size, coupling gains from `spec` at `position_scale`.
+    pub fn from_shapes(
+        obstacles: &[(Pose, SharedShape)],
+        object: &[(Pose, SharedShape)],
+        config: ContactConfig,
+        spec: &DeviceSpec,
+        position_scale: f64,
+    ) -> Result<Self, String> {
+        let model = ContactModel::build(obstacles, object, &config.voxmap)?;
+        let coupling = Coupling::from_spec(spec, position_scale, config.coupling_fraction);
+        Ok(Self::new(Arc::new(model), config, coupling))
+    }
+
     /// The coupling gains in use.
     pub fn coupling(&self) -> &Coupling {
         &self.coupling
@@ -531,14 +550,7 @@ impl ContactStage {
     /// Total energy of proxy and coupling towards a fixed `anchor` plus the contact springs,
     /// J: ½uᵀMu + ½k|Δx|² + ½k_r|Δθ|² + Σ½k_p d². For the passivity test.
     pub fn energy(&self, anchor: &Isometry3<f64>) -> f64 {
-        let u = Vector6::new(
-            self.velocity.x,
-            self.velocity.y,
-            self.velocity.z,
-            self.angular_velocity.x,
-            self.angular_velocity.y,
-            self.angular_velocity.z,
-        );
+        let u = stack(&self.velocity, &self.angular_velocity);
         let kinetic = 0.5 * u.dot(&(self.mass_matrix() * u));
         let c = &self.coupling;
         let dx = anchor.transform_point(&Point3::from(self.model.com_local)) - self.com();
@@ -771,14 +783,7 @@ impl ContactStage {
         let f_coupling = f_spring + c.b_n_s_per_m * (anchor_v - self.velocity);
         let t_coupling = c.k_nm_per_rad * dtheta
             + c.b_nm_s_per_rad * (anchor.angular_velocity - self.angular_velocity);
-        force += Vector6::new(
-            f_coupling.x,
-            f_coupling.y,
-            f_coupling.z,
-            t_coupling.x,
-            t_coupling.y,
-            t_coupling.z,
-        );
+        force += stack(&f_coupling, &t_coupling);
         let mut stiffness = s.contact_jj.matrix(self.config.point_stiffness_n_per_m);
         let mut coupling_damping = Matrix6::zeros();
         for a in 0..3 {
@@ -792,14 +797,7 @@ impl ContactStage {
         // Linearly implicit Euler: (M + dt·D + dt²·K) u' = (M + dt·D) u + dt·F, where F already
         // holds the damping forces at u.
         let mass = self.mass_matrix();
-        let u = Vector6::new(
-            self.velocity.x,
-            self.velocity.y,
-            self.velocity.z,
-            self.angular_velocity.x,
-            self.angular_velocity.y,
-            self.angular_velocity.z,
-        );
+        let u = stack(&self.velocity, &self.angular_velocity);
         let lhs = mass + damping * dt_s + stiffness * (dt_s * dt_s);
         let rhs = (mass + damping * dt_s) * u + force * dt_s;
         let u_next = match lhs.cholesky() {

@@ -52,13 +52,8 @@ fn stage(
         },
         ..ContactConfig::default()
     };
-    let model = ContactModel::build(obstacles, object, &config.voxmap).unwrap();
     let spec = SimulatedArmConfig::default().spec();
-    ContactStage::new(
-        Arc::new(model),
-        config,
-        Coupling::from_spec(&spec, 1.0, config.coupling_fraction),
-    )
+    ContactStage::from_shapes(obstacles, object, config, &spec, 1.0).unwrap()
 }
 
 fn random_rotation(rng: &mut ChaCha8Rng) -> UnitQuaternion<f64> {
