@@ -106,6 +106,13 @@ pub struct DemoArgs {
     /// Planner RNG seed.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// The planner's sampling method (`planner serve --sampling`). The default is I-RRT's
+    /// POS+CS: the scripted operator is no person and keeps pushing where its route says,
+    /// so H-RRT-C's contact mode (`hrrtc`, only samples on the contact plane while in
+    /// contact) would wait for it forever.
+    #[arg(long, default_value = "pos+cs",
+          value_parser = ["cs", "pos", "path", "pos+cs", "path+cs", "hrrtc"])]
+    pub sampling: String,
 }
 
 /// The validated set-up shared by `run` and `demo`.
@@ -641,6 +648,7 @@ pub fn demo(args: &DemoArgs) -> anyhow::Result<i32> {
             &setup.scene_arg,
         ])
         .args(["--seed", &args.seed.to_string()])
+        .args(["--sampling", &args.sampling])
         .spawn()
         .with_context(|| {
             format!(
