@@ -75,6 +75,12 @@ pub struct LoopReport {
     pub guidance_rejected: u64,
     /// Faults latched.
     pub faults: u64,
+    /// Wake-up latency distribution, (µs, count) per bucket (for plots; not serialised).
+    #[serde(skip)]
+    pub wake_latency_distribution: Vec<(f64, u64)>,
+    /// Compute time distribution, (µs, count) per bucket (for plots; not serialised).
+    #[serde(skip)]
+    pub compute_distribution: Vec<(f64, u64)>,
 }
 
 /// What the RT thread hands back when it ends: the tick (device included), what its
@@ -206,6 +212,8 @@ impl<D, G, S> LoopHandle<D, G, S> {
             rt_allocations: allocations,
             allocations_per_tick: allocations.map(|a| a as f64 / ticks.max(1) as f64),
             wake_latency_us: hist.wake.percentiles_us(),
+            wake_latency_distribution: hist.wake.distribution_us(),
+            compute_distribution: hist.compute.distribution_us(),
             compute_us: hist.compute.percentiles_us(),
             period_us: hist.period.percentiles_us(),
             guidance_age_us: hist.guidance_age.percentiles_us(),

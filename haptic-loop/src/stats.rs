@@ -72,6 +72,15 @@ impl NsHistogram {
         let _ = self.0.add(&other.0);
     }
 
+    /// The recorded distribution as (value µs, count) pairs in increasing value, one per
+    /// histogram bucket that holds values: for plots.
+    pub fn distribution_us(&self) -> Vec<(f64, u64)> {
+        self.0
+            .iter_recorded()
+            .map(|v| (v.value_iterated_to() as f64 / 1000.0, v.count_at_value()))
+            .collect()
+    }
+
     /// Percentiles in µs.
     pub fn percentiles_us(&self) -> Percentiles {
         let h = &self.0;

@@ -61,12 +61,18 @@ struct Args {
     /// Write the figures as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
+    /// Draw the wake-up latency histogram and the CDFs (wake-up, compute) as a PNG here.
+    #[arg(long)]
+    png: Option<PathBuf>,
 }
 
 #[derive(Debug, Serialize)]
 struct Floor {
     tool: String,
     wake_latency_us: Percentiles,
+    /// (µs, count) per histogram bucket, for the plot.
+    #[serde(skip)]
+    distribution: Vec<(f64, u64)>,
 }
 
 #[derive(Debug, Serialize)]
@@ -149,14 +155,18 @@ fn main() -> anyhow::Result<()> {
         args.priority
     );
     let floor = if use_cyclictest {
+        let (wake_latency_us, distribution) = cyclictest(&args, period_ns, phase)?;
         Floor {
             tool: "cyclictest".into(),
-            wake_latency_us: cyclictest(&args, period_ns, phase)?,
+            wake_latency_us,
+            distribution,
         }
     } else {
+        let (wake_latency_us, distribution) = builtin_floor(rt, period_ns, phase)?;
         Floor {
             tool: "builtin-sleeper".into(),
-            wake_latency_us: builtin_floor(rt, period_ns, phase)?,
+            wake_latency_us,
+            distribution,
         }
     };
 
@@ -194,10 +204,137 @@ fn main() -> anyhow::Result<()> {
         loop_,
     };
     print_table(&out);
+    if let Some(p) = &args.png {
+        if planner::experiment::report::register_font() {
+            plot(
+                p,
+                &out,
+                &report.wake_latency_distribution,
+                &report.compute_distribution,
+            )
+            .map_err(|e| anyhow::anyhow!("cannot draw {}: {e}", p.display()))?;
+        } else {
+            eprintln!(
+                "no TrueType font found (DejaVuSans.ttf): {} not drawn",
+                p.display()
+            );
+        }
+    }
     if let Some(p) = &args.json {
         std::fs::write(p, serde_json::to_string_pretty(&out)? + "\n")
             .with_context(|| format!("cannot write {}", p.display()))?;
     }
+    Ok(())
+}
+
+/// Fraction of samples ≤ each value, from a (value, count) distribution.
+fn cdf(dist: &[(f64, u64)]) -> Vec<(f64, f64)> {
+    let total: u64 = dist.iter().map(|d| d.1).sum();
+    let mut seen = 0u64;
+    dist.iter()
+        .map(|&(v, c)| {
+            seen += c;
+            (v, seen as f64 / total.max(1) as f64)
+        })
+        .collect()
+}
+
+/// Counts per logarithmic bin (10 per decade) of a (value µs, count) distribution.
+fn log_bins(dist: &[(f64, u64)]) -> Vec<(f64, u64)> {
+    let mut bins: std::collections::BTreeMap<i64, u64> = std::collections::BTreeMap::new();
+    for &(v, c) in dist {
+        *bins
+            .entry((v.max(0.1).log10() * 10.0).floor() as i64)
+            .or_default() += c;
+    }
+    bins.into_iter()
+        .map(|(b, c)| (10f64.powf(b as f64 / 10.0), c))
+        .collect()
+}
+
+/// Left: wake-up latency histograms of the loop and the floor (log–log). Right: CDFs of
+/// wake-up latency (loop, floor) and of the loop's compute time.
+fn plot(
+    path: &std::path::Path,
+    r: &Report,
+    wake: &[(f64, u64)],
+    compute: &[(f64, u64)],
+) -> Result<(), Box<dyn std::error::Error>> {
+    use plotters::prelude::*;
+    let root = BitMapBackend::new(path, (1400, 560)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let (left, right) = root.split_horizontally(700);
+    let floor_name = format!("floor ({})", r.floor.tool);
+    let x_max = wake
+        .iter()
+        .chain(&r.floor.distribution)
+        .chain(compute)
+        .map(|d| d.0)
+        .fold(10.0, f64::max)
+        * 1.5;
+
+    let hist_loop = log_bins(wake);
+    let hist_floor = log_bins(&r.floor.distribution);
+    let y_max = hist_loop
+        .iter()
+        .chain(&hist_floor)
+        .map(|b| b.1)
+        .max()
+        .unwrap_or(1) as f64
+        * 2.0;
+    let mut chart = ChartBuilder::on(&left)
+        .caption("wake-up latency histogram", ("sans-serif", 22))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d((0.5..x_max).log_scale(), (0.5..y_max).log_scale())?;
+    chart
+        .configure_mesh()
+        .x_desc("µs")
+        .y_desc("ticks per bin (10 bins per decade)")
+        .draw()?;
+    for (name, bins, colour) in [
+        ("loop", &hist_loop, RED),
+        (floor_name.as_str(), &hist_floor, BLUE),
+    ] {
+        chart
+            .draw_series(LineSeries::new(
+                bins.iter().map(|&(v, c)| (v, c as f64)),
+                colour.stroke_width(2),
+            ))?
+            .label(name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+    }
+    chart.configure_series_labels().border_style(BLACK).draw()?;
+
+    let mut chart = ChartBuilder::on(&right)
+        .caption("cumulative distribution", ("sans-serif", 22))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d((0.5..x_max).log_scale(), 0.0..1.0)?;
+    chart
+        .configure_mesh()
+        .x_desc("µs")
+        .y_desc("fraction of ticks ≤ x")
+        .draw()?;
+    let series = [
+        ("loop wake-up", cdf(wake), RED),
+        (floor_name.as_str(), cdf(&r.floor.distribution), BLUE),
+        ("loop compute", cdf(compute), GREEN),
+    ];
+    for (name, points, colour) in series {
+        chart
+            .draw_series(LineSeries::new(points, colour.stroke_width(2)))?
+            .label(name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .border_style(BLACK)
+        .draw()?;
+    root.present()?;
     Ok(())
 }
 
@@ -236,6 +373,9 @@ fn print_table(r: &Report) {
     row("guidance age", &r.loop_.guidance_age_us);
 }
 
+/// Percentiles and (µs, count) distribution of the floor's wake-up latency.
+type Floored = (Percentiles, Vec<(f64, u64)>);
+
 fn cyclictest_available() -> bool {
     Command::new("cyclictest")
         .arg("--help")
@@ -246,7 +386,7 @@ fn cyclictest_available() -> bool {
 }
 
 /// Runs cyclictest with one measuring thread and reads its per-µs histogram.
-fn cyclictest(args: &Args, period_ns: u64, phase: Duration) -> anyhow::Result<Percentiles> {
+fn cyclictest(args: &Args, period_ns: u64, phase: Duration) -> anyhow::Result<Floored> {
     let loops = (phase.as_nanos() / u128::from(period_ns)).max(1);
     let mut cmd = Command::new("cyclictest");
     cmd.args([
@@ -276,7 +416,7 @@ fn cyclictest(args: &Args, period_ns: u64, phase: Duration) -> anyhow::Result<Pe
 
 /// Percentiles from cyclictest's `-h` output: lines `bucket_us count` (one thread), plus
 /// `# Max Latencies:` for the exact maximum.
-fn parse_cyclictest_histogram(text: &str) -> anyhow::Result<Percentiles> {
+fn parse_cyclictest_histogram(text: &str) -> anyhow::Result<Floored> {
     let mut hist = NsHistogram::new();
     let mut max_us = None;
     let mut total = 0u64;
@@ -311,11 +451,11 @@ fn parse_cyclictest_histogram(text: &str) -> anyhow::Result<Percentiles> {
     if let Some(m) = max_us {
         p.max = m;
     }
-    Ok(p)
+    Ok((p, hist.distribution_us()))
 }
 
 /// A bare absolute-deadline sleeper at the RT options: the floor without cyclictest.
-fn builtin_floor(rt: RtOptions, period_ns: u64, phase: Duration) -> anyhow::Result<Percentiles> {
+fn builtin_floor(rt: RtOptions, period_ns: u64, phase: Duration) -> anyhow::Result<Floored> {
     let handle = std::thread::Builder::new()
         .name("floor".into())
         .spawn(move || {
@@ -332,7 +472,7 @@ fn builtin_floor(rt: RtOptions, period_ns: u64, phase: Duration) -> anyhow::Resu
                     deadline += period_ns;
                 }
             }
-            hist.percentiles_us()
+            (hist.percentiles_us(), hist.distribution_us())
         })
         .context("cannot start the floor thread")?;
     handle
@@ -374,7 +514,8 @@ mod tests {
     #[test]
     fn reads_a_cyclictest_histogram() {
         let text = "# /dev/cpu_dma_latency set to 0us\n000000 000000\n000001 000090\n000002 000009\n000010 000001\n# Total: 000000100\n# Min Latencies: 00001\n# Avg Latencies: 00001\n# Max Latencies: 00010\n";
-        let p = parse_cyclictest_histogram(text).unwrap();
+        let (p, dist) = parse_cyclictest_histogram(text).unwrap();
+        assert_eq!(dist.iter().map(|d| d.1).sum::<u64>(), 100);
         assert_eq!(p.count, 100);
         assert!((p.p50 - 1.0).abs() < 0.01, "{p:?}");
         assert!((p.p99 - 2.0).abs() < 0.01, "{p:?}");
