@@ -205,3 +205,43 @@ fn ten_planner_kills_and_hangs_in_a_row() {
         .expect("loop stops on SIGTERM");
     assert!(st.success(), "clean exit: {st}");
 }
+
+/// Issue 7: a second haptic loop on the same namespace is refused with a clear message and a
+/// non-zero exit, and the first keeps running.
+#[test]
+fn a_second_loop_on_the_same_namespace_is_refused() {
+    let ns = unique_namespace("second");
+    let mut first = start_loop(&ns);
+    let (node, _) = services::create_node("it_second_watch").unwrap();
+    let state = services::state_reader(&node, &ns).unwrap();
+    wait_for("the first loop publishes", Duration::from_secs(30), || {
+        (state.get().header.sequence > 100).then_some(())
+    });
+    let out = std::process::Command::new(bin("haptic-loop"))
+        .args([
+            "run",
+            "--namespace",
+            &ns,
+            "--priority",
+            "0",
+            "--no-mlock",
+            "--no-contact",
+            "--duration-s",
+            "5",
+        ])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("another haptic loop running on this namespace"),
+        "{stderr}"
+    );
+    let before = state.get().header.sequence;
+    std::thread::sleep(Duration::from_millis(200));
+    assert!(
+        state.get().header.sequence > before,
+        "the first loop still ticks"
+    );
+    assert!(first.is_running());
+}
