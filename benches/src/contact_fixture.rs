@@ -54,13 +54,7 @@ fn stage(
     object: &[(Pose, SharedShape)],
     voxel_m: f64,
 ) -> ContactStage {
-    let config = ContactConfig {
-        voxmap: VoxmapConfig {
-            voxel_m,
-            ..VoxmapConfig::default()
-        },
-        ..ContactConfig::default()
-    };
+    let config = ContactConfig::with_voxel_m(voxel_m);
     let spec = SimulatedArmConfig::default().spec();
     ContactStage::from_shapes(obstacles, object, config, &spec, 1.0).expect("fixture builds")
 }

@@ -3,7 +3,7 @@
 
 use anyhow::{Context, bail};
 use devices::sim::{ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmConfig, Waypoint};
-use haptic_loop::contact::{ContactConfig, ContactModel, ContactStage, Coupling, VoxmapConfig};
+use haptic_loop::contact::{ContactConfig, ContactModel, ContactStage, Coupling};
 use haptic_loop::guidance::GuidanceConfig;
 use haptic_loop::mapping::MappingConfig;
 use haptic_loop::relay::{Relay, RelayOutput};
@@ -130,13 +130,7 @@ pub fn wall_setup(
     };
     let contact = match voxel_m {
         Some(voxel_m) => {
-            let contact = ContactConfig {
-                voxmap: VoxmapConfig {
-                    voxel_m,
-                    ..VoxmapConfig::default()
-                },
-                ..ContactConfig::default()
-            };
+            let contact = ContactConfig::with_voxel_m(voxel_m);
             let model =
                 ContactModel::from_scene(&scene, &contact.voxmap).map_err(anyhow::Error::msg)?;
             eprintln!("{}", model.describe());

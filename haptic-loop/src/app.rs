@@ -2,7 +2,7 @@
 //! (the loop plus a planner child process, a scripted operator heading for the hole, and a
 //! summary). Arguments are parsed here, validated into a [`LoopSetup`], then run.
 
-use crate::contact::{ContactConfig, ContactModel, ContactStage, Coupling, VoxmapConfig};
+use crate::contact::{ContactConfig, ContactModel, ContactStage, Coupling};
 use crate::device_select::DeviceChoice;
 use crate::guidance::GuidanceConfig;
 use crate::mapping::{Mapping, MappingConfig};
@@ -182,13 +182,8 @@ impl LoopArgs {
         if !(self.voxel_mm.is_finite() && (0.25..=20.0).contains(&self.voxel_mm)) {
             bail!("--voxel-mm must be within 0.25–20, got {}", self.voxel_mm);
         }
-        let contact = (!self.no_contact).then(|| ContactConfig {
-            voxmap: VoxmapConfig {
-                voxel_m: self.voxel_mm / 1000.0,
-                ..VoxmapConfig::default()
-            },
-            ..ContactConfig::default()
-        });
+        let contact =
+            (!self.no_contact).then(|| ContactConfig::with_voxel_m(self.voxel_mm / 1000.0));
         let arm = SimulatedArmConfig::default();
         // Scene origin of the device: the middle of start and goal, so both are reachable.
         let mid = (scene.start.pos + scene.goal.pos) / 2.0;

@@ -211,9 +211,7 @@ mod spacemouse {
     /// passing through it.
     #[test]
     fn issue_5_contact_holds_the_spacemouse_avatar_on_a_plate() {
-        use haptic_loop::contact::{
-            ContactConfig, ContactModel, ContactStage, Coupling, VoxmapConfig,
-        };
+        use haptic_loop::contact::{ContactConfig, ContactModel, ContactStage, Coupling};
         use parry3d_f64::math::Pose;
         use parry3d_f64::shape::SharedShape;
         use std::sync::Arc;
@@ -222,13 +220,7 @@ mod spacemouse {
         let (dev, mut feed) = SpaceMouse::with_feed(SpaceMouseConfig::default(), model).unwrap();
         feed.attach();
         let spec = dev.spec().clone();
-        let contact = ContactConfig {
-            voxmap: VoxmapConfig {
-                voxel_m: 0.002,
-                ..VoxmapConfig::default()
-            },
-            ..ContactConfig::default()
-        };
+        let contact = ContactConfig::with_voxel_m(0.002);
         // A 300 × 300 mm plate with its top face at z = 0; a 100 × 20 × 20 mm bar.
         let plate = [(
             Pose::translation(0.0, 0.0, -0.01),

@@ -96,6 +96,17 @@ impl Default for ContactConfig {
 }
 
 impl ContactConfig {
+    /// The defaults with voxels (and pointshell spacing) of `voxel_m` metres.
+    pub fn with_voxel_m(voxel_m: f64) -> Self {
+        Self {
+            voxmap: VoxmapConfig {
+                voxel_m,
+                ..VoxmapConfig::default()
+            },
+            ..Self::default()
+        }
+    }
+
     /// Checks every field; the message names the field.
     pub fn validate(&self) -> Result<(), String> {
         let positive = [
@@ -306,24 +317,14 @@ struct JtJ {
 impl JtJ {
     #[inline]
     fn add(&mut self, w: f64, n: &Vector3<f64>, m: &Vector3<f64>) {
-        let (wn, wm) = (n * w, m * w);
-        self.nn[0] += wn.x * n.x;
-        self.nn[1] += wn.x * n.y;
-        self.nn[2] += wn.x * n.z;
-        self.nn[3] += wn.y * n.y;
-        self.nn[4] += wn.y * n.z;
-        self.nn[5] += wn.z * n.z;
+        let wm = m * w;
+        add_sym(&mut self.nn, w, n);
+        add_sym(&mut self.mm, w, m);
         for a in 0..3 {
             for b in 0..3 {
                 self.mn[3 * a + b] += wm[a] * n[b];
             }
         }
-        self.mm[0] += wm.x * m.x;
-        self.mm[1] += wm.x * m.y;
-        self.mm[2] += wm.x * m.z;
-        self.mm[3] += wm.y * m.y;
-        self.mm[4] += wm.y * m.z;
-        self.mm[5] += wm.z * m.z;
     }
 
     /// `scale · Σ w JJᵀ` as a 6×6 matrix ([force; torque] order).
@@ -339,6 +340,18 @@ impl JtJ {
         out.fixed_view_mut::<3, 3>(3, 3).copy_from(&mm);
         out
     }
+}
+
+/// Adds `w·v vᵀ` to a symmetric 3×3 matrix kept as its upper triangle (row-major).
+#[inline]
+fn add_sym(acc: &mut [f64; 6], w: f64, v: &Vector3<f64>) {
+    let wv = v * w;
+    acc[0] += wv.x * v.x;
+    acc[1] += wv.x * v.y;
+    acc[2] += wv.x * v.z;
+    acc[3] += wv.y * v.y;
+    acc[4] += wv.y * v.z;
+    acc[5] += wv.z * v.z;
 }
 
 /// The scene's wrench on an object held still at a pose (see [`ContactStage::probe`]).
@@ -457,8 +470,7 @@ pub struct ContactStage {
     held_normal: Vector3<f64>,
     held_point: Vector3<f64>,
     started: bool,
-    /// Penetrating and braking points of the previous step: the shared damping of this
-    /// step is divided among that many points (one tick of lag, no second pass).
+    /// Penetrating and braking points of the previous step (see `shared_damping`).
     previous_contacts: u32,
     previous_braking: u32,
     last_tested: u32,
@@ -607,6 +619,15 @@ impl ContactStage {
             .transform_point(&Point3::from(self.model.com_local))
     }
 
+    /// Per-point contact damping and braking (N·s/m): the configured totals shared among
+    /// the points that produced them in the previous step (one tick of lag, no second pass).
+    fn shared_damping(&self) -> (f64, f64) {
+        (
+            self.config.contact_damping_n_s_per_m / f64::from(self.previous_contacts.max(1)),
+            self.config.braking_n_s_per_m / f64::from(self.previous_braking.max(1)),
+        )
+    }
+
     /// The scene's wrench on the object at `pose` moving with `velocity` (centre of mass,
     /// m/s) and `angular_velocity` (rad/s). Points and clusters whose motion budget in
     /// `cache` is not used up are skipped (see [`Coherence`]) and the budgets are renewed.
@@ -628,18 +649,15 @@ impl ContactStage {
         let release = self.config.release_voxels * h;
         let reach = prox.max(release);
         let kp = self.config.point_stiffness_n_per_m;
-        let b_contact =
-            self.config.contact_damping_n_s_per_m / f64::from(self.previous_contacts.max(1));
-        let b_brake = self.config.braking_n_s_per_m / f64::from(self.previous_braking.max(1));
-        let mut s = Sums::default();
+        let (b_contact, b_brake) = self.shared_damping();
         let moved = cache.motion_m;
         let com = pose.transform_point(&Point3::from(model.com_local)).coords;
         if moved < cache.object {
-            return s;
+            return Sums::default();
         }
         cache.object = moved + vox.clearance(&com) - model.radius_m - reach;
         if moved < cache.object {
-            return s;
+            return Sums::default();
         }
         let rot = pose.rotation.to_rotation_matrix().into_inner();
         let t = pose.translation.vector;
@@ -726,19 +744,20 @@ impl ContactStage {
                 }
             }
         }
-        s.wrench = wrench;
-        s.contact_jj = contact_jj;
-        s.braking_jj = braking_jj;
-        s.contacts = contacts;
-        s.braking_points = braking_points;
-        s.near = near;
-        s.within_release = within_release;
-        s.weighted_point = weighted_point;
-        s.weight = weight;
-        s.normal_sum = normal_sum;
-        s.max_depth = max_depth;
-        s.tested = tested;
-        s
+        Sums {
+            wrench,
+            contact_jj,
+            braking_jj,
+            contacts,
+            braking_points,
+            near,
+            within_release,
+            weighted_point,
+            weight,
+            normal_sum,
+            max_depth,
+            tested,
+        }
     }
 
     /// One step of `dt_s` towards `anchor`. Allocation-free.
@@ -757,9 +776,7 @@ impl ContactStage {
         );
         self.cache = cache;
 
-        let b_contact =
-            self.config.contact_damping_n_s_per_m / f64::from(self.previous_contacts.max(1));
-        let b_brake = self.config.braking_n_s_per_m / f64::from(self.previous_braking.max(1));
+        let (b_contact, b_brake) = self.shared_damping();
         self.previous_contacts = s.contacts;
         self.last_tested = s.tested;
         self.previous_braking = s.braking_points;

@@ -2,7 +2,7 @@
 //! contact rendering on (the simulated operator drives the S into the wall).
 
 use devices::sim::{ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmConfig, Waypoint};
-use haptic_loop::contact::{ContactConfig, ContactModel, ContactStage, Coupling, VoxmapConfig};
+use haptic_loop::contact::{ContactConfig, ContactModel, ContactStage, Coupling};
 use haptic_loop::guidance::GuidanceConfig;
 use haptic_loop::mapping::MappingConfig;
 use haptic_loop::rt::RtOptions;
@@ -76,13 +76,7 @@ fn rt_thread_allocates_nothing_over_6000_ticks_with_ipc_and_contact() {
         safety: SafetyConfig::default(),
         period_s: 1.0 / 2000.0,
     };
-    let contact_config = ContactConfig {
-        voxmap: VoxmapConfig {
-            voxel_m: 0.002,
-            ..VoxmapConfig::default()
-        },
-        ..ContactConfig::default()
-    };
+    let contact_config = ContactConfig::with_voxel_m(0.002);
     let model = ContactModel::from_scene(&planner::Scene::wall_with_hole(), &contact_config.voxmap)
         .unwrap();
     let coupling = Coupling::from_spec(&SimulatedArmConfig::default().spec(), 1.0, 0.75);
