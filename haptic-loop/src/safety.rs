@@ -93,6 +93,11 @@ impl Safety {
         }
     }
 
+    /// The limits and thresholds in use.
+    pub fn config(&self) -> &SafetyConfig {
+        &self.config
+    }
+
     /// The fault currently latched, `NONE` if forces are on.
     pub fn fault(&self) -> FaultCode {
         self.latched

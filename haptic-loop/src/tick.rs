@@ -95,7 +95,6 @@ pub struct Tick<D, G, S> {
     contact: Option<ContactStage>,
     contact_ticks: u64,
     max_penetration_m: f64,
-    safety_config: SafetyConfig,
     last_device_position: Option<Vector3<f64>>,
     last_deadline_misses: u64,
     miss_streak: u32,
@@ -129,7 +128,6 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
             contact: None,
             contact_ticks: 0,
             max_penetration_m: 0.0,
-            safety_config: config.safety,
             last_device_position: None,
             last_deadline_misses: 0,
             miss_streak: 0,
@@ -218,7 +216,7 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
                 None
             }
         };
-        let sc = self.safety_config;
+        let sc = *self.safety.config();
         if let Some(s) = &reading {
             if s.timestamp_ns <= self.last_device_timestamp_ns {
                 fault = FaultCode::DEVICE_STALE;
