@@ -37,6 +37,7 @@
 //! mass (the volume centroid of the object's parts, uniform density). The coupling joins the
 //! centre of mass of the device-mapped object to the proxy's.
 
+mod near;
 mod pointshell;
 #[cfg(test)]
 mod tests;
@@ -50,6 +51,7 @@ use ipc_types::ContactCode;
 use nalgebra::{
     Isometry3, Matrix3, Matrix6, Point3, Translation3, UnitQuaternion, Vector3, Vector6,
 };
+use near::{NearPoints, PassParams, SearchParams, ShellColumns, Totals};
 use parry3d_f64::math::Pose;
 use parry3d_f64::shape::{Compound, Shape, SharedShape};
 use planner::Scene;
@@ -180,6 +182,8 @@ impl Coupling {
 pub struct ContactModel {
     voxmap: Voxmap,
     shell: Pointshell,
+    /// The pointshell as the search reads it.
+    columns: ShellColumns,
     /// Centre of mass, object frame, m.
     com_local: Vector3<f64>,
     /// Inertia tensor about the centre of mass per kg of mass, object frame, m².
@@ -228,6 +232,7 @@ impl ContactModel {
         let radius_m = shell.radius_about(&com_local);
         Ok(Self {
             voxmap,
+            columns: ShellColumns::new(&shell),
             shell,
             com_local,
             inertia_per_kg,
@@ -307,6 +312,7 @@ pub struct ContactOutput {
 
 /// Σ w·JJᵀ for J = [n; r×n], kept as the three 3×3 blocks (21 numbers): the per-point cost
 /// of the implicit step's contact stiffness is 21 multiply-adds instead of a 6×6 update.
+/// Layout: `nn` and `mm` upper triangles row-major, `mn` = Σ w·m nᵀ row-major.
 #[derive(Debug, Default, Clone, Copy, PartialEq)]
 struct JtJ {
     nn: [f64; 6],
@@ -315,18 +321,6 @@ struct JtJ {
 }
 
 impl JtJ {
-    #[inline]
-    fn add(&mut self, w: f64, n: &Vector3<f64>, m: &Vector3<f64>) {
-        let wm = m * w;
-        add_sym(&mut self.nn, w, n);
-        add_sym(&mut self.mm, w, m);
-        for a in 0..3 {
-            for b in 0..3 {
-                self.mn[3 * a + b] += wm[a] * n[b];
-            }
-        }
-    }
-
     /// `scale · Σ w JJᵀ` as a 6×6 matrix ([force; torque] order).
     fn matrix(&self, scale: f64) -> Matrix6<f64> {
         let sym = |v: &[f64; 6]| Matrix3::new(v[0], v[1], v[2], v[1], v[3], v[4], v[2], v[4], v[5]);
@@ -340,18 +334,6 @@ impl JtJ {
         out.fixed_view_mut::<3, 3>(3, 3).copy_from(&mm);
         out
     }
-}
-
-/// Adds `w·v vᵀ` to a symmetric 3×3 matrix kept as its upper triangle (row-major).
-#[inline]
-fn add_sym(acc: &mut [f64; 6], w: f64, v: &Vector3<f64>) {
-    let wv = v * w;
-    acc[0] += wv.x * v.x;
-    acc[1] += wv.x * v.y;
-    acc[2] += wv.x * v.z;
-    acc[3] += wv.y * v.y;
-    acc[4] += wv.y * v.z;
-    acc[5] += wv.z * v.z;
 }
 
 /// The scene's wrench on an object held still at a pose (see [`ContactStage::probe`]).
@@ -372,28 +354,21 @@ pub struct Probe {
 /// The scene's wrench on the proxy and what went into it, at the current pose.
 #[derive(Debug, Default, Clone, Copy, PartialEq)]
 struct Sums {
-    /// Generalised force about the centre of mass: [force; torque].
-    wrench: Vector6<f64>,
-    /// Σ JᵀJ over penetrating points (stiffness and contact damping are multiples of it).
-    contact_jj: JtJ,
-    /// Σ w JᵀJ over braking points, w the braking weight.
-    braking_jj: JtJ,
-    contacts: u32,
-    braking_points: u32,
+    /// The force pass over the points within reach.
+    t: Totals,
+    /// Some point is within reach of a surface it faces.
     near: bool,
-    within_release: bool,
-    weighted_point: Vector3<f64>,
-    weight: f64,
-    normal_sum: Vector3<f64>,
-    max_depth: f64,
+    /// Points looked up in the voxmap.
     tested: u32,
 }
 
-/// Temporal coherence of the contact search: each point, each cluster and the whole object
-/// carry the total proxy motion (m, any point's worst-case travel, summed over steps) at
-/// which they can first come within reach of the surface. Until the running total passes
-/// it, they are skipped without a voxmap look-up; a point 5 mm from the wall is looked at
-/// again only after the object has moved about 3 mm. Preallocated; reset on `place`.
+/// Temporal coherence of the contact search: the whole object and each cluster carry the
+/// total proxy motion (m, any point's worst-case travel, summed over steps) at which they
+/// can first come within reach of the surface. Until the running total passes it, they are
+/// skipped without a voxmap look-up; a cluster 5 mm from the wall is looked at again only
+/// after the object has moved about 3 mm. Within a cluster that may be in reach, every point
+/// is looked up: clusters are a few points, and the look-ups run in SIMD lanes.
+/// Preallocated; reset on `place`.
 #[derive(Debug, Clone, Default)]
 struct Coherence {
     /// Running total of the bound on any point's motion, m.
@@ -402,17 +377,15 @@ struct Coherence {
     last: Option<Isometry3<f64>>,
     object: f64,
     clusters: Vec<f64>,
-    points: Vec<f64>,
 }
 
 impl Coherence {
-    fn new(clusters: usize, points: usize) -> Self {
+    fn new(clusters: usize) -> Self {
         Self {
             motion_m: 0.0,
             last: None,
             object: 0.0,
             clusters: vec![0.0; clusters],
-            points: vec![0.0; points],
         }
     }
 
@@ -422,7 +395,6 @@ impl Coherence {
         self.last = None;
         self.object = 0.0;
         self.clusters.fill(0.0);
-        self.points.fill(0.0);
     }
 
     /// Adds the motion from the last search to `pose`: the centre of mass's travel plus
@@ -441,17 +413,6 @@ impl Coherence {
 /// `[a; b]` as one 6-vector (velocity and angular velocity, or force and torque).
 fn stack(a: &Vector3<f64>, b: &Vector3<f64>) -> Vector6<f64> {
     Vector6::new(a.x, a.y, a.z, b.x, b.y, b.z)
-}
-
-/// Adds `f` along the unit direction `n` with moment arm cross product `rxn` (= r × n).
-#[inline]
-fn add_wrench(w: &mut Vector6<f64>, f: f64, n: &Vector3<f64>, rxn: &Vector3<f64>) {
-    w[0] += f * n.x;
-    w[1] += f * n.y;
-    w[2] += f * n.z;
-    w[3] += f * rxn.x;
-    w[4] += f * rxn.y;
-    w[5] += f * rxn.z;
 }
 
 /// The dynamic proxy with its coupling. `step` is allocation-free.
@@ -475,13 +436,16 @@ pub struct ContactStage {
     previous_braking: u32,
     last_tested: u32,
     cache: Coherence,
+    /// The points within reach found by the last search (preallocated).
+    near: NearPoints,
 }
 
 impl ContactStage {
     /// A proxy for `model`; it is placed at the first anchor it sees.
     pub fn new(model: Arc<ContactModel>, config: ContactConfig, coupling: Coupling) -> Self {
         Self {
-            cache: Coherence::new(model.shell.clusters().len(), model.shell.len()),
+            cache: Coherence::new(model.shell.clusters().len()),
+            near: NearPoints::with_capacity(model.shell.len()),
             model,
             config,
             coupling,
@@ -594,8 +558,17 @@ impl ContactStage {
     /// number of penetrating points. Does not move the proxy.
     pub fn probe(&self, pose: &Isometry3<f64>) -> Probe {
         // A fresh cache: a full search. (Allocates: a diagnostic, not for the RT thread.)
-        let mut cache = Coherence::new(self.model.shell.clusters().len(), self.model.shell.len());
-        let s = self.sum_contacts(pose, &Vector3::zeros(), &Vector3::zeros(), &mut cache);
+        let mut cache = Coherence::new(self.model.shell.clusters().len());
+        let mut near = NearPoints::with_capacity(self.model.shell.len());
+        let s = self
+            .sum_contacts(
+                pose,
+                &Vector3::zeros(),
+                &Vector3::zeros(),
+                &mut cache,
+                &mut near,
+            )
+            .t;
         let force: Vector3<f64> = s.wrench.fixed_rows::<3>(0).into_owned();
         let com = pose
             .transform_point(&Point3::from(self.model.com_local))
@@ -632,14 +605,16 @@ impl ContactStage {
     /// m/s) and `angular_velocity` (rad/s). Points and clusters whose motion budget in
     /// `cache` is not used up are skipped (see [`Coherence`]) and the budgets are renewed.
     ///
-    /// This is the hot loop of the tick: accumulators are locals and the per-point work is
-    /// kept to one voxmap look-up and a few dozen multiply-adds.
+    /// This is the hot loop of the tick, in two passes: a search that looks each candidate
+    /// point up in the voxmap and keeps those within reach of a surface they face (into
+    /// `near`), then the branch-free force pass over them (see [`near`]).
     fn sum_contacts(
         &self,
         pose: &Isometry3<f64>,
         velocity: &Vector3<f64>,
         angular_velocity: &Vector3<f64>,
         cache: &mut Coherence,
+        near: &mut NearPoints,
     ) -> Sums {
         let model = &*self.model;
         let vox = &model.voxmap;
@@ -648,8 +623,6 @@ impl ContactStage {
         let prox = self.config.proximity_voxels * h;
         let release = self.config.release_voxels * h;
         let reach = prox.max(release);
-        let kp = self.config.point_stiffness_n_per_m;
-        let (b_contact, b_brake) = self.shared_damping();
         let moved = cache.motion_m;
         let com = pose.transform_point(&Point3::from(model.com_local)).coords;
         if moved < cache.object {
@@ -659,103 +632,33 @@ impl ContactStage {
         if moved < cache.object {
             return Sums::default();
         }
-        let rot = pose.rotation.to_rotation_matrix().into_inner();
-        let t = pose.translation.vector;
-        let points = shell.points();
-        let normals = shell.normals();
-        let expiry = &mut cache.points[..points.len()];
-        let (mut wrench, mut contact_jj, mut braking_jj) =
-            (Vector6::zeros(), JtJ::default(), JtJ::default());
-        let (mut weighted_point, mut normal_sum) = (Vector3::zeros(), Vector3::zeros());
-        let (mut weight, mut max_depth) = (0.0, 0.0_f64);
-        let (mut contacts, mut braking_points, mut tested) = (0u32, 0u32, 0u32);
-        let (mut near, mut within_release) = (false, false);
-        for (c, cl) in shell.clusters().iter().enumerate() {
-            if moved < cache.clusters[c] {
-                continue;
-            }
-            let centre = rot * cl.centre + t;
-            let slack = vox.clearance(&centre) - cl.radius_m - reach;
-            cache.clusters[c] = moved + slack;
-            if slack > 0.0 {
-                continue;
-            }
-            let range = cl.start as usize..cl.end as usize;
-            for ((point, normal), exp) in points[range.clone()]
-                .iter()
-                .zip(&normals[range.clone()])
-                .zip(&mut expiry[range])
-            {
-                if moved < *exp {
-                    continue;
-                }
-                tested += 1;
-                let p = rot * point + t;
-                let (sd, gradient) = match vox.sample(&p) {
-                    Sample::Near {
-                        distance_m,
-                        gradient,
-                    } => (distance_m, gradient),
-                    Sample::Far { clearance_m } => {
-                        *exp = moved + clearance_m - reach;
-                        continue;
-                    }
-                    Sample::Deep => {
-                        *exp = moved;
-                        continue;
-                    }
-                };
-                *exp = moved + sd - reach;
-                if sd >= reach {
-                    continue;
-                }
-                let g2 = gradient.norm_squared();
-                if g2 < 1e-18 {
-                    continue; // flat field (midway inside a thin plate): no direction
-                }
-                let n = gradient * (1.0 / g2.sqrt());
-                if (rot * normal).dot(&n) < 0.0 {
-                    continue; // faces away from this surface: see module docs
-                }
-                near = true;
-                within_release |= sd < release;
-                let r = p - com;
-                let rxn = r.cross(&n);
-                // Normal velocity of the point: v·n + (ω × r)·n = v·n + ω·(r × n).
-                let vn = velocity.dot(&n) + angular_velocity.dot(&rxn);
-                if sd < 0.0 {
-                    let d = -sd;
-                    // Damping never pulls the point into the surface. (The implicit step
-                    // keeps its damping term also for a clamped point: numerical damping.)
-                    let push = (kp * d - b_contact * vn).max(0.0);
-                    add_wrench(&mut wrench, push, &n, &rxn);
-                    contact_jj.add(1.0, &n, &rxn);
-                    contacts += 1;
-                    weighted_point += d * (p + d * n);
-                    weight += d;
-                    normal_sum += d * n;
-                    max_depth = max_depth.max(d);
-                } else if sd < prox && vn < 0.0 {
-                    // Pre-contact braking: opposes approach only, fading in over the layer.
-                    let w = 1.0 - sd / prox;
-                    add_wrench(&mut wrench, -b_brake * w * vn, &n, &rxn);
-                    braking_jj.add(w, &n, &rxn);
-                    braking_points += 1;
-                }
-            }
-        }
-        Sums {
-            wrench,
-            contact_jj,
-            braking_jj,
-            contacts,
-            braking_points,
+        near.clear();
+        let tested = model.columns.search(
+            shell.clusters(),
+            &mut cache.clusters,
+            moved,
+            &SearchParams {
+                rotation: pose.rotation.to_rotation_matrix().into_inner(),
+                translation: pose.translation.vector,
+                reach_m: reach,
+            },
+            vox,
             near,
-            within_release,
-            weighted_point,
-            weight,
-            normal_sum,
-            max_depth,
+        );
+        let (b_contact, b_brake) = self.shared_damping();
+        let t = near.accumulate(&PassParams {
+            com,
+            velocity: *velocity,
+            angular_velocity: *angular_velocity,
+            point_stiffness_n_per_m: self.config.point_stiffness_n_per_m,
+            contact_damping_n_s_per_m: b_contact,
+            braking_n_s_per_m: b_brake,
+            proximity_m: prox,
+            release_m: release,
+        });
+        Sums {
+            t,
+            near: near.len() > 0,
             tested,
         }
     }
@@ -768,21 +671,24 @@ impl ContactStage {
         let before = self.pose;
         let mut cache = std::mem::take(&mut self.cache);
         cache.advance(&self.pose, &self.model.com_local, self.model.radius_m);
-        let s = self.sum_contacts(
+        let mut near = std::mem::take(&mut self.near);
+        let sums = self.sum_contacts(
             &self.pose,
             &self.velocity,
             &self.angular_velocity,
             &mut cache,
+            &mut near,
         );
         self.cache = cache;
+        self.near = near;
+        let s = sums.t;
 
-        let (b_contact, b_brake) = self.shared_damping();
         self.previous_contacts = s.contacts;
-        self.last_tested = s.tested;
+        self.last_tested = sums.tested;
         self.previous_braking = s.braking_points;
         let contact_wrench = s.wrench;
         let mut force = s.wrench;
-        let mut damping = s.contact_jj.matrix(b_contact) + s.braking_jj.matrix(b_brake);
+        let mut damping = s.damping_jj.matrix(1.0);
 
         // Coupling between the centres of mass.
         let c = self.coupling;
@@ -854,7 +760,7 @@ impl ContactStage {
         }
         let code = if self.in_contact {
             ContactCode::CONTACT
-        } else if s.near {
+        } else if sums.near {
             ContactCode::PROXIMITY
         } else {
             ContactCode::FREE
@@ -880,7 +786,7 @@ impl ContactStage {
             point_m: self.held_point,
             penetration_m: s.max_depth,
             contacts: s.contacts,
-            points_tested: s.tested,
+            points_tested: sums.tested,
         }
     }
 }

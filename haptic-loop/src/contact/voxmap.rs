@@ -20,6 +20,7 @@
 //! same code. The union of obstacles takes the minimum of their signed distances: exact
 //! outside, and inside it never understates a depth.
 
+use super::near::{LANES, Lanes, lanes};
 use nalgebra::Vector3;
 use parry3d_f64::bounding_volume::{Aabb, BoundingVolume};
 use parry3d_f64::math::{Pose, Vector as PVec};
@@ -127,6 +128,18 @@ impl std::fmt::Display for VoxmapReport {
     }
 }
 
+/// [`Voxmap::sample_lanes`]' answer: per lane, the field where the point lies within the
+/// stored layers (`stored`); distance and gradient are zero elsewhere.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct LaneSamples {
+    /// The point lies in a stored block (within the stored layers).
+    pub stored: [bool; LANES],
+    /// Signed distance, m (negative inside).
+    pub distance_m: Lanes,
+    /// Gradient of the signed distance.
+    pub gradient: [Lanes; 3],
+}
+
 /// One query of the field.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Sample {
@@ -154,8 +167,9 @@ pub struct Voxmap {
     origin: Vector3<f64>,
     h: f64,
     inv_h: f64,
-    /// Cells in the grid per axis (a multiple of B).
-    cells: [usize; 3],
+    /// Cells in the grid per axis (a multiple of B), as floats: the per-query bounds test compares against these (a `usize` to
+    /// `f64` conversion is a dozen instructions on x86-64).
+    cells_f: [f64; 3],
     blocks: [usize; 3],
     index: Vec<u32>,
     /// Chebyshev distance, in blocks, from each block to the nearest non-outside block.
@@ -345,7 +359,7 @@ impl Voxmap {
             origin,
             h,
             inv_h: 1.0 / h,
-            cells,
+            cells_f: cells.map(|c| c as f64),
             blocks,
             index,
             block_distance,
@@ -388,15 +402,15 @@ impl Voxmap {
         let inside_grid = g.x >= 0.0
             && g.y >= 0.0
             && g.z >= 0.0
-            && g.x < self.cells[0] as f64
-            && g.y < self.cells[1] as f64
-            && g.z < self.cells[2] as f64;
+            && g.x < self.cells_f[0]
+            && g.y < self.cells_f[1]
+            && g.z < self.cells_f[2];
         if !inside_grid {
             // The surface lies at least `reach` inside the grid box.
             let d = (0..3)
                 .map(|a| {
                     let lo = -g[a];
-                    let hi = g[a] - self.cells[a] as f64;
+                    let hi = g[a] - self.cells_f[a];
                     lo.max(hi).max(0.0)
                 })
                 .fold(0.0_f64, |s, x| s + x * x)
@@ -453,6 +467,93 @@ impl Voxmap {
         Sample::Near {
             distance_m: value * self.h / Q,
             gradient: Vector3::new(dx, dy, dz) / Q,
+        }
+    }
+
+    /// The field at [`LANES`] points at once (scene frame, m), for the contact search:
+    /// for each lane, whether it lies within the stored layers, and there its signed
+    /// distance (m) and gradient. The same interpolation as [`Self::sample`], written lane
+    /// by lane so the arithmetic runs in SIMD registers; only the block look-up and the
+    /// eight node loads are per lane.
+    #[inline(always)]
+    pub(super) fn sample_lanes(&self, p: &[Lanes; 3]) -> LaneSamples {
+        let g: [Lanes; 3] =
+            std::array::from_fn(|a| lanes(|l| (p[a][l] - self.origin[a]) * self.inv_h));
+        let [cx, cy, cz] = self.cells_f;
+        let inside: [bool; LANES] = std::array::from_fn(|l| {
+            let [x, y, z] = [g[0][l], g[1][l], g[2][l]];
+            x >= 0.0 && y >= 0.0 && z >= 0.0 && x < cx && y < cy && z < cz
+        });
+        // Clamped into the grid so that the conversion and the look-ups below are valid
+        // for every lane; lanes outside are dropped by `inside`.
+        let cell: [[u32; LANES]; 3] = std::array::from_fn(|a| {
+            std::array::from_fn(|l| g[a][l].max(0.0).min(self.cells_f[a] - 1.0) as u32)
+        });
+        let frac: [Lanes; 3] = std::array::from_fn(|a| lanes(|l| g[a][l] - f64::from(cell[a][l])));
+        let mut stored = [false; LANES];
+        // Node values at the cell's corners, corner index = i + 2j + 4k.
+        let mut c = [[0.0; LANES]; 8];
+        for l in 0..LANES {
+            let (ix, iy, iz) = (
+                cell[0][l] as usize,
+                cell[1][l] as usize,
+                cell[2][l] as usize,
+            );
+            let b = ix / B + self.blocks[0] * (iy / B + self.blocks[1] * (iz / B));
+            let slot = self.index[b];
+            if !(inside[l] && slot >= FIRST) {
+                continue;
+            }
+            stored[l] = true;
+            let base = (slot - FIRST) as usize * BLOCK_NODES;
+            let Some(block) = self.data.get(base..base + BLOCK_NODES) else {
+                continue; // unreachable: every stored slot has its block
+            };
+            // The cell's lowest node; its far corner (+1 along each axis) is at most the
+            // block's last node because local coordinates are ≤ B − 1.
+            let at = (ix % B) + N * ((iy % B) + N * (iz % B));
+            let node = |offset: usize| f64::from(block[at + offset]);
+            c[0][l] = node(0);
+            c[1][l] = node(1);
+            c[2][l] = node(N);
+            c[3][l] = node(N + 1);
+            c[4][l] = node(N * N);
+            c[5][l] = node(N * N + 1);
+            c[6][l] = node(N * N + N);
+            c[7][l] = node(N * N + N + 1);
+        }
+        let [fx, fy, fz] = frac;
+        let lerp = |a: &Lanes, b: &Lanes, f: &Lanes| lanes(|l| a[l] + (b[l] - a[l]) * f[l]);
+        let c00 = lerp(&c[0], &c[1], &fx);
+        let c10 = lerp(&c[2], &c[3], &fx);
+        let c01 = lerp(&c[4], &c[5], &fx);
+        let c11 = lerp(&c[6], &c[7], &fx);
+        let c0 = lerp(&c00, &c10, &fy);
+        let c1 = lerp(&c01, &c11, &fy);
+        let value = lerp(&c0, &c1, &fz);
+        let dx0 = lerp(
+            &lanes(|l| c[1][l] - c[0][l]),
+            &lanes(|l| c[3][l] - c[2][l]),
+            &fy,
+        );
+        let dx1 = lerp(
+            &lanes(|l| c[5][l] - c[4][l]),
+            &lanes(|l| c[7][l] - c[6][l]),
+            &fy,
+        );
+        let dx = lerp(&dx0, &dx1, &fz);
+        let dy = lerp(
+            &lanes(|l| c10[l] - c00[l]),
+            &lanes(|l| c11[l] - c01[l]),
+            &fz,
+        );
+        let dz = lanes(|l| c1[l] - c0[l]);
+        // Stored units are h/256 per node step of h (see `sample`).
+        let scale = self.h / Q;
+        LaneSamples {
+            stored,
+            distance_m: lanes(|l| value[l] * scale),
+            gradient: [dx, dy, dz].map(|d| lanes(|l| d[l] / Q)),
         }
     }
 
