@@ -2,7 +2,7 @@
 //!
 //! | service | pattern | writer | semantics |
 //! |---|---|---|---|
-//! | [`HAPTIC_STATE`] | blackboard, one entry | haptic loop (RT thread) | latest value; never blocks, never allocates |
+//! | [`HAPTIC_STATE`]`/<generation>` | blackboard, one entry | haptic loop (RT thread) | latest value; never blocks, never allocates; a loop restarted after a crash writes a new generation, readers follow the newest ([`newest_state_generation`]) |
 //! | [`GUIDANCE`] | publish-subscribe | planner | history 1, safe overflow: latest value; a restarted planner simply publishes again |
 //! | [`PATH`] | publish-subscribe | planner | history 1, safe overflow: late subscribers get the newest path; the planner never blocks |
 //! | [`DRIVER_STATE`] | publish-subscribe | external device driver | history 1, safe overflow: latest value; a restarted driver simply publishes again |
@@ -252,14 +252,93 @@ fn reader<T: ZeroCopySend + Copy + Default + core::fmt::Debug + 'static>(
         .map_err(|e| err(&full, format!("cannot read its entry: {e:?}")))
 }
 
-/// Write handle of [`HAPTIC_STATE`] (for the haptic loop). Fails if another loop is live.
-pub fn state_writer(node: &Node<Ipc>, namespace: &str) -> Result<StateWriter, ServiceError> {
-    writer::<HapticState>(node, namespace, HAPTIC_STATE)
+/// Leaf name of generation `generation` of the [`HAPTIC_STATE`] blackboard.
+fn state_leaf(generation: u32) -> String {
+    format!("{HAPTIC_STATE}/{generation}")
 }
 
-/// Read handle of [`HAPTIC_STATE`].
+/// Most generations a starting loop steps over before it gives up.
+const MAX_GENERATION_STEPS: u32 = 16;
+
+/// The newest generation of the [`HAPTIC_STATE`] blackboard on `namespace`, if any exists.
+///
+/// Generations exist because iceoryx2 0.10 does not release a blackboard writer's flag when
+/// its process dies: a haptic loop restarted after `kill -9` while a planner still holds the
+/// old blackboard cannot write it again, so it writes the next generation instead, and
+/// readers follow the newest one (see [`state_writer`]).
+pub fn newest_state_generation(namespace: &str) -> Option<u32> {
+    let prefix = format!("{}/", service_name(namespace, HAPTIC_STATE));
+    let mut newest = None;
+    let _ = Ipc::list(Config::global_config(), |service| {
+        let name = service.static_details.name().to_string();
+        if let Some(g) = name
+            .strip_prefix(&prefix)
+            .and_then(|g| g.parse::<u32>().ok())
+        {
+            newest = newest.max(Some(g));
+        }
+        CallbackProgression::Continue
+    });
+    newest
+}
+
+/// Whether process `pid` exists and is not a zombie (Linux `/proc`).
+fn process_alive(pid: u32) -> bool {
+    match std::fs::read_to_string(format!("/proc/{pid}/stat")) {
+        // The state letter follows the parenthesised command name.
+        Ok(stat) => stat
+            .rsplit_once(')')
+            .and_then(|(_, rest)| rest.split_whitespace().next())
+            .is_some_and(|state| state != "Z" && state != "X"),
+        Err(_) => false,
+    }
+}
+
+/// Whether the writer of generation `generation` is a live process: the entry's
+/// `writer_pid` names one. An entry never written gets a moment for its writer's first tick.
+fn state_writer_alive(node: &Node<Ipc>, namespace: &str, generation: u32) -> bool {
+    let Ok(entry) = reader::<HapticState>(node, namespace, &state_leaf(generation)) else {
+        return false;
+    };
+    let mut pid = entry.get().header.writer_pid;
+    if pid == 0 {
+        std::thread::sleep(Duration::from_millis(200));
+        pid = entry.get().header.writer_pid;
+    }
+    pid != 0 && process_alive(pid)
+}
+
+/// Write handle of [`HAPTIC_STATE`] (for the haptic loop), on the newest generation, or on
+/// a new one when the newest was left behind by a dead loop. Fails if a live loop writes it.
+pub fn state_writer(node: &Node<Ipc>, namespace: &str) -> Result<StateWriter, ServiceError> {
+    let mut generation = newest_state_generation(namespace).unwrap_or(0);
+    for _ in 0..MAX_GENERATION_STEPS {
+        match writer::<HapticState>(node, namespace, &state_leaf(generation)) {
+            Ok(w) => return Ok(w),
+            Err(e) if state_writer_alive(node, namespace, generation) => return Err(e),
+            // Its writer died without releasing it: start the next generation.
+            Err(_) => generation += 1,
+        }
+    }
+    Err(err(
+        &service_name(namespace, HAPTIC_STATE),
+        format!("{MAX_GENERATION_STEPS} generations are held by dead writers"),
+    ))
+}
+
+/// Read handle of the newest generation of [`HAPTIC_STATE`], and that generation.
+pub fn state_reader_generation(
+    node: &Node<Ipc>,
+    namespace: &str,
+) -> Result<(StateReader, u32), ServiceError> {
+    let generation = newest_state_generation(namespace).unwrap_or(0);
+    let r = reader::<HapticState>(node, namespace, &state_leaf(generation))?;
+    Ok((r, generation))
+}
+
+/// Read handle of the newest generation of [`HAPTIC_STATE`].
 pub fn state_reader(node: &Node<Ipc>, namespace: &str) -> Result<StateReader, ServiceError> {
-    reader::<HapticState>(node, namespace, HAPTIC_STATE)
+    state_reader_generation(node, namespace).map(|(r, _)| r)
 }
 
 /// A latest-value publish-subscribe service: history 1, small buffers, safe overflow (a

@@ -71,6 +71,8 @@ pub struct ShellReport {
     pub guidance_published: u64,
     /// Haptic states rejected as invalid (non-finite or non-unit pose).
     pub states_rejected: u64,
+    /// Times a new haptic loop (restarted after a crash) was found and followed.
+    pub loops_followed: u64,
 }
 
 /// The newest operator state as seen by the receiver thread.
@@ -84,6 +86,8 @@ struct Operator {
     rejected: u64,
     first_at: Option<Instant>,
     last_at: Option<Instant>,
+    /// Times the receiver switched to a restarted loop's state.
+    loop_generations: u64,
 }
 
 /// Runs the planner process until `stop` is set or the duration elapses.
@@ -96,7 +100,7 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
     }
     let guidance = services::guidance_publisher(&node, &config.namespace)?;
     let path_pub = services::path_publisher(&node, &config.namespace)?;
-    let state_reader = services::state_reader(&node, &config.namespace)?;
+    let (state_reader, generation) = services::state_reader_generation(&node, &config.namespace)?;
     let mut planner = Planner::new(&config.scene, config.params.clone(), config.seed)?;
 
     let operator = Arc::new(Mutex::new(Operator::default()));
@@ -104,9 +108,15 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
         let operator = operator.clone();
         let stop = stop.clone();
         let poll_ns = (1e9 / config.state_poll_hz) as u64;
+        let source = StateSource {
+            namespace: config.namespace.clone(),
+            reader: state_reader,
+            generation,
+            node: None,
+        };
         std::thread::Builder::new()
             .name("planner-rx".into())
-            .spawn(move || receive_states(state_reader, operator, &stop, poll_ns))?
+            .spawn(move || receive_states(source, operator, &stop, poll_ns))?
     };
 
     let guidance_period = Duration::from_secs_f64(1.0 / config.guidance_rate_hz);
@@ -197,6 +207,7 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
     report.states_received = op.received;
     report.states_skipped = op.skipped;
     report.states_rejected = op.rejected;
+    report.loops_followed = op.loop_generations;
     report.state_rate_hz = match (op.first_at, op.last_at) {
         (Some(a), Some(b)) if b > a => (op.received - 1) as f64 / (b - a).as_secs_f64(),
         _ => 0.0,
@@ -209,8 +220,55 @@ fn lock(m: &Mutex<Operator>) -> std::sync::MutexGuard<'_, Operator> {
     m.lock().unwrap_or_else(|p| p.into_inner())
 }
 
-fn receive_states(
+/// Where the receiver reads the haptic state: the newest generation of the blackboard (see
+/// `ipc_types::services::newest_state_generation`).
+struct StateSource {
+    namespace: String,
     reader: StateReader,
+    generation: u32,
+    /// The receiver's own node, made when it first has to reopen the reader.
+    node: Option<iceoryx2::node::Node<services::Ipc>>,
+}
+
+/// How long without a new state before the receiver looks for a newer generation (a haptic
+/// loop restarted after a crash), and how often it looks then.
+const GENERATION_CHECK: Duration = Duration::from_millis(500);
+
+impl StateSource {
+    /// Switches to a newer generation if one exists. Allocates; not on any RT path.
+    fn follow_newest(&mut self) {
+        let Some(newest) = services::newest_state_generation(&self.namespace) else {
+            return;
+        };
+        if newest <= self.generation {
+            return;
+        }
+        if self.node.is_none() {
+            let name = format!("planner_rx_{}", std::process::id());
+            match services::create_node(&name) {
+                Ok((node, _)) => self.node = Some(node),
+                Err(e) => {
+                    tracing::warn!("cannot follow a restarted haptic loop: {e}");
+                    return;
+                }
+            }
+        }
+        let Some(node) = &self.node else { return };
+        match services::state_reader_generation(node, &self.namespace) {
+            Ok((reader, generation)) => {
+                tracing::info!(
+                    "following the haptic state of a new loop (generation {generation})"
+                );
+                self.reader = reader;
+                self.generation = generation;
+            }
+            Err(e) => tracing::warn!("cannot open the new haptic state: {e}"),
+        }
+    }
+}
+
+fn receive_states(
+    mut source: StateSource,
     operator: Arc<Mutex<Operator>>,
     stop: &AtomicBool,
     poll_ns: u64,
@@ -218,12 +276,15 @@ fn receive_states(
     let mut last_seq = 0u64;
     let mut last_pid = 0u32;
     let mut next = Instant::now();
+    let mut last_new = Instant::now();
+    let mut last_check = Instant::now();
     while !stop.load(Ordering::Acquire) {
-        let s = *reader.get();
+        let s = *source.reader.get();
         let seq = s.header.sequence;
         let restarted = s.header.writer_pid != last_pid;
         if seq != 0 && (seq != last_seq || restarted) {
             let now = Instant::now();
+            last_new = now;
             let mut op = lock(&operator);
             if !restarted && seq > last_seq + 1 && last_seq != 0 {
                 op.skipped += seq - last_seq - 1;
@@ -239,6 +300,14 @@ fn receive_states(
             op.last_at = Some(now);
             last_seq = seq;
             last_pid = s.header.writer_pid;
+        } else if last_new.elapsed() >= GENERATION_CHECK && last_check.elapsed() >= GENERATION_CHECK
+        {
+            last_check = Instant::now();
+            let generation = source.generation;
+            source.follow_newest();
+            if source.generation != generation {
+                lock(&operator).loop_generations += 1;
+            }
         }
         next += Duration::from_nanos(poll_ns);
         let now = Instant::now();

@@ -245,3 +245,51 @@ fn a_second_loop_on_the_same_namespace_is_refused() {
     );
     assert!(first.is_running());
 }
+
+/// Issue 7: the haptic loop killed with `kill -9` while a planner holds its state: a new loop
+/// on the same namespace starts (on the next generation of the state blackboard), the
+/// planner follows it, and guidance reaches the new loop — twice in a row.
+#[test]
+fn a_killed_loop_restarts_and_the_planner_follows_it() {
+    let ns = unique_namespace("loopkill");
+    let report = std::env::temp_dir().join(format!("{ns}.json"));
+    let report_arg = report.to_str().unwrap().to_string();
+    let mut lp = start_loop(&ns);
+    let mut planner = start_planner(&ns, &["--ttl-ms", "100", "--json", &report_arg]);
+    let (node, _) = services::create_node("it_loopkill_watch").unwrap();
+    for cycle in 0..3 {
+        // A reader of the newest generation: the current loop's.
+        let state = wait_for("the loop's state", Duration::from_secs(30), || {
+            services::state_reader(&node, &ns)
+                .ok()
+                .filter(|r| r.get().header.writer_pid == lp.child.id())
+        });
+        wait_for(
+            "guidance from the planner in the loop's state",
+            Duration::from_secs(30),
+            || guidance_seen(&state.get()).then_some(()),
+        );
+        assert!(planner.is_running(), "cycle {cycle}: planner died");
+        if cycle < 2 {
+            lp.signal(libc::SIGKILL);
+            lp.wait_timeout(Duration::from_secs(10))
+                .expect("the loop dies on SIGKILL");
+            lp = start_loop(&ns);
+        }
+    }
+    lp.signal(libc::SIGTERM);
+    assert!(
+        lp.wait_timeout(Duration::from_secs(10))
+            .expect("loop stops on SIGTERM")
+            .success()
+    );
+    planner.signal(libc::SIGTERM);
+    let st = planner
+        .wait_timeout(Duration::from_secs(10))
+        .expect("planner stops on SIGTERM");
+    assert!(st.success(), "planner exit {st}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(json["loops_followed"].as_u64(), Some(2), "{json}");
+    let _ = std::fs::remove_file(report);
+}
