@@ -362,13 +362,11 @@ struct Sums {
     tested: u32,
 }
 
-/// Temporal coherence of the contact search: the whole object and each cluster carry the
-/// total proxy motion (m, any point's worst-case travel, summed over steps) at which they
-/// can first come within reach of the surface. Until the running total passes it, they are
-/// skipped without a voxmap look-up; a cluster 5 mm from the wall is looked at again only
-/// after the object has moved about 3 mm. Within a cluster that may be in reach, every point
-/// is looked up: clusters are a few points, and the look-ups run in SIMD lanes.
-/// Preallocated; reset on `place`.
+/// Temporal coherence of the contact search: the whole object, each cluster and each point
+/// carry the total proxy motion (m, any point's worst-case travel, summed over steps) at
+/// which they can first come within reach of the surface. Until the running total passes
+/// it, they are skipped without a voxmap look-up; a point 5 mm from the wall is looked at
+/// again only after the object has moved about 3 mm. Preallocated; reset on `place`.
 #[derive(Debug, Clone, Default)]
 struct Coherence {
     /// Running total of the bound on any point's motion, m.
@@ -377,15 +375,17 @@ struct Coherence {
     last: Option<Isometry3<f64>>,
     object: f64,
     clusters: Vec<f64>,
+    points: Vec<f64>,
 }
 
 impl Coherence {
-    fn new(clusters: usize) -> Self {
+    fn new(clusters: usize, points: usize) -> Self {
         Self {
             motion_m: 0.0,
             last: None,
             object: 0.0,
             clusters: vec![0.0; clusters],
+            points: vec![0.0; points],
         }
     }
 
@@ -395,6 +395,7 @@ impl Coherence {
         self.last = None;
         self.object = 0.0;
         self.clusters.fill(0.0);
+        self.points.fill(0.0);
     }
 
     /// Adds the motion from the last search to `pose`: the centre of mass's travel plus
@@ -444,7 +445,7 @@ impl ContactStage {
     /// A proxy for `model`; it is placed at the first anchor it sees.
     pub fn new(model: Arc<ContactModel>, config: ContactConfig, coupling: Coupling) -> Self {
         Self {
-            cache: Coherence::new(model.shell.clusters().len()),
+            cache: Coherence::new(model.shell.clusters().len(), model.shell.len()),
             near: NearPoints::with_capacity(model.shell.len()),
             model,
             config,
@@ -558,7 +559,7 @@ impl ContactStage {
     /// number of penetrating points. Does not move the proxy.
     pub fn probe(&self, pose: &Isometry3<f64>) -> Probe {
         // A fresh cache: a full search. (Allocates: a diagnostic, not for the RT thread.)
-        let mut cache = Coherence::new(self.model.shell.clusters().len());
+        let mut cache = Coherence::new(self.model.shell.clusters().len(), self.model.shell.len());
         let mut near = NearPoints::with_capacity(self.model.shell.len());
         let s = self
             .sum_contacts(
@@ -632,15 +633,16 @@ impl ContactStage {
         if moved < cache.object {
             return Sums::default();
         }
-        near.clear();
         let tested = model.columns.search(
             shell.clusters(),
             &mut cache.clusters,
-            moved,
+            &mut cache.points,
             &SearchParams {
                 rotation: pose.rotation.to_rotation_matrix().into_inner(),
                 translation: pose.translation.vector,
+                com,
                 reach_m: reach,
+                moved_m: moved,
             },
             vox,
             near,

@@ -20,7 +20,7 @@
 //! same code. The union of obstacles takes the minimum of their signed distances: exact
 //! outside, and inside it never understates a depth.
 
-use super::near::{LANES, Lanes, lanes};
+use super::near::{LANES, Lanes, axes, lanes};
 use nalgebra::Vector3;
 use parry3d_f64::bounding_volume::{Aabb, BoundingVolume};
 use parry3d_f64::math::{Pose, Vector as PVec};
@@ -138,6 +138,8 @@ pub(super) struct LaneSamples {
     pub distance_m: Lanes,
     /// Gradient of the signed distance.
     pub gradient: [Lanes; 3],
+    /// Where not `stored`: a lower bound of the distance to the surface, m (0 if unknown).
+    pub clearance_m: Lanes,
 }
 
 /// One query of the field.
@@ -470,29 +472,39 @@ impl Voxmap {
         }
     }
 
-    /// The field at [`LANES`] points at once (scene frame, m), for the contact search:
-    /// for each lane, whether it lies within the stored layers, and there its signed
-    /// distance (m) and gradient. The same interpolation as [`Self::sample`], written lane
-    /// by lane so the arithmetic runs in SIMD registers; only the block look-up and the
-    /// eight node loads are per lane.
+    /// The field at [`LANES`] points at once (scene frame, m), for the contact search: per
+    /// lane, whether the point lies within the stored layers, and there its signed distance
+    /// (m) and gradient; elsewhere a lower bound of its clearance (0 when unknown: deep
+    /// inside, or outside the grid). The same interpolation as [`Self::sample`] in `f32`,
+    /// written lane by lane so the arithmetic runs in SIMD registers; only the block
+    /// look-up and the eight node loads are per lane.
     #[inline(always)]
     pub(super) fn sample_lanes(&self, p: &[Lanes; 3]) -> LaneSamples {
-        let g: [Lanes; 3] =
-            std::array::from_fn(|a| lanes(|l| (p[a][l] - self.origin[a]) * self.inv_h));
-        let [cx, cy, cz] = self.cells_f;
-        let inside: [bool; LANES] = std::array::from_fn(|l| {
+        let inv_h = self.inv_h as f32;
+        let origin = self.origin.map(|o| o as f32);
+        let cells = self.cells_f.map(|c| c as f32);
+        let g: [Lanes; 3] = axes(|a| lanes(|l| (p[a][l] - origin[a]) * inv_h));
+        let inside: [bool; LANES] = lanes(|l| {
             let [x, y, z] = [g[0][l], g[1][l], g[2][l]];
-            x >= 0.0 && y >= 0.0 && z >= 0.0 && x < cx && y < cy && z < cz
+            x >= 0.0 && y >= 0.0 && z >= 0.0 && x < cells[0] && y < cells[1] && z < cells[2]
         });
         // Clamped into the grid so that the conversion and the look-ups below are valid
         // for every lane; lanes outside are dropped by `inside`.
-        let cell: [[u32; LANES]; 3] = std::array::from_fn(|a| {
-            std::array::from_fn(|l| g[a][l].max(0.0).min(self.cells_f[a] - 1.0) as u32)
+        // Comparisons rather than `max`/`min`, whose NaN rules cost extra instructions (a
+        // NaN coordinate stays NaN here and converts to cell 0; `inside` drops it).
+        let cell: [[i32; LANES]; 3] = axes(|a| {
+            let top = cells[a] - 1.0;
+            lanes(|l| {
+                let x = g[a][l];
+                let x = if x < 0.0 { 0.0 } else { x };
+                (if x > top { top } else { x }) as i32
+            })
         });
-        let frac: [Lanes; 3] = std::array::from_fn(|a| lanes(|l| g[a][l] - f64::from(cell[a][l])));
+        let frac: [Lanes; 3] = axes(|a| lanes(|l| g[a][l] - cell[a][l] as f32));
         let mut stored = [false; LANES];
+        let mut clearance_m = [0.0; LANES];
         // Node values at the cell's corners, corner index = i + 2j + 4k.
-        let mut c = [[0.0; LANES]; 8];
+        let mut raw = [[0i16; LANES]; 8];
         for l in 0..LANES {
             let (ix, iy, iz) = (
                 cell[0][l] as usize,
@@ -501,26 +513,38 @@ impl Voxmap {
             );
             let b = ix / B + self.blocks[0] * (iy / B + self.blocks[1] * (iz / B));
             let slot = self.index[b];
-            if !(inside[l] && slot >= FIRST) {
+            if !inside[l] {
                 continue;
             }
-            stored[l] = true;
-            let base = (slot - FIRST) as usize * BLOCK_NODES;
-            let Some(block) = self.data.get(base..base + BLOCK_NODES) else {
-                continue; // unreachable: every stored slot has its block
+            if slot == OUTSIDE {
+                clearance_m[l] = self.far_clearance(f64::from(self.block_distance[b])) as f32;
+                continue;
+            }
+            let Some(block) = slot.checked_sub(FIRST).and_then(|s| {
+                let start = s as usize * BLOCK_NODES;
+                self.data
+                    .get(start..start + BLOCK_NODES)
+                    .and_then(|b| <&[i16; BLOCK_NODES]>::try_from(b).ok())
+            }) else {
+                continue; // INSIDE: deep, no direction
             };
-            // The cell's lowest node; its far corner (+1 along each axis) is at most the
-            // block's last node because local coordinates are ≤ B − 1.
+            stored[l] = true;
+            // The cell's lowest node; its far corner (+1 along each axis) is within the
+            // block because local coordinates are ≤ B − 1.
             let at = (ix % B) + N * ((iy % B) + N * (iz % B));
-            let node = |offset: usize| f64::from(block[at + offset]);
-            c[0][l] = node(0);
-            c[1][l] = node(1);
-            c[2][l] = node(N);
-            c[3][l] = node(N + 1);
-            c[4][l] = node(N * N);
-            c[5][l] = node(N * N + 1);
-            c[6][l] = node(N * N + N);
-            c[7][l] = node(N * N + N + 1);
+            let node = |offset: usize| block[at + offset];
+            raw[0][l] = node(0);
+            raw[1][l] = node(1);
+            raw[2][l] = node(N);
+            raw[3][l] = node(N + 1);
+            raw[4][l] = node(N * N);
+            raw[5][l] = node(N * N + 1);
+            raw[6][l] = node(N * N + N);
+            raw[7][l] = node(N * N + N + 1);
+        }
+        let mut c = [[0.0; LANES]; 8];
+        for (c, raw) in c.iter_mut().zip(&raw) {
+            *c = lanes(|l| f32::from(raw[l]));
         }
         let [fx, fy, fz] = frac;
         let lerp = |a: &Lanes, b: &Lanes, f: &Lanes| lanes(|l| a[l] + (b[l] - a[l]) * f[l]);
@@ -549,11 +573,17 @@ impl Voxmap {
         );
         let dz = lanes(|l| c1[l] - c0[l]);
         // Stored units are h/256 per node step of h (see `sample`).
-        let scale = self.h / Q;
+        let scale = (self.h / Q) as f32;
+        let per_unit = (1.0 / Q) as f32;
         LaneSamples {
             stored,
             distance_m: lanes(|l| value[l] * scale),
-            gradient: [dx, dy, dz].map(|d| lanes(|l| d[l] / Q)),
+            gradient: [
+                lanes(|l| dx[l] * per_unit),
+                lanes(|l| dy[l] * per_unit),
+                lanes(|l| dz[l] * per_unit),
+            ],
+            clearance_m,
         }
     }
 
