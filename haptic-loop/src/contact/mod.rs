@@ -51,7 +51,7 @@ use ipc_types::ContactCode;
 use nalgebra::{
     Isometry3, Matrix3, Matrix6, Point3, Translation3, UnitQuaternion, Vector3, Vector6,
 };
-use near::{NearPoints, PassParams, SearchParams, ShellColumns, Totals};
+use near::{Found, PassParams, Scratch, SearchParams, ShellColumns};
 use parry3d_f64::math::Pose;
 use parry3d_f64::shape::{Compound, Shape, SharedShape};
 use planner::Scene;
@@ -351,17 +351,6 @@ pub struct Probe {
     pub point_m: Vector3<f64>,
 }
 
-/// The scene's wrench on the proxy and what went into it, at the current pose.
-#[derive(Debug, Default, Clone, Copy, PartialEq)]
-struct Sums {
-    /// The force pass over the points within reach.
-    t: Totals,
-    /// Some point is within reach of a surface it faces.
-    near: bool,
-    /// Points looked up in the voxmap.
-    tested: u32,
-}
-
 /// Temporal coherence of the contact search: the whole object, each cluster and each point
 /// carry the total proxy motion (m, any point's worst-case travel, summed over steps) at
 /// which they can first come within reach of the surface. Until the running total passes
@@ -437,8 +426,8 @@ pub struct ContactStage {
     previous_braking: u32,
     last_tested: u32,
     cache: Coherence,
-    /// The points within reach found by the last search (preallocated).
-    near: NearPoints,
+    /// The search's scratch (preallocated).
+    scratch: Scratch,
 }
 
 impl ContactStage {
@@ -446,7 +435,7 @@ impl ContactStage {
     pub fn new(model: Arc<ContactModel>, config: ContactConfig, coupling: Coupling) -> Self {
         Self {
             cache: Coherence::new(model.shell.clusters().len(), model.shell.len()),
-            near: NearPoints::with_capacity(model.shell.len()),
+            scratch: Scratch::with_capacity(model.shell.len()),
             model,
             config,
             coupling,
@@ -560,16 +549,16 @@ impl ContactStage {
     pub fn probe(&self, pose: &Isometry3<f64>) -> Probe {
         // A fresh cache: a full search. (Allocates: a diagnostic, not for the RT thread.)
         let mut cache = Coherence::new(self.model.shell.clusters().len(), self.model.shell.len());
-        let mut near = NearPoints::with_capacity(self.model.shell.len());
+        let mut scratch = Scratch::with_capacity(self.model.shell.len());
         let s = self
             .sum_contacts(
                 pose,
                 &Vector3::zeros(),
                 &Vector3::zeros(),
                 &mut cache,
-                &mut near,
+                &mut scratch,
             )
-            .t;
+            .totals;
         let force: Vector3<f64> = s.wrench.fixed_rows::<3>(0).into_owned();
         let com = pose
             .transform_point(&Point3::from(self.model.com_local))
@@ -606,20 +595,18 @@ impl ContactStage {
     /// m/s) and `angular_velocity` (rad/s). Points and clusters whose motion budget in
     /// `cache` is not used up are skipped (see [`Coherence`]) and the budgets are renewed.
     ///
-    /// This is the hot loop of the tick, in two passes: a search that looks each candidate
-    /// point up in the voxmap and keeps those within reach of a surface they face (into
-    /// `near`), then the branch-free force pass over them (see [`near`]).
+    /// This is the hot loop of the tick: after the object-level check it runs in
+    /// [`ShellColumns::search`] (see the `near` module).
     fn sum_contacts(
         &self,
         pose: &Isometry3<f64>,
         velocity: &Vector3<f64>,
         angular_velocity: &Vector3<f64>,
         cache: &mut Coherence,
-        near: &mut NearPoints,
-    ) -> Sums {
+        scratch: &mut Scratch,
+    ) -> Found {
         let model = &*self.model;
         let vox = &model.voxmap;
-        let shell = &model.shell;
         let h = vox.voxel_m();
         let prox = self.config.proximity_voxels * h;
         let release = self.config.release_voxels * h;
@@ -627,14 +614,14 @@ impl ContactStage {
         let moved = cache.motion_m;
         let com = pose.transform_point(&Point3::from(model.com_local)).coords;
         if moved < cache.object {
-            return Sums::default();
+            return Found::default();
         }
         cache.object = moved + vox.clearance(&com) - model.radius_m - reach;
         if moved < cache.object {
-            return Sums::default();
+            return Found::default();
         }
-        let tested = model.columns.search(
-            shell.clusters(),
+        let (b_contact, b_brake) = self.shared_damping();
+        model.columns.search(
             &mut cache.clusters,
             &mut cache.points,
             &SearchParams {
@@ -644,25 +631,19 @@ impl ContactStage {
                 reach_m: reach,
                 moved_m: moved,
             },
+            &PassParams {
+                com,
+                velocity: *velocity,
+                angular_velocity: *angular_velocity,
+                point_stiffness_n_per_m: self.config.point_stiffness_n_per_m,
+                contact_damping_n_s_per_m: b_contact,
+                braking_n_s_per_m: b_brake,
+                proximity_m: prox,
+                release_m: release,
+            },
             vox,
-            near,
-        );
-        let (b_contact, b_brake) = self.shared_damping();
-        let t = near.accumulate(&PassParams {
-            com,
-            velocity: *velocity,
-            angular_velocity: *angular_velocity,
-            point_stiffness_n_per_m: self.config.point_stiffness_n_per_m,
-            contact_damping_n_s_per_m: b_contact,
-            braking_n_s_per_m: b_brake,
-            proximity_m: prox,
-            release_m: release,
-        });
-        Sums {
-            t,
-            near: near.len() > 0,
-            tested,
-        }
+            scratch,
+        )
     }
 
     /// One step of `dt_s` towards `anchor`. Allocation-free.
@@ -673,20 +654,20 @@ impl ContactStage {
         let before = self.pose;
         let mut cache = std::mem::take(&mut self.cache);
         cache.advance(&self.pose, &self.model.com_local, self.model.radius_m);
-        let mut near = std::mem::take(&mut self.near);
-        let sums = self.sum_contacts(
+        let mut scratch = std::mem::take(&mut self.scratch);
+        let found = self.sum_contacts(
             &self.pose,
             &self.velocity,
             &self.angular_velocity,
             &mut cache,
-            &mut near,
+            &mut scratch,
         );
         self.cache = cache;
-        self.near = near;
-        let s = sums.t;
+        self.scratch = scratch;
+        let s = found.totals;
 
         self.previous_contacts = s.contacts;
-        self.last_tested = sums.tested;
+        self.last_tested = found.tested;
         self.previous_braking = s.braking_points;
         let contact_wrench = s.wrench;
         let mut force = s.wrench;
@@ -762,7 +743,7 @@ impl ContactStage {
         }
         let code = if self.in_contact {
             ContactCode::CONTACT
-        } else if sums.near {
+        } else if found.near > 0 {
             ContactCode::PROXIMITY
         } else {
             ContactCode::FREE
@@ -788,7 +769,7 @@ impl ContactStage {
             point_m: self.held_point,
             penetration_m: s.max_depth,
             contacts: s.contacts,
-            points_tested: sums.tested,
+            points_tested: found.tested,
         }
     }
 }

@@ -1,12 +1,15 @@
-//! The two passes of the contact search over the points that may be near the surface.
+//! The contact search and force pass over the points that may be near the surface
+//! ([`ShellColumns::search`]).
 //!
-//! 1. *Search*: the clusters and points whose motion budget is used up (see `Coherence`)
-//!    are looked up in the voxmap [`LANES`] at a time ([`ShellColumns::search`]); those
-//!    within reach of a surface they face are written column-wise into [`NearPoints`].
-//! 2. *Force pass* ([`NearPoints::accumulate`]): penalty, braking and the implicit step's
-//!    JᵀJ sums over them, without branches.
+//! 1. *Candidates*: the clusters and points whose motion budget is used up (see
+//!    `Coherence`), as a list of point indices.
+//! 2. *Look-up*: [`LANES`] candidates at a time are moved into the scene and looked up in
+//!    the voxmap; their budgets are renewed.
+//! 3. *Force pass* ([`force_chunk`]), in the same chunk, for those within reach of a
+//!    surface they face: penalty, braking and the implicit step's JᵀJ sums, without
+//!    branches.
 //!
-//! Both are written lane by lane, each statement over all lanes and choices as selections,
+//! Steps 2 and 3 are written lane by lane, each statement over all lanes and choices as selections,
 //! so the compiler turns them into SIMD; they are compiled a second time for AVX2 and the
 //! CPU's choice is made at run time. They compute in `f32` (twice the lanes of `f64`):
 //! positions relative to the scene's origin or the centre of mass are below a metre, where
@@ -68,11 +71,12 @@ const PAIRS: [(usize, usize); 21] = [
 ];
 
 /// The pointshell as the search reads it: object-frame points (m) and inward normals as
-/// `f32` columns, in the pointshell's order.
+/// `f32` columns, in the pointshell's order, and its clusters.
 #[derive(Debug, Clone)]
 pub(super) struct ShellColumns {
     point: [Vec<f32>; 3],
     normal: [Vec<f32>; 3],
+    clusters: Vec<Cluster>,
 }
 
 /// Where the search runs.
@@ -90,17 +94,31 @@ pub(super) struct SearchParams {
     pub moved_m: f64,
 }
 
-/// Points within reach of the surface, found by one search: position relative to the
-/// centre of mass (scene frame, m), the field's gradient there (not normalised) and the
-/// signed distance (m). Holds room for every point of the shell, allocated once, so the
-/// search never allocates; `candidates` is the search's own scratch.
+/// The search's scratch: the candidate points' indices. Room for every point of the shell,
+/// allocated once, so the search never allocates.
 #[derive(Debug, Clone, Default)]
-pub(super) struct NearPoints {
-    len: usize,
-    r: [Vec<f32>; 3],
-    g: [Vec<f32>; 3],
-    sd: Vec<f32>,
+pub(super) struct Scratch {
     candidates: Vec<u32>,
+}
+
+impl Scratch {
+    /// Room for `points` points.
+    pub(super) fn with_capacity(points: usize) -> Self {
+        Self {
+            candidates: vec![0; points.div_ceil(LANES) * LANES],
+        }
+    }
+}
+
+/// What one search found.
+#[derive(Debug, Default, Clone, Copy, PartialEq)]
+pub(super) struct Found {
+    /// The sums of the force pass.
+    pub totals: Totals,
+    /// Points looked up in the voxmap.
+    pub tested: u32,
+    /// Points within reach of a surface they face.
+    pub near: u32,
 }
 
 impl ShellColumns {
@@ -109,61 +127,62 @@ impl ShellColumns {
         Self {
             point: std::array::from_fn(|a| column(shell.points(), a)),
             normal: std::array::from_fn(|a| column(shell.normals(), a)),
+            clusters: shell.clusters().to_vec(),
         }
     }
 
-    /// The search: each cluster whose budget in `cluster_budgets` is used up is checked
-    /// against the voxmap's clearance and its budget renewed; the points of those that may
-    /// be within reach whose own budget (`point_budgets`) is used up are looked up in the
-    /// voxmap, their budgets renewed, and those within reach of a surface they face are
-    /// written to `near` (cleared first). Returns the points looked up.
+    /// The search and the force pass: each cluster whose budget in `cluster_budgets` is used
+    /// up is checked against the voxmap's clearance and its budget renewed; the points of
+    /// those that may be within reach whose own budget (`point_budgets`) is used up are
+    /// looked up in the voxmap and their budgets renewed; those within reach of a surface
+    /// they face go through the force pass ([`force_chunk`]) in the same chunk.
     pub(super) fn search(
         &self,
-        clusters: &[Cluster],
         cluster_budgets: &mut [f64],
         point_budgets: &mut [f64],
         k: &SearchParams,
+        pass: &PassParams,
         vox: &Voxmap,
-        near: &mut NearPoints,
-    ) -> u32 {
+        scratch: &mut Scratch,
+    ) -> Found {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2, checked just above.
             return unsafe {
-                self.search_avx2(clusters, cluster_budgets, point_budgets, k, vox, near)
+                self.search_avx2(cluster_budgets, point_budgets, k, pass, vox, scratch)
             };
         }
-        self.search_impl(clusters, cluster_budgets, point_budgets, k, vox, near)
+        self.search_impl(cluster_budgets, point_budgets, k, pass, vox, scratch)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn search_avx2(
         &self,
-        clusters: &[Cluster],
         cluster_budgets: &mut [f64],
         point_budgets: &mut [f64],
         k: &SearchParams,
+        pass: &PassParams,
         vox: &Voxmap,
-        near: &mut NearPoints,
-    ) -> u32 {
-        self.search_impl(clusters, cluster_budgets, point_budgets, k, vox, near)
+        scratch: &mut Scratch,
+    ) -> Found {
+        self.search_impl(cluster_budgets, point_budgets, k, pass, vox, scratch)
     }
 
     #[inline(always)]
     fn search_impl(
         &self,
-        clusters: &[Cluster],
         cluster_budgets: &mut [f64],
         point_budgets: &mut [f64],
         k: &SearchParams,
+        pass: &PassParams,
         vox: &Voxmap,
-        near: &mut NearPoints,
-    ) -> u32 {
+        scratch: &mut Scratch,
+    ) -> Found {
         let moved = k.moved_m;
         // Candidates: points of clusters that may be in reach, whose budget is used up.
         let mut count = 0;
-        for (cl, budget) in clusters.iter().zip(cluster_budgets.iter_mut()) {
+        for (cl, budget) in self.clusters.iter().zip(cluster_budgets.iter_mut()) {
             if moved < *budget {
                 continue;
             }
@@ -175,23 +194,25 @@ impl ShellColumns {
             }
             for i in cl.start..cl.end {
                 if moved >= point_budgets[i as usize] {
-                    near.candidates[count] = i;
+                    scratch.candidates[count] = i;
                     count += 1;
                 }
             }
         }
         // Pad the last chunk with copies of a real candidate, ignored below.
         let padded = count.div_ceil(LANES) * LANES;
-        let filler = near.candidates.first().copied().unwrap_or(0);
-        near.candidates[count..padded].fill(filler);
+        let filler = scratch.candidates.first().copied().unwrap_or(0);
+        scratch.candidates[count..padded].fill(filler);
 
-        near.len = 0;
+        let consts = ForceConsts::new(pass);
+        let mut acc = Accumulators::new();
+        let mut kept = 0;
         let r = k.rotation.map(|x| x as f32);
         let t = k.translation.map(|x| x as f32);
         let com = k.com.map(|x| x as f32);
         let reach = k.reach_m as f32;
         for start in (0..padded).step_by(LANES) {
-            let idx: [usize; LANES] = lanes(|l| near.candidates[start + l] as usize);
+            let idx: [usize; LANES] = lanes(|l| scratch.candidates[start + l] as usize);
             let x: [Lanes; 3] = axes(|a| lanes(|l| self.point[a][idx[l]]));
             let nl: [Lanes; 3] = axes(|a| lanes(|l| self.normal[a][idx[l]]));
             let rotate = |v: &[Lanes; 3], a: usize| {
@@ -206,29 +227,42 @@ impl ShellColumns {
             let g = &s.gradient;
             let g2 = lanes(|l| g[0][l] * g[0][l] + g[1][l] * g[1][l] + g[2][l] * g[2][l]);
             let facing = lanes(|l| n[0][l] * g[0][l] + n[1][l] * g[1][l] + n[2][l] * g[2][l]);
+            let mut keep = [false; LANES];
             for l in 0..LANES.min(count - start) {
                 // The budget: the distance the point can move before it may be in reach.
-                let (ahead, keep) = if s.stored[l] {
+                let ahead = if s.stored[l] {
                     let sd = s.distance_m[l];
                     // Within reach; a direction (the field is flat midway inside a thin
                     // plate); facing the surface (see the module docs of `contact`).
-                    (sd - reach, sd < reach && g2[l] >= 1e-18 && facing[l] >= 0.0)
+                    keep[l] = sd < reach && g2[l] >= 1e-18 && facing[l] >= 0.0;
+                    sd - reach
                 } else {
-                    (s.clearance_m[l] - reach, false)
+                    s.clearance_m[l] - reach
                 };
                 point_budgets[idx[l]] = moved + f64::from(ahead);
-                if keep {
-                    let i = near.len;
-                    for a in 0..3 {
-                        near.r[a][i] = p[a][l] - com[a];
-                        near.g[a][i] = g[a][l];
+            }
+            if keep.iter().any(|&k| k) {
+                kept += keep.iter().filter(|&&k| k).count() as u32;
+                // Lanes not kept become points beyond every layer with a unit gradient:
+                // every selection in the force pass is false for them.
+                let r = axes(|a| lanes(|l| if keep[l] { p[a][l] - com[a] } else { 0.0 }));
+                let unit = |a: usize| if a == 0 { 1.0 } else { 0.0 };
+                let g = axes(|a| lanes(|l| if keep[l] { g[a][l] } else { unit(a) }));
+                let sd = lanes(|l| {
+                    if keep[l] {
+                        s.distance_m[l]
+                    } else {
+                        f32::INFINITY
                     }
-                    near.sd[i] = s.distance_m[l];
-                    near.len = i + 1;
-                }
+                });
+                force_chunk(&mut acc, &r, &g, &sd, &consts);
             }
         }
-        count as u32
+        Found {
+            totals: acc.reduce(pass),
+            tested: count as u32,
+            near: kept,
+        }
     }
 }
 
@@ -293,69 +327,132 @@ struct Accumulators {
     release: Lanes,
 }
 
-impl NearPoints {
-    /// Room for `points` points.
-    pub(super) fn with_capacity(points: usize) -> Self {
-        let padded = points.div_ceil(LANES) * LANES;
-        let column = || vec![0.0; padded];
+/// [`PassParams`] as the force pass uses them.
+#[derive(Debug, Clone, Copy)]
+struct ForceConsts {
+    kp: f32,
+    bc: f32,
+    bb: f32,
+    prox: f32,
+    release: f32,
+    v: Vector3<f32>,
+    w: Vector3<f32>,
+}
+
+impl ForceConsts {
+    fn new(k: &PassParams) -> Self {
         Self {
-            len: 0,
-            r: std::array::from_fn(|_| column()),
-            g: std::array::from_fn(|_| column()),
-            sd: column(),
-            candidates: vec![0; padded],
+            kp: k.point_stiffness_n_per_m as f32,
+            bc: k.contact_damping_n_s_per_m as f32,
+            bb: k.braking_n_s_per_m as f32,
+            prox: k.proximity_m as f32,
+            release: k.release_m as f32,
+            v: k.velocity.map(|x| x as f32),
+            w: k.angular_velocity.map(|x| x as f32),
         }
     }
+}
 
-    /// Points found by the last search.
-    pub(super) fn len(&self) -> usize {
-        self.len
-    }
-
-    /// Adds a point at `r` from the centre of mass (for tests of the force pass).
-    #[cfg(test)]
-    fn push(&mut self, r: &Vector3<f64>, gradient: &Vector3<f64>, sd: f64) {
-        let i = self.len;
-        for a in 0..3 {
-            self.r[a][i] = r[a] as f32;
-            self.g[a][i] = gradient[a] as f32;
+/// The force pass over one chunk: points at `r` from the centre of mass (m) with field
+/// gradient `g` and signed distance `sd` (m) add their penalty, braking and JJᵀ sums to
+/// `acc`. Every statement works on all lanes and choices are selections, so there are no
+/// branches; a lane with `sd` = +∞ and a unit gradient adds nothing.
+#[inline(always)]
+fn force_chunk(
+    acc: &mut Accumulators,
+    r: &[Lanes; 3],
+    g: &[Lanes; 3],
+    sd: &Lanes,
+    k: &ForceConsts,
+) {
+    let ForceConsts {
+        kp,
+        bc,
+        bb,
+        prox,
+        release,
+        v,
+        w,
+    } = *k;
+    let [gx, gy, gz] = g;
+    let inv = lanes(|l| 1.0 / (gx[l] * gx[l] + gy[l] * gy[l] + gz[l] * gz[l]).sqrt());
+    let n = axes(|a| lanes(|l| g[a][l] * inv[l]));
+    // m = r × n: the moment arm of a unit force along n.
+    let m = [
+        lanes(|l| r[1][l] * n[2][l] - r[2][l] * n[1][l]),
+        lanes(|l| r[2][l] * n[0][l] - r[0][l] * n[2][l]),
+        lanes(|l| r[0][l] * n[1][l] - r[1][l] * n[0][l]),
+    ];
+    // Normal velocity of the point: v·n + (ω × r)·n = v·n + ω·(r × n).
+    let vn = lanes(|l| {
+        v.x * n[0][l]
+            + v.y * n[1][l]
+            + v.z * n[2][l]
+            + w.x * m[0][l]
+            + w.y * m[1][l]
+            + w.z * m[2][l]
+    });
+    let in_contact = lanes(|l| if sd[l] < 0.0 { 1.0 } else { 0.0 });
+    let depth = lanes(|l| if sd[l] < 0.0 { -sd[l] } else { 0.0 });
+    // Damping never pulls the point into the surface. (The implicit step keeps its
+    // damping term also for a clamped point: numerical damping.)
+    let push = lanes(|l| in_contact[l] * (kp * depth[l] - bc * vn[l]).max(0.0));
+    // Pre-contact braking: opposes approach only, fading in over the layer.
+    let brake_w = lanes(|l| {
+        if sd[l] >= 0.0 && sd[l] < prox && vn[l] < 0.0 {
+            1.0 - sd[l] / prox
+        } else {
+            0.0
         }
-        self.sd[i] = sd as f32;
-        self.len = i + 1;
+    });
+    let f = lanes(|l| push[l] - bb * brake_w[l] * vn[l]);
+    let j = [n[0], n[1], n[2], m[0], m[1], m[2]];
+    for (a, ja) in j.iter().enumerate() {
+        for l in 0..LANES {
+            acc.wrench[a][l] += f[l] * ja[l];
+        }
     }
-
-    /// The force pass over the points of the last search.
-    pub(super) fn accumulate(&mut self, k: &PassParams) -> Totals {
-        // Fill the last partial chunk with points that contribute nothing: beyond every
-        // layer (all selections below are false), with a finite unit gradient.
-        let end = self.len.div_ceil(LANES) * LANES;
-        for i in self.len..end {
-            for a in 0..3 {
-                self.r[a][i] = 0.0;
-                self.g[a][i] = if a == 0 { 1.0 } else { 0.0 };
+    // Σ w JJᵀ, spelled out pair by pair (constant indices) so that every product
+    // stays in registers; a loop over `PAIRS` is left rolled and indexes memory.
+    macro_rules! jj {
+        ($sum:expr, $w:expr) => {
+            jj!($sum, $w; 0: 0 0, 1: 0 1, 2: 0 2, 3: 1 1, 4: 1 2, 5: 2 2,
+                6: 3 0, 7: 3 1, 8: 3 2, 9: 4 0, 10: 4 1, 11: 4 2,
+                12: 5 0, 13: 5 1, 14: 5 2,
+                15: 3 3, 16: 3 4, 17: 3 5, 18: 4 4, 19: 4 5, 20: 5 5)
+        };
+        ($sum:expr, $w:expr; $($i:literal: $a:literal $b:literal),*) => {$(
+            for l in 0..LANES {
+                $sum[$i][l] += $w[l] * (j[$a][l] * j[$b][l]);
             }
-            self.sd[i] = f32::INFINITY;
-        }
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU has AVX2, checked just above.
-            return unsafe { self.accumulate_avx2(k, end) };
-        }
-        self.accumulate_lanes(k, end)
+        )*};
     }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn accumulate_avx2(&self, k: &PassParams, end: usize) -> Totals {
-        self.accumulate_lanes(k, end)
+    jj!(acc.k, in_contact);
+    // In steady contact most chunks brake nowhere: skip their zero braking sums.
+    if brake_w.iter().any(|&b| b > 0.0) {
+        jj!(acc.b, brake_w);
     }
+    for a in 0..3 {
+        for l in 0..LANES {
+            // The point projected on the surface (relative to the centre of mass),
+            // weighted by depth.
+            acc.point[a][l] += depth[l] * (r[a][l] + depth[l] * n[a][l]);
+            acc.normal[a][l] += depth[l] * n[a][l];
+        }
+    }
+    for l in 0..LANES {
+        acc.weight[l] += depth[l];
+        acc.max_depth[l] = acc.max_depth[l].max(depth[l]);
+        acc.contacts[l] += in_contact[l];
+        acc.braking[l] += if brake_w[l] > 0.0 { 1.0 } else { 0.0 };
+        acc.release[l] += if sd[l] < release { 1.0 } else { 0.0 };
+    }
+}
 
-    /// The pass proper, over `0..end` (a multiple of [`LANES`]). Every statement works on
-    /// all lanes, and choices are selections, so the loop body has no branches.
-    #[inline(always)]
-    fn accumulate_lanes(&self, k: &PassParams, end: usize) -> Totals {
+impl Accumulators {
+    fn new() -> Self {
         let zero = [0.0; LANES];
-        let mut acc = Accumulators {
+        Self {
             wrench: [zero; 6],
             k: [zero; 21],
             b: [zero; 21],
@@ -366,106 +463,15 @@ impl NearPoints {
             contacts: zero,
             braking: zero,
             release: zero,
-        };
-        let (kp, bc, bb) = (
-            k.point_stiffness_n_per_m as f32,
-            k.contact_damping_n_s_per_m as f32,
-            k.braking_n_s_per_m as f32,
-        );
-        let (prox, release) = (k.proximity_m as f32, k.release_m as f32);
-        let v = k.velocity.map(|x| x as f32);
-        let w = k.angular_velocity.map(|x| x as f32);
-        for o in (0..end).step_by(LANES) {
-            let col = |c: &Vec<f32>| -> Lanes { c[o..o + LANES].try_into().expect("LANES long") };
-            let r = [col(&self.r[0]), col(&self.r[1]), col(&self.r[2])];
-            let (gx, gy, gz) = (col(&self.g[0]), col(&self.g[1]), col(&self.g[2]));
-            let sd = col(&self.sd);
-            let inv = lanes(|l| 1.0 / (gx[l] * gx[l] + gy[l] * gy[l] + gz[l] * gz[l]).sqrt());
-            let n = [
-                lanes(|l| gx[l] * inv[l]),
-                lanes(|l| gy[l] * inv[l]),
-                lanes(|l| gz[l] * inv[l]),
-            ];
-            // m = r × n: the moment arm of a unit force along n.
-            let m = [
-                lanes(|l| r[1][l] * n[2][l] - r[2][l] * n[1][l]),
-                lanes(|l| r[2][l] * n[0][l] - r[0][l] * n[2][l]),
-                lanes(|l| r[0][l] * n[1][l] - r[1][l] * n[0][l]),
-            ];
-            // Normal velocity of the point: v·n + (ω × r)·n = v·n + ω·(r × n).
-            let vn = lanes(|l| {
-                v.x * n[0][l]
-                    + v.y * n[1][l]
-                    + v.z * n[2][l]
-                    + w.x * m[0][l]
-                    + w.y * m[1][l]
-                    + w.z * m[2][l]
-            });
-            let in_contact = lanes(|l| if sd[l] < 0.0 { 1.0 } else { 0.0 });
-            let depth = lanes(|l| if sd[l] < 0.0 { -sd[l] } else { 0.0 });
-            // Damping never pulls the point into the surface. (The implicit step keeps its
-            // damping term also for a clamped point: numerical damping.)
-            let push = lanes(|l| in_contact[l] * (kp * depth[l] - bc * vn[l]).max(0.0));
-            // Pre-contact braking: opposes approach only, fading in over the layer.
-            let brake_w = lanes(|l| {
-                if sd[l] >= 0.0 && sd[l] < prox && vn[l] < 0.0 {
-                    1.0 - sd[l] / prox
-                } else {
-                    0.0
-                }
-            });
-            let f = lanes(|l| push[l] - bb * brake_w[l] * vn[l]);
-            let j = [n[0], n[1], n[2], m[0], m[1], m[2]];
-            for (a, ja) in j.iter().enumerate() {
-                for l in 0..LANES {
-                    acc.wrench[a][l] += f[l] * ja[l];
-                }
-            }
-            // Σ w JJᵀ, spelled out pair by pair (constant indices) so that every product
-            // stays in registers; a loop over `PAIRS` is left rolled and indexes memory.
-            macro_rules! jj {
-                ($sum:expr, $w:expr) => {
-                    jj!($sum, $w; 0: 0 0, 1: 0 1, 2: 0 2, 3: 1 1, 4: 1 2, 5: 2 2,
-                        6: 3 0, 7: 3 1, 8: 3 2, 9: 4 0, 10: 4 1, 11: 4 2,
-                        12: 5 0, 13: 5 1, 14: 5 2,
-                        15: 3 3, 16: 3 4, 17: 3 5, 18: 4 4, 19: 4 5, 20: 5 5)
-                };
-                ($sum:expr, $w:expr; $($i:literal: $a:literal $b:literal),*) => {$(
-                    for l in 0..LANES {
-                        $sum[$i][l] += $w[l] * (j[$a][l] * j[$b][l]);
-                    }
-                )*};
-            }
-            jj!(acc.k, in_contact);
-            // In steady contact most chunks brake nowhere: skip their zero braking sums.
-            if brake_w.iter().any(|&b| b > 0.0) {
-                jj!(acc.b, brake_w);
-            }
-            for a in 0..3 {
-                for l in 0..LANES {
-                    // The point projected on the surface (relative to the centre of mass),
-                    // weighted by depth.
-                    acc.point[a][l] += depth[l] * (r[a][l] + depth[l] * n[a][l]);
-                    acc.normal[a][l] += depth[l] * n[a][l];
-                }
-            }
-            for l in 0..LANES {
-                acc.weight[l] += depth[l];
-                acc.max_depth[l] = acc.max_depth[l].max(depth[l]);
-                acc.contacts[l] += in_contact[l];
-                acc.braking[l] += if brake_w[l] > 0.0 { 1.0 } else { 0.0 };
-                acc.release[l] += if sd[l] < release { 1.0 } else { 0.0 };
-            }
         }
-        acc.reduce(&k.com, k.contact_damping_n_s_per_m, k.braking_n_s_per_m)
     }
-}
 
-impl Accumulators {
-    /// Sums the lanes (in `f64`); `com` turns positions relative to the centre of mass back
-    /// into scene coordinates; the damping matrix is `contact_damping` times the contact
-    /// sum plus `braking` times the braking sum (N·s/m).
-    fn reduce(&self, com: &Vector3<f64>, contact_damping: f64, braking: f64) -> Totals {
+    /// Sums the lanes (in `f64`): the centre of mass turns positions relative to it back
+    /// into scene coordinates; the damping matrix is the contact damping times the contact
+    /// sum plus the braking times the braking sum (N·s/m).
+    fn reduce(&self, k: &PassParams) -> Totals {
+        let (com, contact_damping, braking) =
+            (&k.com, k.contact_damping_n_s_per_m, k.braking_n_s_per_m);
         let sum = |x: &Lanes| x.iter().map(|&v| f64::from(v)).sum::<f64>();
         // wk·Σ(contact) + wb·Σ(braking), as JtJ.
         let jtj = |wk: f64, wb: f64| {
@@ -497,6 +503,23 @@ impl Accumulators {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// [`force_chunk`] over `points` (position, gradient, signed distance), chunk by chunk,
+    /// the last one padded as the search pads it.
+    fn force_pass(points: &[(Vector3<f64>, Vector3<f64>, f64)], k: &PassParams) -> Totals {
+        let consts = ForceConsts::new(k);
+        let mut acc = Accumulators::new();
+        for chunk in points.chunks(LANES) {
+            let at = |l: usize| chunk.get(l);
+            let r = axes(|a| lanes(|l| at(l).map_or(0.0, |(p, _, _)| (p[a] - k.com[a]) as f32)));
+            let g = axes(|a| {
+                lanes(|l| at(l).map_or(if a == 0 { 1.0 } else { 0.0 }, |(_, g, _)| g[a] as f32))
+            });
+            let sd = lanes(|l| at(l).map_or(f32::INFINITY, |(_, _, sd)| *sd as f32));
+            force_chunk(&mut acc, &r, &g, &sd, &consts);
+        }
+        acc.reduce(k)
+    }
 
     /// The same sums point by point, written the obvious way.
     fn reference(points: &[(Vector3<f64>, Vector3<f64>, f64)], k: &PassParams) -> Totals {
@@ -561,15 +584,9 @@ mod tests {
                 (p, g, sd)
             })
             .collect();
-        let mut near = NearPoints::with_capacity(points.len());
-        // Twice: a second pass must not see the first one's points.
-        for _ in 0..2 {
-            near.len = 0;
-            for (p, g, sd) in &points {
-                near.push(&(p - k.com), g, *sd);
-            }
-            let got = near.accumulate(&k);
-            let want = reference(&points, &k);
+        let got = force_pass(&points, &k);
+        let want = reference(&points, &k);
+        {
             assert_eq!(got.contacts, want.contacts);
             assert_eq!(got.braking_points, want.braking_points);
             assert!(want.contacts > 0 && want.braking_points > 0);
@@ -607,7 +624,6 @@ mod tests {
 
     #[test]
     fn nothing_near_sums_to_zero() {
-        let mut near = NearPoints::with_capacity(3);
         let k = PassParams {
             com: Vector3::zeros(),
             velocity: Vector3::zeros(),
@@ -618,6 +634,6 @@ mod tests {
             proximity_m: 1.0,
             release_m: 1.0,
         };
-        assert_eq!(near.accumulate(&k), Totals::default());
+        assert_eq!(force_pass(&[], &k), Totals::default());
     }
 }

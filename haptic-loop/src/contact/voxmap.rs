@@ -490,14 +490,18 @@ impl Voxmap {
         });
         // Clamped into the grid so that the conversion and the look-ups below are valid
         // for every lane; lanes outside are dropped by `inside`.
-        // Comparisons rather than `max`/`min`, whose NaN rules cost extra instructions (a
-        // NaN coordinate stays NaN here and converts to cell 0; `inside` drops it).
+        // Comparisons rather than `max`/`min`, whose NaN rules cost extra instructions; a
+        // NaN coordinate becomes 0 here (`inside` drops it).
         let cell: [[i32; LANES]; 3] = axes(|a| {
             let top = cells[a] - 1.0;
             lanes(|l| {
                 let x = g[a][l];
-                let x = if x < 0.0 { 0.0 } else { x };
-                (if x > top { top } else { x }) as i32
+                let x = if x >= 0.0 { x } else { 0.0 };
+                let x = if x > top { top } else { x };
+                // SAFETY: x is finite and within [0, cells − 1], which fits an i32 (the
+                // grid has far fewer than 2^31 cells per axis). The checked `as` would
+                // keep this conversion out of SIMD registers.
+                unsafe { x.to_int_unchecked::<i32>() }
             })
         });
         let frac: [Lanes; 3] = axes(|a| lanes(|l| g[a][l] - cell[a][l] as f32));
