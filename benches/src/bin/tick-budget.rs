@@ -4,9 +4,14 @@
 //! hardest steady case for the contact stage (`benches::harness::wall_setup`). Prints p50 / p90 / p99 / p99.9 / max of the
 //! compute time per tick from an HDR histogram.
 //!
-//! `cargo run --release -p benches --bin tick-budget -- --seconds 20 [--voxel-mm 1] [--json F]`
+//! With `--cube-points N` it times the contact stage alone (`ContactStage::step`) for a
+//! cube of about N pointshell points resting on a plate with a whole face in contact
+//! (`benches::contact_fixture`), the "≥ 10 000 points" case.
+//!
+//! `cargo run --release -p benches --bin tick-budget -- --seconds 20 [--voxel-mm 1] [--cube-points N] [--json F]`
 
 use anyhow::{Context, bail};
+use benches::contact_fixture::{Fixture, Situation};
 use benches::harness::wall_setup;
 use clap::Parser;
 use haptic_loop::tick::{NoGuidance, NoSink, PrevTiming, Tick};
@@ -25,6 +30,10 @@ struct Args {
     /// Voxel size and pointshell spacing, mm.
     #[arg(long, default_value_t = 1.0)]
     voxel_mm: f64,
+    /// Time the contact stage of a cube of about this many points resting on a plate
+    /// instead of the full tick in the wall-hole scene.
+    #[arg(long)]
+    cube_points: Option<usize>,
     /// Write the figures as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
@@ -32,6 +41,8 @@ struct Args {
 
 #[derive(Debug, Serialize)]
 struct Report {
+    /// What was timed.
+    scenario: String,
     ticks: u64,
     points: usize,
     voxel_mm: f64,
@@ -58,35 +69,59 @@ fn main() -> anyhow::Result<()> {
     if !(args.voxel_mm.is_finite() && (0.25..=20.0).contains(&args.voxel_mm)) {
         bail!("--voxel-mm must be within 0.25–20, got {}", args.voxel_mm);
     }
-    let (arm, tick_config, contact) =
-        wall_setup(1000.0, args.seconds, Some(args.voxel_mm / 1000.0))?;
-    let stage = contact.context("contact stage")?;
-    let points = stage.model().pointshell().len();
-    let mut tick = Tick::new(arm, &tick_config, NoGuidance, NoSink)
-        .context("open the simulated arm")?
-        .with_contact(stage);
-
     let ticks = (args.seconds * 1000.0) as u64;
     let mut hist = Histogram::<u64>::new_with_bounds(1, 1_000_000_000, 3).context("histogram")?;
     let mut in_contact = 0u64;
     let mut tested_max = 0u32;
-    for i in 1..=ticks {
-        let t0 = Instant::now();
-        let s = *tick.step(i * 1_000_000, PrevTiming::default());
-        let ns = t0.elapsed().as_nanos() as u64;
-        hist.saturating_record(ns.max(1));
-        in_contact += u64::from(s.contact == ContactCode::CONTACT);
-        if let Some(c) = tick.contact() {
-            tested_max = tested_max.max(c.last_points_tested());
+    let mut max_penetration_m = 0.0_f64;
+    let (scenario, points) = if let Some(n) = args.cube_points {
+        if !(100..=1_000_000).contains(&n) {
+            bail!("--cube-points must be within 100–1000000, got {n}");
         }
-    }
+        let mut f = Fixture::cube_on_plate(n, args.voxel_mm / 1000.0, Situation::Resting);
+        for _ in 0..ticks {
+            let t0 = Instant::now();
+            let penetration_m = f.step();
+            hist.saturating_record((t0.elapsed().as_nanos() as u64).max(1));
+            in_contact += u64::from(penetration_m > 0.0);
+            max_penetration_m = max_penetration_m.max(penetration_m);
+            tested_max = tested_max.max(f.stage().last_points_tested());
+        }
+        (
+            "contact stage: cube resting on a plate".to_string(),
+            f.points(),
+        )
+    } else {
+        let (arm, tick_config, contact) =
+            wall_setup(1000.0, args.seconds, Some(args.voxel_mm / 1000.0))?;
+        let stage = contact.context("contact stage")?;
+        let points = stage.model().pointshell().len();
+        let mut tick = Tick::new(arm, &tick_config, NoGuidance, NoSink)
+            .context("open the simulated arm")?
+            .with_contact(stage);
+        for i in 1..=ticks {
+            let t0 = Instant::now();
+            let s = *tick.step(i * 1_000_000, PrevTiming::default());
+            hist.saturating_record((t0.elapsed().as_nanos() as u64).max(1));
+            in_contact += u64::from(s.contact == ContactCode::CONTACT);
+            if let Some(c) = tick.contact() {
+                tested_max = tested_max.max(c.last_points_tested());
+            }
+        }
+        max_penetration_m = tick.max_penetration_m();
+        (
+            "full tick: wall-hole S pushed along the wall".to_string(),
+            points,
+        )
+    };
     let us = |q: f64| hist.value_at_quantile(q) as f64 / 1000.0;
     let report = Report {
+        scenario,
         ticks,
         points,
         voxel_mm: args.voxel_mm,
         contact_fraction: in_contact as f64 / ticks as f64,
-        max_penetration_mm: tick.max_penetration_m() * 1e3,
+        max_penetration_mm: max_penetration_m * 1e3,
         compute_us: Percentiles {
             p50: us(0.5),
             p90: us(0.9),
@@ -98,7 +133,8 @@ fn main() -> anyhow::Result<()> {
     };
     let c = &report.compute_us;
     println!(
-        "tick compute with contact: {} ticks, {} points at {} mm, in contact {:.0} % of ticks, max penetration {:.3} mm, up to {} points tested per tick",
+        "{}: {} ticks, {} points at {} mm, in contact {:.0} % of ticks, max penetration {:.3} mm, up to {} points tested per tick",
+        report.scenario,
         report.ticks,
         report.points,
         report.voxel_mm,
