@@ -193,6 +193,10 @@ pub struct ServeArgs {
     /// Stop after this many seconds.
     #[arg(long)]
     pub duration_s: Option<f64>,
+    /// Keep growing the trees while no haptic loop publishes a fresh state (by default
+    /// the planner idles then, and resumes when a loop appears).
+    #[arg(long)]
+    pub plan_without_operator: bool,
     /// Write a JSON report here on exit.
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -272,6 +276,7 @@ impl ServeArgs {
             ttl_s: positive("ttl-ms", self.ttl_ms)? / 1000.0,
             state_poll_hz: positive("poll-hz", self.poll_hz)?,
             state_timeout_s: 0.5,
+            plan_without_operator: self.plan_without_operator,
             duration_s: self
                 .duration_s
                 .map(|d| positive("duration-s", d))

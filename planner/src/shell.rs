@@ -40,6 +40,8 @@ pub struct ShellConfig {
     pub state_poll_hz: f64,
     /// A haptic state older than this counts as "no operator", s.
     pub state_timeout_s: f64,
+    /// Grow the trees also without an operator; otherwise idle until one appears.
+    pub plan_without_operator: bool,
     /// Stop after this long (`None` = until SIGINT/SIGTERM).
     pub duration_s: Option<f64>,
 }
@@ -73,6 +75,8 @@ pub struct ShellReport {
     pub states_rejected: u64,
     /// Times a new haptic loop (restarted after a crash) was found and followed.
     pub loops_followed: u64,
+    /// Seconds spent idle for want of an operator (no fresh haptic state).
+    pub idle_s: f64,
 }
 
 /// The newest operator state as seen by the receiver thread.
@@ -143,13 +147,21 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
         if fresh != announced_operator {
             if fresh {
                 tracing::info!("haptic loop present: following the operator");
-            } else {
+            } else if config.plan_without_operator {
                 tracing::info!("no fresh haptic state: planning without the operator");
+            } else {
+                tracing::info!("no fresh haptic state: idle until a haptic loop appears");
             }
             announced_operator = fresh;
         }
 
-        if !planner.solved() {
+        let idle = !fresh && !config.plan_without_operator;
+        if idle {
+            // No operator to plan with: wake for the next guidance publication only.
+            let t0 = Instant::now();
+            std::thread::sleep(next_guidance.saturating_duration_since(t0));
+            report.idle_s += t0.elapsed().as_secs_f64();
+        } else if !planner.solved() {
             let input = op.state.filter(|_| fresh).and_then(|s| user_input(&s));
             planner.iterate_input(input.as_ref());
             if planner.solved() {

@@ -158,3 +158,12 @@ pub fn example(name: &str) -> PathBuf {
     assert!(p.exists(), "{} was not built", p.display());
     p
 }
+
+/// Serialises the tests that run a haptic loop beside other processes: on a 2-core machine
+/// two of them at once starve each other's loops of CPU, which shows up as deadline misses
+/// and overrun faults that no test is about. Hold the guard for the whole test.
+pub fn one_loop_at_a_time() -> std::sync::MutexGuard<'static, ()> {
+    static LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    // A test that failed while holding it poisons it; the next test may still run.
+    LOCK.lock().unwrap_or_else(|p| p.into_inner())
+}

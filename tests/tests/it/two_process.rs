@@ -3,7 +3,7 @@
 use ipc_types::services;
 use ipc_types::{GuidanceFreshness, HapticState};
 use std::time::{Duration, Instant};
-use tests::{Proc, bin, norm, unique_namespace, wait_for};
+use tests::{Proc, bin, norm, one_loop_at_a_time, unique_namespace, wait_for};
 
 fn start_loop(ns: &str) -> Proc {
     Proc::spawn(
@@ -30,6 +30,7 @@ fn start_planner(ns: &str, extra: &[&str]) -> Proc {
 /// (a) the planner receives HapticState at >= 900 Hz over 2 s and more.
 #[test]
 fn planner_receives_haptic_state_at_loop_rate() {
+    let _serial = one_loop_at_a_time();
     let ns = unique_namespace("rate");
     let report = std::env::temp_dir().join(format!("{ns}.json"));
     let mut lp = start_loop(&ns);
@@ -68,6 +69,7 @@ fn guidance_seen(s: &HapticState) -> bool {
 /// restarted planner restores guidance.
 #[test]
 fn guidance_reaches_the_arm_fades_on_planner_death_and_returns() {
+    let _serial = one_loop_at_a_time();
     let ns = unique_namespace("kill");
     let mut lp = start_loop(&ns);
     let (node, _) = services::create_node("it_kill_watch").unwrap();
@@ -148,6 +150,7 @@ fn guidance_reaches_the_arm_fades_on_planner_death_and_returns() {
 /// brings guidance back.
 #[test]
 fn ten_planner_kills_and_hangs_in_a_row() {
+    let _serial = one_loop_at_a_time();
     let ns = unique_namespace("cycles");
     let mut lp = start_loop(&ns);
     let (node, _) = services::create_node("it_cycles_watch").unwrap();
@@ -210,6 +213,7 @@ fn ten_planner_kills_and_hangs_in_a_row() {
 /// non-zero exit, and the first keeps running.
 #[test]
 fn a_second_loop_on_the_same_namespace_is_refused() {
+    let _serial = one_loop_at_a_time();
     let ns = unique_namespace("second");
     let mut first = start_loop(&ns);
     let (node, _) = services::create_node("it_second_watch").unwrap();
@@ -246,11 +250,13 @@ fn a_second_loop_on_the_same_namespace_is_refused() {
     assert!(first.is_running());
 }
 
-/// Issue 7: the haptic loop killed with `kill -9` while a planner holds its state: a new loop
-/// on the same namespace starts (on the next generation of the state blackboard), the
-/// planner follows it, and guidance reaches the new loop — twice in a row.
+/// Issue 7: the haptic loop killed with `kill -9` while a planner holds its state: the
+/// planner idles, a new loop on the same namespace starts (on the next generation of the
+/// state blackboard), the planner follows it, and guidance reaches the new loop — twice in
+/// a row.
 #[test]
 fn a_killed_loop_restarts_and_the_planner_follows_it() {
+    let _serial = one_loop_at_a_time();
     let ns = unique_namespace("loopkill");
     let report = std::env::temp_dir().join(format!("{ns}.json"));
     let report_arg = report.to_str().unwrap().to_string();
@@ -291,5 +297,8 @@ fn a_killed_loop_restarts_and_the_planner_follows_it() {
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     assert_eq!(json["loops_followed"].as_u64(), Some(2), "{json}");
+    // While no loop ran (its restart builds a voxmap for a second or more), it idled.
+    let idle = json["idle_s"].as_f64().unwrap();
+    assert!(idle > 0.5, "idle {idle} s: {json}");
     let _ = std::fs::remove_file(report);
 }
