@@ -627,7 +627,6 @@ impl ContactStage {
             &SearchParams {
                 rotation: pose.rotation.to_rotation_matrix().into_inner(),
                 translation: pose.translation.vector,
-                com,
                 reach_m: reach,
                 moved_m: moved,
             },

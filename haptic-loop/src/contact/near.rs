@@ -86,8 +86,6 @@ pub(super) struct SearchParams {
     pub rotation: Matrix3<f64>,
     /// Origin of the object frame in the scene frame, m.
     pub translation: Vector3<f64>,
-    /// Centre of mass, scene frame, m: kept points are stored relative to it.
-    pub com: Vector3<f64>,
     /// Points farther from the surface than this are not kept, m.
     pub reach_m: f64,
     /// The running motion total of the budgets (see `Coherence`), m.
@@ -209,7 +207,7 @@ impl ShellColumns {
         let mut kept = 0;
         let r = k.rotation.map(|x| x as f32);
         let t = k.translation.map(|x| x as f32);
-        let com = k.com.map(|x| x as f32);
+        let com = pass.com.map(|x| x as f32);
         let reach = k.reach_m as f32;
         for start in (0..padded).step_by(LANES) {
             let idx: [usize; LANES] = lanes(|l| scratch.candidates[start + l] as usize);
