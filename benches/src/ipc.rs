@@ -9,7 +9,8 @@
 //!
 //! The reader either spins ([`Poll::Busy`]: the transport alone) or polls at a rate with the
 //! planner receiver's absolute-deadline sleeps ([`Poll::Every`]: transport plus the wait
-//! for the next poll, the part a polling reader adds).
+//! for the next poll, the part a polling reader adds), its rate detuned by 0.1 % so that
+//! the wait is averaged over all phases between writer and reader.
 //!
 //! The writer marks warm-up samples (not recorded: the first sends after a reader joins
 //! rebuild connections) and a final stop sample in `header.reserved`.
@@ -293,7 +294,10 @@ impl<T: Stamped> Reader<T> {
         let mut last_seq = 0u64;
         let period = match poll {
             Poll::Busy => None,
-            Poll::Every(hz) => Some(Duration::from_secs_f64(1.0 / hz)),
+            // Detuned by 0.1 %: the poll phase sweeps uniformly relative to the writer's
+            // (with commensurate rates the phase would stay where the two happened to
+            // start, and the figure would depend on it).
+            Poll::Every(hz) => Some(Duration::from_secs_f64(1.001 / hz)),
         };
         let mut next = Instant::now();
         loop {

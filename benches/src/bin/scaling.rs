@@ -129,8 +129,16 @@ fn main() -> anyhow::Result<()> {
     println!();
     println!("| scene | nodes | µs per iteration |");
     println!("|---|---|---|");
+    // One row per doubling of the tree (every batch is in the JSON).
+    let mut next = (String::new(), 0usize);
     for p in &report.planner {
-        println!("| {} | {} | {:.1} |", p.scene, p.nodes, p.mean_us);
+        if p.scene != next.0 {
+            next = (p.scene.clone(), 0);
+        }
+        if p.nodes >= next.1 {
+            println!("| {} | {} | {:.1} |", p.scene, p.nodes, p.mean_us);
+            next.1 = (p.nodes * 2).max(1);
+        }
     }
     println!();
     for (n, s) in report.tick_slopes.iter().chain(&report.planner_slopes) {
