@@ -5,11 +5,17 @@
 //!   iterations (trees keep growing while measured: the cost includes nearest-neighbour
 //!   search at that size); scenes solved within those 2000 iterations are skipped;
 //! - `solve/<scene>`: automatic RRT-Connect from scratch to a solution, for the scenes it
-//!   solves within seconds (seed 1).
+//!   solves within seconds (seed 1);
+//! - `nearest/<space>/<nodes>`: one nearest-neighbour query (`Tree::nearest`: a grid in the
+//!   planar space, a linear scan in SE(3)) and the `k_nearest_into` query F_a uses, on trees
+//!   of uniformly sampled configurations;
+//! - `fa/<scene>`: F_a (`Planner::attractive_force`, I-RRT's barycenter of the p nearest
+//!   labelled nodes) at random operator configurations, on trees grown for 2000 iterations.
 //!
 //! `cargo bench -p benches --bench planner` (all) or `... -- collision` (one group).
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use planner::tree::{NodeId, Tree};
 use planner::{CollisionChecker, ConfigSpace, Planner, PlannerParams, Scene, Space, Weights};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -81,5 +87,67 @@ fn solve(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, collision, iterate, solve);
+fn nearest(c: &mut Criterion) {
+    let mut g = c.benchmark_group("nearest");
+    g.warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2));
+    let k = PlannerParams::default().neighbours;
+    for (label, scene) in [("planar", "maze"), ("se3", "wall-hole")] {
+        let scene = Scene::builtin(scene).expect("built-in");
+        let space = Space::for_scene(&scene, Weights::default());
+        let mut rng = ChaCha8Rng::seed_from_u64(2);
+        let queries: Vec<_> = (0..256).map(|_| space.sample_uniform(&mut rng)).collect();
+        for n in [1_000usize, 10_000, 100_000] {
+            let mut tree = Tree::new(space.sample_uniform(&mut rng), 1.0);
+            for i in 1..n {
+                let parent = NodeId((i / 2) as u32);
+                tree.add(parent, space.sample_uniform(&mut rng), 1.0);
+            }
+            let mut i = 0;
+            g.bench_function(format!("{label}/{n}"), |b| {
+                b.iter(|| {
+                    i = (i + 1) % queries.len();
+                    black_box(tree.nearest(&space, black_box(&queries[i])))
+                })
+            });
+            let mut out = Vec::with_capacity(k);
+            g.bench_function(format!("{label}/{n}/k{k}"), |b| {
+                b.iter(|| {
+                    i = (i + 1) % queries.len();
+                    tree.k_nearest_into(&space, black_box(&queries[i]), k, &mut out);
+                    black_box(out.len())
+                })
+            });
+        }
+    }
+    g.finish();
+}
+
+fn fa(c: &mut Criterion) {
+    let mut g = c.benchmark_group("fa");
+    g.warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2));
+    for name in ["maze", "wall-hole"] {
+        let scene = Scene::builtin(name).expect("built-in");
+        let mut p = Planner::new(&scene, PlannerParams::default(), 1).expect("planner");
+        for _ in 0..2000 {
+            p.iterate(None);
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let queries: Vec<_> = (0..256)
+            .map(|_| p.space().sample_uniform(&mut rng))
+            .collect();
+        let nodes = p.stats().nodes;
+        let mut i = 0;
+        g.bench_function(format!("{name}/{nodes}-nodes"), |b| {
+            b.iter(|| {
+                i = (i + 1) % queries.len();
+                black_box(p.attractive_force(black_box(&queries[i])))
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, collision, iterate, solve, nearest, fa);
 criterion_main!(benches);

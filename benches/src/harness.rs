@@ -25,6 +25,11 @@ pub struct PlannerChild(pub Child);
 impl PlannerChild {
     /// Starts `planner serve` on namespace `ns` from the binary next to the running one.
     pub fn spawn(ns: &str) -> anyhow::Result<Self> {
+        Self::spawn_with(ns, &[])
+    }
+
+    /// [`PlannerChild::spawn`] with more `planner serve` arguments.
+    pub fn spawn_with(ns: &str, extra: &[String]) -> anyhow::Result<Self> {
         let exe = std::env::current_exe()?;
         let planner = exe.with_file_name("planner");
         if !planner.exists() {
@@ -35,6 +40,7 @@ impl PlannerChild {
         }
         let child = Command::new(&planner)
             .args(["serve", "--namespace", ns, "--scene", "wall-hole"])
+            .args(extra)
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()
@@ -49,8 +55,9 @@ impl PlannerChild {
     }
 }
 
-impl Drop for PlannerChild {
-    fn drop(&mut self) {
+impl PlannerChild {
+    /// Stops the process: SIGTERM (it writes its report), SIGKILL after 5 s.
+    pub fn stop(&mut self) {
         self.signal(libc::SIGCONT);
         self.signal(libc::SIGTERM);
         let deadline = Instant::now() + Duration::from_secs(5);
@@ -59,6 +66,14 @@ impl Drop for PlannerChild {
         }
         let _ = self.0.kill();
         let _ = self.0.wait();
+    }
+}
+
+impl Drop for PlannerChild {
+    fn drop(&mut self) {
+        if matches!(self.0.try_wait(), Ok(None)) {
+            self.stop();
+        }
     }
 }
 

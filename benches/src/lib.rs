@@ -3,3 +3,5 @@
 
 pub mod contact_fixture;
 pub mod harness;
+pub mod ipc;
+pub mod scaling;

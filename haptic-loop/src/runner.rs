@@ -63,6 +63,9 @@ pub struct LoopReport {
     pub period_us: Percentiles,
     /// Guidance age at render time, µs.
     pub guidance_age_us: Percentiles,
+    /// Guidance publish (the planner's header stamp) → wake-up of the first tick that
+    /// renders the sample, µs; one value per new sample.
+    pub guidance_latency_us: Percentiles,
     /// Samples the stats thread missed (they are still counted in `ticks`).
     pub dropped_samples: u64,
     /// SCHED_FIFO active.
@@ -217,6 +220,7 @@ impl<D, G, S> LoopHandle<D, G, S> {
             compute_us: hist.compute.percentiles_us(),
             period_us: hist.period.percentiles_us(),
             guidance_age_us: hist.guidance_age.percentiles_us(),
+            guidance_latency_us: hist.guidance_latency.percentiles_us(),
             dropped_samples: self.counters.dropped_samples.load(Ordering::Relaxed),
             fifo: setup.fifo,
             pinned: setup.pinned,
@@ -255,10 +259,18 @@ where
     let mut prev = PrevTiming::default();
     let mut last_wake = 0u64;
     let mut ticks = 0u64;
+    let mut last_guidance_sequence = 0u64;
     while ticks < max_ticks && !stop.load(Ordering::Acquire) {
         let wake = rt::sleep_until(deadline, config.spin_ns);
-        tick.step(wake, prev);
+        let rendered = tick.step(wake, prev).guidance_sequence;
         let guidance_age_ns = tick.guidance_age_ns();
+        // The first tick rendering a sample (its sequence changed) records publish → render.
+        let guidance_latency_ns = if rendered != 0 && rendered != last_guidance_sequence {
+            guidance_age_ns
+        } else {
+            0
+        };
+        last_guidance_sequence = rendered;
         let end = rt::monotonic_ns();
 
         let next = deadline + period_ns;
@@ -272,6 +284,7 @@ where
             compute_ns: end - wake,
             period_ns: if last_wake == 0 { 0 } else { wake - last_wake },
             guidance_age_ns,
+            guidance_latency_ns,
             missed,
         };
         if ring.push(sample).is_err() {

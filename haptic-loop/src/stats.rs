@@ -18,6 +18,9 @@ pub struct TickSample {
     pub period_ns: u64,
     /// Age of the guidance sample rendered, ns (0 if none).
     pub guidance_age_ns: u64,
+    /// Publish → render latency, ns: the guidance age when this tick is the first to render
+    /// a new sample (0 otherwise).
+    pub guidance_latency_ns: u64,
     /// Deadlines missed at the end of this tick (0 almost always).
     pub missed: u64,
 }
@@ -110,6 +113,8 @@ pub struct TimingHistograms {
     pub period: NsHistogram,
     /// Guidance age at render time.
     pub guidance_age: NsHistogram,
+    /// Guidance publish → first tick rendering it.
+    pub guidance_latency: NsHistogram,
     /// Ticks recorded.
     pub ticks: u64,
     /// Deadlines missed.
@@ -126,6 +131,9 @@ impl TimingHistograms {
         }
         if s.guidance_age_ns > 0 {
             self.guidance_age.record(s.guidance_age_ns);
+        }
+        if s.guidance_latency_ns > 0 {
+            self.guidance_latency.record(s.guidance_latency_ns);
         }
         self.ticks += 1;
         self.deadline_misses += s.missed;
@@ -172,6 +180,20 @@ mod tests {
         assert!((p.max - 1000.0).abs() < 1.0);
         assert!(p.p50 <= p.p90 && p.p90 <= p.p99 && p.p99 <= p.p999 && p.p999 <= p.max);
         assert_eq!(p.count, 1000);
+    }
+
+    #[test]
+    fn guidance_latency_counts_only_new_samples() {
+        let mut h = TimingHistograms::default();
+        for i in 0..10u64 {
+            h.record(&TickSample {
+                guidance_age_ns: 1000 + i,
+                guidance_latency_ns: if i % 5 == 0 { 1000 + i } else { 0 },
+                ..TickSample::default()
+            });
+        }
+        assert_eq!(h.guidance_age.percentiles_us().count, 10);
+        assert_eq!(h.guidance_latency.percentiles_us().count, 2);
     }
 
     #[test]

@@ -24,6 +24,7 @@ pub mod cli;
 pub mod collision;
 pub mod experiment;
 pub mod guidance;
+pub mod latency;
 pub mod params;
 pub mod path;
 pub mod pose;

@@ -77,6 +77,10 @@ pub struct ShellReport {
     pub loops_followed: u64,
     /// Seconds spent idle for want of an operator (no fresh haptic state).
     pub idle_s: f64,
+    /// Age of each new haptic state when the receiver thread first saw it: its header stamp
+    /// (the loop's tick wake-up) → the poll that read it, µs. Includes the rest of that tick
+    /// and the wait for the next poll (up to 1/`state_poll_hz`).
+    pub state_latency_us: crate::latency::LatencyUs,
 }
 
 /// The newest operator state as seen by the receiver thread.
@@ -208,7 +212,9 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
     }
 
     stop.store(true, Ordering::Release);
-    let _ = receiver.join();
+    if let Ok(latency) = receiver.join() {
+        report.state_latency_us = latency.summary();
+    }
     let op = *lock(&operator);
     let s = planner.stats();
     report.run_s = started.elapsed().as_secs_f64();
@@ -284,7 +290,8 @@ fn receive_states(
     operator: Arc<Mutex<Operator>>,
     stop: &AtomicBool,
     poll_ns: u64,
-) {
+) -> crate::latency::LatencyHistogram {
+    let mut latency = crate::latency::LatencyHistogram::default();
     let mut last_seq = 0u64;
     let mut last_pid = 0u32;
     let mut next = Instant::now();
@@ -295,6 +302,7 @@ fn receive_states(
         let seq = s.header.sequence;
         let restarted = s.header.writer_pid != last_pid;
         if seq != 0 && (seq != last_seq || restarted) {
+            latency.record(ipc_types::monotonic_ns().saturating_sub(s.header.timestamp_ns));
             let now = Instant::now();
             last_new = now;
             let mut op = lock(&operator);
@@ -329,6 +337,7 @@ fn receive_states(
             next = now;
         }
     }
+    latency
 }
 
 fn make_guidance(
