@@ -17,6 +17,7 @@ use std::time::Duration;
 
 #[test]
 fn rt_thread_allocates_nothing_over_6000_ticks_with_ipc_and_contact() {
+    let _serial = tests::one_loop_at_a_time();
     assert!(
         haptic_loop::alloc_count::is_installed(),
         "the counting allocator must be the global allocator of this test binary"
