@@ -168,6 +168,30 @@ impl Tree {
         if k == 0 {
             return;
         }
+        let n = self.nodes.len();
+        if n >= GRID_MIN_NODES {
+            let configs = |id: u32| self.nodes[id as usize].config;
+            let mut ids = Vec::with_capacity(k);
+            if self.grid.k_nearest_into(space, &configs, n, q, k, &mut ids) {
+                out.extend(ids.into_iter().map(|(id, d)| (NodeId(id), d)));
+                return;
+            }
+        }
+        self.k_nearest_linear_into(space, q, k, out);
+    }
+
+    /// [`Tree::k_nearest_into`] by a linear scan (the reference the grid is tested against).
+    pub fn k_nearest_linear_into(
+        &self,
+        space: &dyn ConfigSpace,
+        q: &Se3,
+        k: usize,
+        out: &mut Vec<(NodeId, f64)>,
+    ) {
+        out.clear();
+        if k == 0 {
+            return;
+        }
         for (i, n) in self.nodes.iter().enumerate() {
             let bound = if out.len() == k {
                 out[k - 1].1
@@ -322,7 +346,7 @@ mod tests {
     }
 
     #[test]
-    fn grid_nearest_equals_linear_scan() {
+    fn grid_nearest_and_k_nearest_equal_linear_scans() {
         use rand::SeedableRng;
         // The planar space enables the grid (translation factor > 0).
         let maze = Scene::maze();
@@ -349,7 +373,16 @@ mod tests {
                 s.sample_near(&near, 0.01, &mut rng)
             };
             assert_eq!(t.nearest(&s, &q), t.nearest_linear(&s, &q), "{q:?}");
+            for k in [1, 5, 40] {
+                let (mut grid, mut linear) = (Vec::new(), Vec::new());
+                t.k_nearest_into(&s, &q, k, &mut grid);
+                t.k_nearest_linear_into(&s, &q, k, &mut linear);
+                assert_eq!(grid, linear, "k = {k}, {q:?}");
+            }
         }
         assert_eq!(t.nearest(&s, &dup).0, NodeId(10));
+        let mut two = Vec::new();
+        t.k_nearest_into(&s, &dup, 2, &mut two);
+        assert_eq!(two[0].0, NodeId(10), "ties go to the oldest node");
     }
 }

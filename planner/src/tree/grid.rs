@@ -58,8 +58,57 @@ impl Grid {
         self.cells.entry(k).or_default().push(id);
     }
 
-    /// The nearest of `configs` (all inserted, index = id) to `q`, or `None` when the grid search gave up (then scan linearly). Ties
-    /// go to the smallest id.
+    /// Visits the ids in rings of cells around `q`'s cell, nearest ring first, calling
+    /// `visit(id, translation_distance)` for each, until the rings are farther by
+    /// translation than `bound()` (the caller's current pruning distance, weighted m) over
+    /// the translation factor `c`. Returns false when it gave up because it would look at
+    /// more cells than there are nodes (`n`): then the caller scans linearly.
+    fn rings(
+        &self,
+        c: f64,
+        n: usize,
+        q: &Se3,
+        bound: &dyn Fn() -> f64,
+        visit: &mut dyn FnMut(u32),
+    ) -> bool {
+        let k0 = self.key(q);
+        let mut visited_cells = 0usize;
+        let max_r = (0..3)
+            .map(|i| (k0[i] - self.lo[i]).abs().max((self.hi[i] - k0[i]).abs()))
+            .max()
+            .unwrap_or(0);
+        for r in 0..=max_r {
+            // Points in ring r are at least (r − 1) cells away by translation.
+            if r >= 1 && c * (r - 1) as f64 * self.cell_m > bound() {
+                break;
+            }
+            let ring = if r == 0 {
+                1
+            } else {
+                (2 * r + 1).pow(3) - (2 * r - 1).pow(3)
+            };
+            visited_cells += ring as usize;
+            if visited_cells > n {
+                return false;
+            }
+            for dx in -r..=r {
+                for dy in -r..=r {
+                    for dz in -r..=r {
+                        if dx.abs().max(dy.abs()).max(dz.abs()) != r {
+                            continue;
+                        }
+                        if let Some(ids) = self.cells.get(&[k0[0] + dx, k0[1] + dy, k0[2] + dz]) {
+                            ids.iter().for_each(|&id| visit(id));
+                        }
+                    }
+                }
+            }
+        }
+        true
+    }
+
+    /// The nearest of `configs` (all inserted, index = id) to `q`, or `None` when the grid
+    /// search gave up (then scan linearly). Ties go to the smallest id.
     pub fn nearest(
         &self,
         space: &dyn ConfigSpace,
@@ -71,51 +120,67 @@ impl Grid {
         if c <= 0.0 || !q.is_finite() {
             return None;
         }
-        let k0 = self.key(q);
-        let mut best = (u32::MAX, f64::INFINITY);
-        let mut visited_cells = 0usize;
-        let max_r = (0..3)
-            .map(|i| (k0[i] - self.lo[i]).abs().max((self.hi[i] - k0[i]).abs()))
-            .max()
-            .unwrap_or(0);
-        for r in 0..=max_r {
-            // Points in ring r are at least (r − 1) cells away by translation.
-            if r >= 1 && c * (r - 1) as f64 * self.cell_m > best.1 {
-                break;
+        let best = std::cell::Cell::new((u32::MAX, f64::INFINITY));
+        let complete = self.rings(c, n, q, &|| best.get().1, &mut |id| {
+            let (best_id, best_d) = best.get();
+            let p = configs(id);
+            if c * (p.pos - q.pos).norm() > best_d {
+                return;
             }
-            let ring = if r == 0 {
-                1
-            } else {
-                (2 * r + 1).pow(3) - (2 * r - 1).pow(3)
-            };
-            visited_cells += ring as usize;
-            if visited_cells > n {
-                return None;
+            let d = space.distance(&p, q);
+            if d < best_d || (d == best_d && id < best_id) {
+                best.set((id, d));
             }
-            for dx in -r..=r {
-                for dy in -r..=r {
-                    for dz in -r..=r {
-                        if dx.abs().max(dy.abs()).max(dz.abs()) != r {
-                            continue;
-                        }
-                        let Some(ids) = self.cells.get(&[k0[0] + dx, k0[1] + dy, k0[2] + dz])
-                        else {
-                            continue;
-                        };
-                        for &id in ids {
-                            let p = configs(id);
-                            if c * (p.pos - q.pos).norm() > best.1 {
-                                continue;
-                            }
-                            let d = space.distance(&p, q);
-                            if d < best.1 || (d == best.1 && id < best.0) {
-                                best = (id, d);
-                            }
-                        }
-                    }
-                }
-            }
+        });
+        let best = best.get();
+        (complete && best.0 != u32::MAX).then_some(best)
+    }
+
+    /// The `k` nearest of `configs` to `q` into `out` (cleared first), sorted by distance,
+    /// ties to the smallest id; false when the grid search gave up (then scan linearly).
+    pub fn k_nearest_into(
+        &self,
+        space: &dyn ConfigSpace,
+        configs: &dyn Fn(u32) -> Se3,
+        n: usize,
+        q: &Se3,
+        k: usize,
+        out: &mut Vec<(u32, f64)>,
+    ) -> bool {
+        out.clear();
+        let c = space.translation_factor();
+        if c <= 0.0 || !q.is_finite() || k == 0 {
+            return false;
         }
-        (best.0 != u32::MAX).then_some(best)
+        let found = std::cell::RefCell::new(std::mem::take(out));
+        let bound = || {
+            let f = found.borrow();
+            if f.len() == k {
+                f[k - 1].1
+            } else {
+                f64::INFINITY
+            }
+        };
+        let complete = self.rings(c, n, q, &bound, &mut |id| {
+            let b = bound();
+            let p = configs(id);
+            if c * (p.pos - q.pos).norm() > b {
+                return;
+            }
+            let d = space.distance(&p, q);
+            if d > b {
+                return;
+            }
+            let mut f = found.borrow_mut();
+            let at = f.partition_point(|&(e_id, e)| e < d || (e == d && e_id < id));
+            if at < k {
+                if f.len() == k {
+                    f.pop();
+                }
+                f.insert(at, (id, d));
+            }
+        });
+        *out = found.into_inner();
+        complete
     }
 }
