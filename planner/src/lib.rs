@@ -26,6 +26,7 @@ pub mod experiment;
 pub mod guidance;
 pub mod params;
 pub mod path;
+pub mod picture;
 pub mod pose;
 pub mod rrt;
 pub mod sampling;
@@ -33,6 +34,7 @@ pub mod scene;
 pub mod shell;
 pub mod space;
 pub mod tree;
+pub mod view;
 pub mod wire;
 
 pub use collision::CollisionChecker;
