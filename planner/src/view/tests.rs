@@ -372,3 +372,28 @@ fn merged_recordings_keep_every_channel_and_message_in_time_order() {
     assert!(format!("{e:#}").contains("bad.mcap"), "{e:#}");
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn the_shipped_layout_names_only_topics_the_view_writes() {
+    let text = include_str!("../../view/layout.json");
+    let v: serde_json::Value = serde_json::from_str(text).expect("layout.json is JSON");
+    let panel = &v["configById"]["3D!hrrtc-view"];
+    let topics = panel["topics"].as_object().expect("3D topics");
+    assert!(!topics.is_empty());
+    for t in topics.keys() {
+        assert!(TOPICS.contains(&t.as_str()), "{t}");
+    }
+    assert_eq!(panel["followTf"], draw_frame());
+    assert_eq!(
+        topics["/view/roadmap/nodes"]["colorField"], "distance_to_goal",
+        "a field of the nodes cloud"
+    );
+    assert_eq!(
+        v["configById"]["RawMessages!hrrtc-status"]["topicPath"],
+        "/view/status"
+    );
+}
+
+fn draw_frame() -> &'static str {
+    super::draw::SCENE_FRAME
+}
