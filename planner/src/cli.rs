@@ -159,6 +159,10 @@ pub struct ExperimentArgs {
     /// hrrtc: σ of the operator's orientation error, rad per axis (its dexterity).
     #[arg(long, default_value_t = 0.1)]
     pub error_sigma: f64,
+    /// Also draw the final roadmap of each configuration's first seed, top-down with
+    /// the operator's path and the solution, into OUT/roadmaps/*.png.
+    #[arg(long)]
+    pub pictures: bool,
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -658,9 +662,41 @@ pub fn experiment(a: &ExperimentArgs) -> anyhow::Result<()> {
         )
         .context("progress template")?,
     );
+    let pictures = a.pictures && report::register_font();
+    if a.pictures && !pictures {
+        eprintln!("planner: no TrueType font found (DejaVuSans.ttf): pictures skipped");
+    }
+    let roadmaps = a.out.join("roadmaps");
+    if pictures {
+        std::fs::create_dir_all(&roadmaps)
+            .with_context(|| format!("cannot create {}", roadmaps.display()))?;
+    }
     let mut results = Vec::with_capacity(specs.len());
     for s in &specs {
-        let r = ex::run(s)?;
+        let png = (pictures && s.seed == 1).then(|| {
+            let method = match s.user {
+                ex::UserModel::None => "auto",
+                _ => s.params.sampling.name(),
+            };
+            roadmaps.join(format!(
+                "{}-{}-sigma{}-{}.png",
+                s.scene,
+                method.replace('+', "_"),
+                s.params.user_sigma,
+                match s.user {
+                    ex::UserModel::PassThrough { eps_v }
+                    | ex::UserModel::ContactSeeking { eps_v, .. } => format!("eps{eps_v}"),
+                    ex::UserModel::None => "auto".into(),
+                } + &match s.params.sampling {
+                    crate::Sampling::Hrrtc { alpha } => format!("-alpha{alpha}"),
+                    _ => String::new(),
+                }
+            ))
+        });
+        let (r, drawn) = ex::run_drawn(s, png.as_deref())?;
+        if let Err(e) = drawn {
+            eprintln!("planner: {e}");
+        }
         bar.set_message(format!(
             "{} {} seed {}: {}",
             r.scene,

@@ -213,13 +213,13 @@ fn draw(
     let root = BitMapBackend::new(file, (width, height)).into_drawing_area();
     root.fill(&WHITE)?;
     let label = match pic.color_by {
-        ColorBy::Distance => "nodes: distance label (green near the goal → red far)",
-        ColorBy::Collision => "nodes: collision label (green free → red colliding)",
+        ColorBy::Distance => "nodes by distance label (green near goal → red far)",
+        ColorBy::Collision => "nodes by collision label (green free → red colliding)",
     };
     let mut chart = ChartBuilder::on(&root)
         .caption(
-            format!("{} — {} projection; {label}", pic.title, plane.name()),
-            ("sans-serif", 18),
+            format!("{} — {}; {label}", pic.title, plane.name()),
+            ("sans-serif", 16),
         )
         .margin(15)
         .x_label_area_size(35)

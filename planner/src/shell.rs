@@ -81,6 +81,10 @@ pub struct ShellReport {
     pub roadmap_published: u64,
     /// Roadmap increments skipped because no sample could be loaned.
     pub roadmap_skipped: u64,
+    /// Mean time the main thread spent on one roadmap increment (loan, fill, send), µs.
+    pub roadmap_publish_mean_us: f64,
+    /// Longest time the main thread spent on one roadmap increment, µs.
+    pub roadmap_publish_max_us: f64,
 }
 
 /// The newest operator state as seen by the receiver thread.
@@ -114,6 +118,7 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
     let mut feed = RoadmapFeed::new();
     let roadmap_period = Duration::from_secs_f64(1.0 / config.roadmap_rate_hz.max(1e-3));
     let mut next_roadmap = Instant::now();
+    let mut roadmap_publish_total_us = 0.0;
     let state_reader = services::state_reader(&node, &config.namespace)?;
     let mut planner = Planner::new(&config.scene, config.params.clone(), config.seed)?;
 
@@ -199,7 +204,12 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
             && now >= next_roadmap
         {
             next_roadmap = now + roadmap_period;
-            if publish_roadmap(rp, &mut feed, &planner, pid) {
+            let t0 = Instant::now();
+            let sent = publish_roadmap(rp, &mut feed, &planner, pid);
+            let us = t0.elapsed().as_secs_f64() * 1e6;
+            roadmap_publish_total_us += us;
+            report.roadmap_publish_max_us = report.roadmap_publish_max_us.max(us);
+            if sent {
                 report.roadmap_published += 1;
             } else {
                 report.roadmap_skipped += 1;
@@ -218,6 +228,10 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
     let op = *lock(&operator);
     let s = planner.stats();
     report.run_s = started.elapsed().as_secs_f64();
+    let attempts = report.roadmap_published + report.roadmap_skipped;
+    if attempts > 0 {
+        report.roadmap_publish_mean_us = roadmap_publish_total_us / attempts as f64;
+    }
     report.solved = planner.solved();
     report.iterations = s.iterations;
     report.nodes = s.nodes as u64;

@@ -17,11 +17,11 @@
 //! | `/view/object` | `foxglove.SceneUpdate` | the object in frames `device` and `proxy` | on subscribe, every 2 s |
 //! | `/view/tf` | `foxglove.FrameTransforms` | scene → device (device-mapped pose), scene → proxy | new states, ≤ `--rate-hz` |
 //! | `/view/forces` | `foxglove.SceneUpdate` | contact point, normal n_c, contact force, F_s, f_u, F_a | new states, ≤ `--rate-hz` |
-//! | `/view/roadmap/edges` | `foxglove.SceneUpdate` | one entity per 1024-node chunk, coloured by tree | changed chunks, 4 Hz |
-//! | `/view/roadmap/nodes` | `foxglove.PointCloud` | every node with `distance_to_goal`, `freedom`, `tree_kind` | 1 Hz when changed |
+//! | `/view/roadmap/edges` | `foxglove.SceneUpdate` | one entity per 1024-node chunk, coloured by tree | changed chunks and one more (rolling refresh), 4 Hz; all on subscribe |
+//! | `/view/roadmap/nodes` | `foxglove.PointCloud` | every node with `distance_to_goal`, `freedom`, `tree_kind` | ≤ 1 Hz when a node or label changed; on subscribe |
 //! | `/view/trail` | `foxglove.SceneUpdate` | the operator's travelled path | 2 Hz when changed |
 //! | `/view/path` | `foxglove.SceneUpdate` | the solution path | when it arrives, every 2 s |
-//! | `/view/status` | `hrrtc.ViewStatus` (derived) | counters: nodes, trees, solved, contact, fault | 1 Hz |
+//! | `/view/status` | `viewstatus.ViewStatus` (derived with `foxglove::Encode`) | counters: nodes, trees, solved, contact, fault | 1 Hz |
 //!
 //! Log times are `CLOCK_MONOTONIC` ns, the time base of the device recording
 //! (`devices::record`), whose topics are under `/device/`: the two files merge into one

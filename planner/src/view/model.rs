@@ -64,6 +64,7 @@ pub struct RoadmapModel {
     /// Samples the planner sent that this view did not see (sequence gaps).
     pub samples_missed: u64,
     dirty: BTreeSet<(u32, u32)>,
+    changed: bool,
 }
 
 impl RoadmapModel {
@@ -87,6 +88,7 @@ impl RoadmapModel {
             self.dirty.clear();
             self.writer_pid = s.header.writer_pid;
             removal = Some(Removal::All);
+            self.changed = true;
         } else if s.header.sequence > self.last_sequence + 1 {
             self.samples_missed += s.header.sequence - self.last_sequence - 1;
         }
@@ -112,8 +114,11 @@ impl RoadmapModel {
                 }
                 self.dirty.retain(|(t, _)| *t != id);
             }
-            if !chunks.is_empty() && removal.is_none() {
-                removal = Some(Removal::Chunks(chunks));
+            if !chunks.is_empty() {
+                self.changed = true;
+                if removal.is_none() {
+                    removal = Some(Removal::Chunks(chunks));
+                }
             }
         }
         for t in s.trees() {
@@ -150,10 +155,17 @@ impl RoadmapModel {
             }
             if *slot != Some(view) {
                 *slot = Some(view);
+                self.changed = true;
                 self.dirty.insert((n.tree_id, n.index / CHUNK_NODES));
             }
         }
         removal
+    }
+
+    /// True when a node, a label or the set of trees changed since the last call (a
+    /// rolling-window sample that re-sends known nodes unchanged changes nothing).
+    pub fn take_changed(&mut self) -> bool {
+        std::mem::take(&mut self.changed)
     }
 
     /// Chunks changed since the last call, `(tree id, chunk)`; clears the set.
@@ -258,6 +270,11 @@ mod tests {
         feed.fill(&trees, &ids, info(1), &mut s);
         assert_eq!(model.apply(&s), Some(Removal::All));
         assert_eq!(model.take_dirty(), vec![(0, 0), (1, 0), (2, 0)]);
+        assert!(model.take_changed());
+        // The same roadmap again (rolling window only): nothing changed.
+        feed.fill(&trees, &ids, info(1), &mut s);
+        assert_eq!(model.apply(&s), None);
+        assert!(!model.take_changed() && model.take_dirty().is_empty());
         trees.pop();
         ids.pop();
         feed.fill(&trees, &ids, info(1), &mut s);

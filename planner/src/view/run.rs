@@ -122,9 +122,10 @@ impl ServerListener for Resend {
 const TRAIL_STEP_M: f64 = 0.002;
 /// Most trail points; beyond it every other point is dropped.
 const TRAIL_MAX: usize = 20_000;
-/// Edge chunks re-sent per edges update beyond the changed ones (late Foxglove clients and
-/// seeking in a recording get the whole roadmap back after a while).
-const EDGE_REFRESH_CHUNKS: usize = 2;
+/// Edge chunks re-sent per edges update (4 Hz) beyond the changed ones, so that seeking in
+/// a recording gets the whole roadmap back after a while (a Foxglove client that
+/// subscribes gets every chunk at once); a 50 000-node roadmap is re-sent every 12 s.
+const EDGE_REFRESH_CHUNKS: usize = 1;
 
 /// The viewer: services, sinks, and what it has assembled.
 pub struct Viewer {
@@ -298,7 +299,7 @@ impl Viewer {
                 }
                 None => {}
             }
-            self.nodes_changed = true;
+            self.nodes_changed |= self.model.take_changed();
         }
         while let Some(p) = self.path_sub.receive().context("path receive")? {
             self.path = p.waypoints().iter().map(|w| w.position_m).collect();
