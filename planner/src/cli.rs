@@ -26,7 +26,8 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Run next to a haptic loop: read its state over iceoryx2, grow the trees, publish
-    /// guidance and the solution path. Stops on Ctrl-C / SIGTERM or after --duration-s.
+    /// guidance, the solution path and roadmap increments (for `planner view`). Stops on
+    /// Ctrl-C / SIGTERM or after --duration-s.
     Serve(ServeArgs),
     /// Plan automatically (no operator) with RRT-Connect or RRT (--algorithm) and report.
     Solve(SolveArgs),
@@ -57,7 +58,7 @@ pub struct ViewArgs {
     /// Address of the WebSocket server (0.0.0.0 to reach it from other hosts).
     #[arg(long, default_value = "127.0.0.1")]
     pub host: String,
-    /// Port of the WebSocket server; 0 picks a free port (printed at start).
+    /// Port of the WebSocket server; 0 picks a free port (logged at start).
     #[arg(long, default_value_t = 8765)]
     pub port: u16,
     /// Run no WebSocket server (recording only; needs --record).

@@ -101,7 +101,9 @@ fn issue_8_a_slow_or_dead_view_changes_nothing_in_the_loop() {
     let mut lp = start_loop(&ns, summary.to_str().unwrap());
     let (node, _) = services::create_node("it_view_watch").unwrap();
     let state = services::state_reader(&node, &ns).unwrap();
-    let mut planner = crate::two_process::start_planner(&ns, &[]);
+    let planner_json = dir.join("planner.json");
+    let mut planner =
+        crate::two_process::start_planner(&ns, &["--json", planner_json.to_str().unwrap()]);
     wait_for("the loop past start-up", Duration::from_secs(30), || {
         let s = *state.get();
         (s.header.sequence > 1000 && s.fault == FaultCode::NONE).then_some(())
@@ -164,6 +166,9 @@ fn issue_8_a_slow_or_dead_view_changes_nothing_in_the_loop() {
         .wait_timeout(Duration::from_secs(10))
         .expect("planner stops");
     assert!(st.success(), "planner exit: {st}");
+    let p: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&planner_json).unwrap()).unwrap();
+    assert!(p["roadmap_published"].as_u64().unwrap() > 0, "{p}");
     lp.signal(libc::SIGTERM);
     let st = lp
         .wait_timeout(Duration::from_secs(10))
@@ -177,7 +182,12 @@ fn issue_8_a_slow_or_dead_view_changes_nothing_in_the_loop() {
 
     eprintln!(
         "issue 8, median of {PHASES} phases of {PHASE_TICKS} ticks (SCHED_FIFO {fifo}): baseline {baseline:?}, \
-         view running {running:?}, view stopped {stopped:?}, view killed {killed:?}"
+         view running {running:?}, view stopped {stopped:?}, view killed {killed:?}; planner: \
+         {} roadmap increments published, {} skipped, {:.1} µs mean, {:.1} µs max",
+        p["roadmap_published"],
+        p["roadmap_skipped"],
+        p["roadmap_publish_mean_us"].as_f64().unwrap(),
+        p["roadmap_publish_max_us"].as_f64().unwrap()
     );
     let tolerance = baseline.misses + PHASE_TICKS / 100;
     let mut checked = vec![("stopped", stopped), ("killed", killed)];
