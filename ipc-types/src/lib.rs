@@ -26,6 +26,7 @@ mod codes;
 mod driver;
 mod guidance;
 mod path;
+mod roadmap;
 pub mod services;
 mod state;
 
@@ -35,6 +36,9 @@ pub use driver::{
 };
 pub use guidance::{Guidance, GuidanceError};
 pub use path::{PATH_CAPACITY, Path};
+pub use roadmap::{
+    NO_PARENT, ROADMAP_NODES, ROADMAP_TREES, Roadmap, RoadmapNode, RoadmapTree, TreeKind,
+};
 pub use state::HapticState;
 
 use iceoryx2::prelude::ZeroCopySend;

@@ -5,6 +5,7 @@
 //! | [`HAPTIC_STATE`]`/<generation>` | blackboard, one entry | haptic loop (RT thread) | latest value; never blocks, never allocates; a loop restarted after a crash writes a new generation, readers follow the newest ([`newest_state_generation`]) |
 //! | [`GUIDANCE`] | publish-subscribe | planner | history 1, safe overflow: latest value; a restarted planner simply publishes again |
 //! | [`PATH`] | publish-subscribe | planner | history 1, safe overflow: late subscribers get the newest path; the planner never blocks |
+//! | [`ROADMAP`] | publish-subscribe | planner | no history, [`ROADMAP_SUBSCRIBER_BUFFER`] samples, safe overflow: increments; a slow or late viewer catches up from the rolling window (see [`crate::Roadmap`]); the planner never blocks |
 //! | [`DRIVER_STATE`] | publish-subscribe | external device driver | history 1, safe overflow: latest value; a restarted driver simply publishes again |
 //! | [`DRIVER_COMMAND`] | publish-subscribe | haptic loop (bridge relay thread) | history 1, safe overflow: latest value; the driver zeroes force when it goes stale |
 //!
@@ -31,7 +32,7 @@
 //! Service names are `hrrtc/<namespace>/<leaf>`; the namespace lets tests and several
 //! independent setups share a host.
 
-use crate::{DriverCommand, DriverState, Guidance, HapticState, Path};
+use crate::{DriverCommand, DriverState, Guidance, HapticState, Path, Roadmap};
 use core::time::Duration;
 use iceoryx2::port::reader::EntryHandle;
 use iceoryx2::port::writer::EntryHandleMut;
@@ -44,6 +45,8 @@ pub const HAPTIC_STATE: &str = "haptic_state";
 pub const GUIDANCE: &str = "guidance";
 /// Leaf name of the [`Path`] publish-subscribe service.
 pub const PATH: &str = "path";
+/// Leaf name of the [`Roadmap`] publish-subscribe service (planner → viewers).
+pub const ROADMAP: &str = "roadmap";
 /// Leaf name of the [`crate::DriverState`] service (driver → loop).
 pub const DRIVER_STATE: &str = "driver/state";
 /// Leaf name of the [`crate::DriverCommand`] service (loop → driver).
@@ -61,6 +64,13 @@ pub const LATEST_SUBSCRIBER_BUFFER: usize = 2;
 /// Most publishers of [`PATH`] and [`GUIDANCE`]: a planner and its restarted successor
 /// while the dead one's port is not yet cleaned up.
 pub const MAX_PLANNER_PUBLISHERS: usize = 4;
+
+/// Subscriber buffer of [`ROADMAP`]: half a second of increments at 20 Hz; a viewer that
+/// falls further behind loses the oldest and catches up from the rolling window.
+pub const ROADMAP_SUBSCRIBER_BUFFER: usize = 10;
+/// Most subscribers of [`ROADMAP`] (viewers and recorders). Each one costs the planner's
+/// shared memory `ROADMAP_SUBSCRIBER_BUFFER` samples of 90 KB.
+pub const ROADMAP_MAX_SUBSCRIBERS: usize = 4;
 
 /// The iceoryx2 transport both processes use.
 pub type Ipc = ipc::Service;
@@ -82,6 +92,10 @@ pub type DriverCommandPublisher = iceoryx2::port::publisher::Publisher<Ipc, Driv
 pub type DriverCommandSubscriber = iceoryx2::port::subscriber::Subscriber<Ipc, DriverCommand, ()>;
 /// Publisher of [`PATH`].
 pub type PathPublisher = iceoryx2::port::publisher::Publisher<Ipc, Path, ()>;
+/// Publisher of [`ROADMAP`].
+pub type RoadmapPublisher = iceoryx2::port::publisher::Publisher<Ipc, Roadmap, ()>;
+/// Subscriber of [`ROADMAP`].
+pub type RoadmapSubscriber = iceoryx2::port::subscriber::Subscriber<Ipc, Roadmap, ()>;
 /// Subscriber of [`PATH`].
 pub type PathSubscriber = iceoryx2::port::subscriber::Subscriber<Ipc, Path, ()>;
 
@@ -422,6 +436,68 @@ pub fn path_publisher(node: &Node<Ipc>, namespace: &str) -> Result<PathPublisher
 /// Subscriber of [`PATH`].
 pub fn path_subscriber(node: &Node<Ipc>, namespace: &str) -> Result<PathSubscriber, ServiceError> {
     subscriber::<Path>(node, namespace, PATH)
+}
+
+/// The [`ROADMAP`] service: no history (a sample is an increment, not a state), a deeper
+/// buffer than the latest-value services, safe overflow.
+fn roadmap_service(
+    node: &Node<Ipc>,
+    namespace: &str,
+) -> Result<
+    iceoryx2::service::port_factory::publish_subscribe::PortFactory<Ipc, Roadmap, ()>,
+    ServiceError,
+> {
+    let full = service_name(namespace, ROADMAP);
+    let name: ServiceName = full
+        .as_str()
+        .try_into()
+        .map_err(|e| err(&full, format!("invalid service name: {e:?}")))?;
+    node.service_builder(&name)
+        .publish_subscribe::<Roadmap>()
+        .history_size(0)
+        .subscriber_max_buffer_size(ROADMAP_SUBSCRIBER_BUFFER)
+        .enable_safe_overflow(true)
+        .max_publishers(MAX_PLANNER_PUBLISHERS)
+        .max_subscribers(ROADMAP_MAX_SUBSCRIBERS)
+        .max_nodes(MAX_NODES)
+        .open_or_create()
+        .map_err(|e| err(&full, format!("cannot open or create: {e:?}")))
+}
+
+/// Publisher of [`ROADMAP`] (for the planner). Its samples are loaned (`loan()`), filled
+/// in place and sent; a loan that fails (no free sample) is skipped, never waited for.
+pub fn roadmap_publisher(
+    node: &Node<Ipc>,
+    namespace: &str,
+) -> Result<RoadmapPublisher, ServiceError> {
+    roadmap_service(node, namespace)?
+        .publisher_builder()
+        .create()
+        .map_err(|e| {
+            err(
+                &service_name(namespace, ROADMAP),
+                format!("cannot create publisher: {e:?}"),
+            )
+        })
+}
+
+/// Subscriber of [`ROADMAP`] (for viewers). Fails with a clear message when
+/// [`ROADMAP_MAX_SUBSCRIBERS`] viewers are already attached.
+pub fn roadmap_subscriber(
+    node: &Node<Ipc>,
+    namespace: &str,
+) -> Result<RoadmapSubscriber, ServiceError> {
+    roadmap_service(node, namespace)?
+        .subscriber_builder()
+        .create()
+        .map_err(|e| {
+            err(
+                &service_name(namespace, ROADMAP),
+                format!(
+                    "cannot create subscriber ({e:?}); at most {ROADMAP_MAX_SUBSCRIBERS} viewers may attach"
+                ),
+            )
+        })
 }
 
 /// Publisher of [`DRIVER_STATE`] (for a device driver).

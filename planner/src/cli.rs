@@ -26,7 +26,8 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Run next to a haptic loop: read its state over iceoryx2, grow the trees, publish
-    /// guidance and the solution path. Stops on Ctrl-C / SIGTERM or after --duration-s.
+    /// guidance, the solution path and roadmap increments (for `planner view`). Stops on
+    /// Ctrl-C / SIGTERM or after --duration-s.
     Serve(ServeArgs),
     /// Plan automatically (no operator) with RRT-Connect or RRT (--algorithm) and report.
     Solve(SolveArgs),
@@ -35,6 +36,84 @@ pub enum Command {
     /// Rerun the papers' experiments with a simulated operator in lockstep and write
     /// runs.csv, summary.md and PNG plots.
     Experiment(ExperimentArgs),
+    /// Live 3D view for Foxglove / Lichtblick (WebSocket, default ws://127.0.0.1:8765) of
+    /// a running haptic loop and planner: scene, object and proxy, contact, forces,
+    /// roadmap, paths. Optionally records the same channels to MCAP. Read-only: the loop
+    /// and the planner never wait for it. Stops on Ctrl-C / SIGTERM or after --duration-s.
+    View(ViewArgs),
+    /// Merge MCAP recordings (e.g. `haptic-loop run --record` and `planner view --record`)
+    /// into one file, messages ordered by log time.
+    MergeRecordings(MergeArgs),
+}
+
+/// Options of `planner view`.
+#[derive(Debug, Args, Clone)]
+pub struct ViewArgs {
+    /// IPC namespace of the haptic loop and the planner.
+    #[arg(long, default_value = ipc_types::services::DEFAULT_NAMESPACE)]
+    pub namespace: String,
+    /// The scene they run: a built-in name or a TOML scene file (as for `serve`).
+    #[arg(long, default_value = "wall-hole")]
+    pub scene: String,
+    /// Address of the WebSocket server (0.0.0.0 to reach it from other hosts).
+    #[arg(long, default_value = "127.0.0.1")]
+    pub host: String,
+    /// Port of the WebSocket server; 0 picks a free port (logged at start).
+    #[arg(long, default_value_t = 8765)]
+    pub port: u16,
+    /// Run no WebSocket server (recording only; needs --record).
+    #[arg(long)]
+    pub no_server: bool,
+    /// Record every channel to this MCAP file (lz4 chunks; overwritten).
+    #[arg(long, value_name = "FILE")]
+    pub record: Option<PathBuf>,
+    /// Most object-pose and force-arrow updates per second.
+    #[arg(long, default_value_t = 30.0)]
+    pub rate_hz: f64,
+    /// Force arrows: metres of arrow per newton.
+    #[arg(long, default_value_t = 0.02)]
+    pub m_per_n: f64,
+    /// Stop after this many seconds.
+    #[arg(long)]
+    pub duration_s: Option<f64>,
+    /// Write a JSON report (messages per topic, nodes received...) here on exit.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+impl ViewArgs {
+    /// Validates the arguments into a [`crate::view::ViewConfig`] (loads the scene).
+    pub fn to_config(&self) -> anyhow::Result<crate::view::ViewConfig> {
+        services::validate_namespace(&self.namespace)
+            .map_err(|e| anyhow::anyhow!("--namespace: {e}"))?;
+        if self.no_server && self.record.is_none() {
+            bail!("--no-server without --record would show and record nothing");
+        }
+        Ok(crate::view::ViewConfig {
+            namespace: self.namespace.clone(),
+            scene: Scene::by_name_or_path(&self.scene)?,
+            host: self.host.clone(),
+            port: (!self.no_server).then_some(self.port),
+            record: self.record.clone(),
+            rate_hz: positive("rate-hz", self.rate_hz)?,
+            m_per_n: positive("m-per-n", self.m_per_n)?,
+            duration_s: self
+                .duration_s
+                .map(|d| positive("duration-s", d))
+                .transpose()?,
+        })
+    }
+}
+
+/// Options of `planner merge-recordings`.
+#[derive(Debug, Args, Clone)]
+pub struct MergeArgs {
+    /// The merged file (overwritten).
+    #[arg(long, short, value_name = "FILE")]
+    pub out: PathBuf,
+    /// The recordings to merge.
+    #[arg(required = true, num_args = 1.., value_name = "INPUT")]
+    pub inputs: Vec<PathBuf>,
 }
 
 /// Options of `planner experiment`.
@@ -81,6 +160,10 @@ pub struct ExperimentArgs {
     /// hrrtc: σ of the operator's orientation error, rad per axis (its dexterity).
     #[arg(long, default_value_t = 0.1)]
     pub error_sigma: f64,
+    /// Also draw the final roadmap of each configuration's first seed, top-down with
+    /// the operator's path and the solution, into OUT/roadmaps/*.png.
+    #[arg(long)]
+    pub pictures: bool,
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -190,6 +273,10 @@ pub struct ServeArgs {
     /// How often to poll the haptic state, Hz (above the loop rate to see every tick).
     #[arg(long, default_value_t = 2000.0)]
     pub poll_hz: f64,
+    /// Roadmap increments per second for `planner view` (1024 nodes each; a late viewer
+    /// gets the whole roadmap from a rolling window); 0 publishes none.
+    #[arg(long, default_value_t = 20.0)]
+    pub roadmap_rate_hz: f64,
     /// Stop after this many seconds.
     #[arg(long)]
     pub duration_s: Option<f64>,
@@ -221,6 +308,16 @@ pub struct SolveArgs {
     /// Write the (smoothed) solution path here as JSON waypoints.
     #[arg(long)]
     pub path_json: Option<PathBuf>,
+    /// Draw the scene, the roadmap (nodes coloured by --png-color) and the path, projected
+    /// on --png-plane, into this PNG file (like I-RRT Fig. 9). Drawn solved or not.
+    #[arg(long, value_name = "FILE")]
+    pub png: Option<PathBuf>,
+    /// Node colour of --png: `distance` (distance label) or `collision` (collision label).
+    #[arg(long, default_value = "distance", value_parser = ["distance", "collision"])]
+    pub png_color: String,
+    /// Projection plane of --png: `xy` (top-down), `xz` or `yz`.
+    #[arg(long, default_value = "xy", value_parser = ["xy", "xz", "yz"])]
+    pub png_plane: String,
 }
 
 fn positive(name: &str, v: f64) -> anyhow::Result<f64> {
@@ -277,6 +374,11 @@ impl ServeArgs {
             state_poll_hz: positive("poll-hz", self.poll_hz)?,
             state_timeout_s: 0.5,
             plan_without_operator: self.plan_without_operator,
+            roadmap_rate_hz: if self.roadmap_rate_hz == 0.0 {
+                0.0
+            } else {
+                positive("roadmap-rate-hz", self.roadmap_rate_hz)?
+            },
             duration_s: self
                 .duration_s
                 .map(|d| positive("duration-s", d))
@@ -312,6 +414,10 @@ pub struct SolveReport {
 pub fn solve(args: &SolveArgs) -> anyhow::Result<SolveReport> {
     let (scene, params) = args.core.load()?;
     let limit = positive("time-limit", args.time_limit)?;
+    let color_by = crate::picture::ColorBy::parse(&args.png_color)
+        .with_context(|| format!("--png-color: unknown `{}`", args.png_color))?;
+    let plane = crate::picture::Plane::parse(&args.png_plane)
+        .with_context(|| format!("--png-plane: unknown `{}`", args.png_plane))?;
     let mut planner = Planner::new(&scene, params, args.core.seed)?;
     let started = Instant::now();
     while !planner.solved() && started.elapsed().as_secs_f64() < limit {
@@ -331,6 +437,32 @@ pub fn solve(args: &SolveArgs) -> anyhow::Result<SolveReport> {
         };
         write(&args.path_csv, crate::path::to_csv(planner.space(), p))?;
         write(&args.path_json, crate::path::to_json(planner.space(), p))?;
+    }
+    if let Some(file) = &args.png {
+        if !crate::experiment::report::register_font() {
+            tracing::warn!("no TrueType font found (DejaVuSans.ttf): the PNG has no text");
+        }
+        let title = format!(
+            "{} seed {}: {} nodes, {}",
+            scene.name,
+            args.core.seed,
+            s.nodes,
+            if planner.solved() {
+                "solved"
+            } else {
+                "not solved"
+            }
+        );
+        let pic = crate::picture::Picture {
+            scene: &scene,
+            trees: planner.trees(),
+            solution: planner.solution(),
+            user_path: planner.user_path(),
+            color_by,
+            plane,
+            title: &title,
+        };
+        crate::picture::draw_png(&pic, file, 1000, 1000).map_err(anyhow::Error::msg)?;
     }
     Ok(SolveReport {
         scene: scene.name.clone(),
@@ -425,6 +557,45 @@ where
             experiment(&a)?;
             Ok(0)
         }
+        Command::View(a) => {
+            let config = a.to_config()?;
+            let stop = Arc::new(AtomicBool::new(false));
+            {
+                let stop = stop.clone();
+                ctrlc::set_handler(move || stop.store(true, Ordering::Release))
+                    .context("cannot install the SIGINT/SIGTERM handler")?;
+            }
+            let viewer = crate::view::Viewer::new(&config)?;
+            if let Some(port) = viewer.port() {
+                tracing::info!(
+                    "view of namespace '{}' (scene '{}'): open ws://{}:{port} in Foxglove or Lichtblick, layout planner/view/layout.json",
+                    config.namespace,
+                    config.scene.name,
+                    config.host
+                );
+            }
+            if let Some(r) = &config.record {
+                tracing::info!("recording to {}", r.display());
+            }
+            let report = viewer.run(&stop)?;
+            tracing::info!(
+                "view done: {} states, {} roadmap samples ({} missed), {} of {} nodes",
+                report.states_seen,
+                report.roadmap_samples,
+                report.roadmap_samples_missed,
+                report.nodes_known,
+                report.planner_nodes
+            );
+            if let Some(p) = &a.json {
+                write_json(p, &report)?;
+            }
+            Ok(0)
+        }
+        Command::MergeRecordings(a) => {
+            let n = crate::view::merge_mcap(&a.inputs, &a.out)?;
+            println!("wrote {} messages to {}", n, a.out.display());
+            Ok(0)
+        }
         Command::Scenes(a) => {
             for name in crate::scene::BUILTIN_NAMES {
                 if name == "default" {
@@ -497,9 +668,41 @@ pub fn experiment(a: &ExperimentArgs) -> anyhow::Result<()> {
         )
         .context("progress template")?,
     );
+    let pictures = a.pictures && report::register_font();
+    if a.pictures && !pictures {
+        eprintln!("planner: no TrueType font found (DejaVuSans.ttf): pictures skipped");
+    }
+    let roadmaps = a.out.join("roadmaps");
+    if pictures {
+        std::fs::create_dir_all(&roadmaps)
+            .with_context(|| format!("cannot create {}", roadmaps.display()))?;
+    }
     let mut results = Vec::with_capacity(specs.len());
     for s in &specs {
-        let r = ex::run(s)?;
+        let png = (pictures && s.seed == 1).then(|| {
+            let method = match s.user {
+                ex::UserModel::None => "auto",
+                _ => s.params.sampling.name(),
+            };
+            roadmaps.join(format!(
+                "{}-{}-sigma{}-{}.png",
+                s.scene,
+                method.replace('+', "_"),
+                s.params.user_sigma,
+                match s.user {
+                    ex::UserModel::PassThrough { eps_v }
+                    | ex::UserModel::ContactSeeking { eps_v, .. } => format!("eps{eps_v}"),
+                    ex::UserModel::None => "auto".into(),
+                } + &match s.params.sampling {
+                    crate::Sampling::Hrrtc { alpha } => format!("-alpha{alpha}"),
+                    _ => String::new(),
+                }
+            ))
+        });
+        let (r, drawn) = ex::run_drawn(s, png.as_deref())?;
+        if let Err(e) = drawn {
+            eprintln!("planner: {e}");
+        }
         bar.set_message(format!(
             "{} {} seed {}: {}",
             r.scene,

@@ -27,6 +27,7 @@ pub mod guidance;
 pub mod latency;
 pub mod params;
 pub mod path;
+pub mod picture;
 pub mod pose;
 pub mod rrt;
 pub mod sampling;
@@ -34,6 +35,7 @@ pub mod scene;
 pub mod shell;
 pub mod space;
 pub mod tree;
+pub mod view;
 pub mod wire;
 
 pub use collision::CollisionChecker;

@@ -106,6 +106,10 @@ pub struct Planner {
     rng: ChaCha8Rng,
     /// `[start tree, goal tree, local trees…]`.
     trees: Vec<Tree>,
+    /// Stable id of each tree in `trees` (0 start, 1 goal, local trees from 2, never
+    /// reused): lets a viewer follow trees while local trees come and go.
+    tree_ids: Vec<u32>,
+    next_tree_id: u32,
     goal: Se3,
     a: usize,
     iterations: u64,
@@ -139,6 +143,8 @@ impl Planner {
         let d = space.distance(&scene.start, &scene.goal);
         Ok(Planner {
             trees: vec![Tree::new(scene.start, d), Tree::new(scene.goal, 0.0)],
+            tree_ids: vec![0, 1],
+            next_tree_id: 2,
             space,
             checker,
             params,
@@ -334,9 +340,12 @@ impl Planner {
             // Drop the oldest-made local tree: bounded work, and recent operator input
             // matters most.
             self.trees.remove(2);
+            self.tree_ids.remove(2);
         }
         let d = self.space.distance(q, &self.goal);
         self.trees.push(Tree::new(*q, d));
+        self.tree_ids.push(self.next_tree_id);
+        self.next_tree_id = self.next_tree_id.wrapping_add(1).max(2);
         1
     }
 
@@ -386,6 +395,7 @@ impl Planner {
     /// and removes it.
     fn merge(&mut self, t: usize, at_local: NodeId, main: usize, at_main: NodeId) {
         let local = self.trees.remove(t);
+        self.tree_ids.remove(t);
         let (space, goal) = (&self.space, self.goal);
         self.trees[main].graft(at_main, &local, at_local, |q| space.distance(q, &goal));
     }
@@ -547,6 +557,12 @@ impl Planner {
     /// `[start tree, goal tree, local trees…]`.
     pub fn trees(&self) -> &[Tree] {
         &self.trees
+    }
+
+    /// Stable id of each tree of [`Planner::trees`], same order: 0 start, 1 goal, local
+    /// trees from 2 upwards in creation order, never reused.
+    pub fn tree_ids(&self) -> &[u32] {
+        &self.tree_ids
     }
 
     /// The configuration space (metric, bounds).

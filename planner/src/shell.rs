@@ -6,11 +6,15 @@
 //!   keeps the newest operator pose for the planning thread. Polling rather than an event:
 //!   the haptic loop must not call `notify()` from its RT thread (see `ipc_types::services`).
 //! - *main*: runs planner iterations as fast as they go and, independently of their speed,
-//!   publishes [`Guidance`] at `guidance_rate_hz` and the [`Path`] once solved. Never waits
-//!   for the haptic loop.
+//!   publishes [`Guidance`] at `guidance_rate_hz`, the [`Path`] once solved, and roadmap
+//!   increments for viewers ([`ipc_types::Roadmap`], filled by
+//!   [`crate::view::feed::RoadmapFeed`]: O(1024) nodes per sample whatever the roadmap's
+//!   size) at `roadmap_rate_hz`. Never waits for the haptic loop or a viewer: a roadmap
+//!   sample that cannot be loaned is skipped, and a full viewer queue overflows safely.
 
+use crate::view::feed::{FeedInfo, RoadmapFeed};
 use crate::{Planner, PlannerParams, Scene, Se3};
-use ipc_types::services::{self, GuidancePublisher, StateReader};
+use ipc_types::services::{self, GuidancePublisher, RoadmapPublisher, StateReader};
 use ipc_types::{Guidance, GuidanceMode, HapticState, Header, PATH_CAPACITY, Path, Pose};
 use serde::Serialize;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -44,6 +48,8 @@ pub struct ShellConfig {
     pub plan_without_operator: bool,
     /// Stop after this long (`None` = until SIGINT/SIGTERM).
     pub duration_s: Option<f64>,
+    /// Roadmap increments published per second for viewers; 0 publishes none.
+    pub roadmap_rate_hz: f64,
 }
 
 /// What a planner run did; written as JSON by `--json`.
@@ -81,6 +87,14 @@ pub struct ShellReport {
     /// (the loop's tick wake-up) → the poll that read it, µs. Includes the rest of that tick
     /// and the wait for the next poll (up to 1/`state_poll_hz`).
     pub state_latency_us: crate::latency::LatencyUs,
+    /// Roadmap increments published.
+    pub roadmap_published: u64,
+    /// Roadmap increments skipped because no sample could be loaned.
+    pub roadmap_skipped: u64,
+    /// Mean time the main thread spent on one roadmap increment (loan, fill, send), µs.
+    pub roadmap_publish_mean_us: f64,
+    /// Longest time the main thread spent on one roadmap increment, µs.
+    pub roadmap_publish_max_us: f64,
 }
 
 /// The newest operator state as seen by the receiver thread.
@@ -108,6 +122,15 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
     }
     let guidance = services::guidance_publisher(&node, &config.namespace)?;
     let path_pub = services::path_publisher(&node, &config.namespace)?;
+    let roadmap_pub = if config.roadmap_rate_hz > 0.0 {
+        Some(services::roadmap_publisher(&node, &config.namespace)?)
+    } else {
+        None
+    };
+    let mut feed = RoadmapFeed::new();
+    let roadmap_period = Duration::from_secs_f64(1.0 / config.roadmap_rate_hz.max(1e-3));
+    let mut next_roadmap = Instant::now();
+    let mut roadmap_publish_total_us = 0.0;
     let (state_reader, generation) = services::state_reader_generation(&node, &config.namespace)?;
     let mut planner = Planner::new(&config.scene, config.params.clone(), config.seed)?;
 
@@ -203,6 +226,21 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
             publish_guidance(&guidance, g);
             report.guidance_published += 1;
         }
+        if let Some(rp) = &roadmap_pub
+            && now >= next_roadmap
+        {
+            next_roadmap = now + roadmap_period;
+            let t0 = Instant::now();
+            let sent = publish_roadmap(rp, &mut feed, &planner, pid);
+            let us = t0.elapsed().as_secs_f64() * 1e6;
+            roadmap_publish_total_us += us;
+            report.roadmap_publish_max_us = report.roadmap_publish_max_us.max(us);
+            if sent {
+                report.roadmap_published += 1;
+            } else {
+                report.roadmap_skipped += 1;
+            }
+        }
         if last_connection_update.elapsed() > Duration::from_millis(200) {
             // Delivers the path history to subscribers that joined late.
             use iceoryx2::port::update_connections::UpdateConnections;
@@ -218,6 +256,10 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
     let op = *lock(&operator);
     let s = planner.stats();
     report.run_s = started.elapsed().as_secs_f64();
+    let attempts = report.roadmap_published + report.roadmap_skipped;
+    if attempts > 0 {
+        report.roadmap_publish_mean_us = roadmap_publish_total_us / attempts as f64;
+    }
     report.solved = planner.solved();
     report.iterations = s.iterations;
     report.nodes = s.nodes as u64;
@@ -381,6 +423,42 @@ fn make_guidance(
         reserved: 0,
         distance_to_goal: s.best_distance_to_goal,
         collision_checks: s.collision_checks,
+    }
+}
+
+/// Fills a loaned sample in place and sends it; false (and a debug log) when no sample
+/// could be loaned or sent: skipped, never waited for.
+fn publish_roadmap(
+    publisher: &RoadmapPublisher,
+    feed: &mut RoadmapFeed,
+    planner: &Planner,
+    pid: u32,
+) -> bool {
+    let mut sample = match publisher.loan() {
+        Ok(s) => s,
+        Err(e) => {
+            tracing::debug!("roadmap sample skipped: {e:?}");
+            return false;
+        }
+    };
+    let info = FeedInfo {
+        iterations: planner.stats().iterations,
+        solved: planner.solved(),
+        pid,
+        timestamp_ns: ipc_types::monotonic_ns(),
+    };
+    feed.fill(
+        planner.trees(),
+        planner.tree_ids(),
+        info,
+        sample.payload_mut(),
+    );
+    match sample.send() {
+        Ok(_) => true,
+        Err(e) => {
+            tracing::debug!("roadmap sample not sent: {e:?}");
+            false
+        }
     }
 }
 

@@ -92,6 +92,16 @@ pub struct RunResult {
 
 /// Runs one experiment.
 pub fn run(spec: &RunSpec) -> Result<RunResult, PlannerError> {
+    run_drawn(spec, None).map(|(r, _)| r)
+}
+
+/// [`run`], then draws the final roadmap, the operator's path and the solution into
+/// `png` (top-down, nodes by distance label; see [`crate::picture`]). The second value
+/// is the drawing's outcome (`Ok` when nothing was asked).
+pub fn run_drawn(
+    spec: &RunSpec,
+    png: Option<&std::path::Path>,
+) -> Result<(RunResult, Result<(), String>), PlannerError> {
     let scene = Scene::builtin(&spec.scene).ok_or_else(|| PlannerError::InvalidParam {
         name: "scene",
         reason: format!("`{}` is not a built-in scene", spec.scene),
@@ -132,6 +142,36 @@ pub fn run(spec: &RunSpec) -> Result<RunResult, PlannerError> {
         }
     }
     let s = planner.stats();
+    let drawn = match png {
+        Some(file) => {
+            let title = format!(
+                "{} {} seed {}: {} nodes, {}",
+                spec.scene,
+                match spec.user {
+                    UserModel::None => "auto",
+                    _ => spec.params.sampling.name(),
+                },
+                spec.seed,
+                s.nodes,
+                if planner.solved() {
+                    "solved"
+                } else {
+                    "not solved"
+                }
+            );
+            let pic = crate::picture::Picture {
+                scene: &scene,
+                trees: planner.trees(),
+                solution: planner.solution(),
+                user_path: planner.user_path(),
+                color_by: crate::picture::ColorBy::Distance,
+                plane: crate::picture::Plane::XY,
+                title: &title,
+            };
+            crate::picture::draw_png(&pic, file, 900, 900)
+        }
+        None => Ok(()),
+    };
     let (eps_v, alpha) = match (spec.user, spec.params.sampling) {
         (
             UserModel::PassThrough { eps_v } | UserModel::ContactSeeking { eps_v, .. },
@@ -142,7 +182,7 @@ pub fn run(spec: &RunSpec) -> Result<RunResult, PlannerError> {
         }
         (UserModel::None, _) => (0.0, f64::NAN),
     };
-    Ok(RunResult {
+    let result = RunResult {
         scene: spec.scene.clone(),
         method: match spec.user {
             UserModel::None => "auto".into(),
@@ -161,7 +201,8 @@ pub fn run(spec: &RunSpec) -> Result<RunResult, PlannerError> {
             .solution()
             .map_or(f64::NAN, |p| path_length(planner.space(), p)),
         contact_iterations: sim.map_or(0, |u| u.contact_iterations),
-    })
+    };
+    Ok((result, drawn))
 }
 
 /// The `irrt` sweep: every method × σ × ε_v × seed on `scene`.

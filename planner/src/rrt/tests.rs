@@ -310,10 +310,18 @@ fn local_trees_grow_at_unreachable_user_samples_and_merge() {
     let mut p = Planner::new(&scene, params, 2).expect("p");
     let behind = Se3::from_xyz(0.12, 0.18, 0.0);
     let mut saw_local = false;
+    let mut max_id = 1;
     for _ in 0..30 {
         p.iterate(Some(&behind));
         saw_local |= p.stats().trees > 2;
+        // Tree ids stay parallel to the trees: 0, 1, then increasing never-reused ids.
+        let ids = p.tree_ids();
+        assert_eq!(ids.len(), p.trees().len());
+        assert_eq!(&ids[..2], &[0, 1]);
+        assert!(ids[2..].windows(2).all(|w| w[0] < w[1]), "{ids:?}");
+        max_id = max_id.max(*ids.last().expect("ids"));
     }
+    assert!(!saw_local || max_id >= 2);
     assert!(saw_local || p.stats().merges > 0, "a local tree was rooted");
     let merged_behind = p.stats().merges;
     assert!(p.stats().trees <= 2 + p.params().max_local_trees);

@@ -9,3 +9,4 @@ static ALLOCATOR: CountingAllocator = CountingAllocator;
 mod alloc;
 mod devices;
 mod two_process;
+mod view;

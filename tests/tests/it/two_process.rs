@@ -21,7 +21,7 @@ fn start_loop(ns: &str) -> Proc {
     )
 }
 
-fn start_planner(ns: &str, extra: &[&str]) -> Proc {
+pub(crate) fn start_planner(ns: &str, extra: &[&str]) -> Proc {
     let mut args = vec!["serve", "--namespace", ns];
     args.extend_from_slice(extra);
     Proc::spawn(&bin("planner"), &args)
