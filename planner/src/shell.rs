@@ -86,7 +86,7 @@ pub struct ShellReport {
     /// Age of each new haptic state when the receiver thread first saw it: its header stamp
     /// (the loop's tick wake-up) → the poll that read it, µs. Includes the rest of that tick
     /// and the wait for the next poll (up to 1/`state_poll_hz`).
-    pub state_latency_us: crate::latency::LatencyUs,
+    pub state_latency_us: crate::latency::Percentiles,
     /// Roadmap increments published.
     pub roadmap_published: u64,
     /// Roadmap increments skipped because no sample could be loaned.
@@ -251,7 +251,7 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
 
     stop.store(true, Ordering::Release);
     if let Ok(latency) = receiver.join() {
-        report.state_latency_us = latency.summary();
+        report.state_latency_us = latency.percentiles_us();
     }
     let op = *lock(&operator);
     let s = planner.stats();
@@ -332,8 +332,8 @@ fn receive_states(
     operator: Arc<Mutex<Operator>>,
     stop: &AtomicBool,
     poll_ns: u64,
-) -> crate::latency::LatencyHistogram {
-    let mut latency = crate::latency::LatencyHistogram::default();
+) -> crate::latency::NsHistogram {
+    let mut latency = crate::latency::NsHistogram::new();
     let mut last_seq = 0u64;
     let mut last_pid = 0u32;
     let mut next = Instant::now();
