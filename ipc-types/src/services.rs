@@ -355,6 +355,88 @@ pub fn state_reader(node: &Node<Ipc>, namespace: &str) -> Result<StateReader, Se
     state_reader_generation(node, namespace).map(|(r, _)| r)
 }
 
+/// How long without a new state before a [`StateFollower`] looks for a newer generation,
+/// and how often it looks then.
+pub const GENERATION_CHECK: Duration = Duration::from_millis(500);
+
+/// A reader of [`HAPTIC_STATE`] that moves to a newer generation (a haptic loop restarted
+/// after a crash) when no new state has arrived for [`GENERATION_CHECK`]. For non-RT
+/// readers: looking allocates (service listing, a node of its own the first time).
+pub struct StateFollower {
+    namespace: String,
+    reader: StateReader,
+    generation: u32,
+    node: Option<Node<Ipc>>,
+    last_new: std::time::Instant,
+    last_check: std::time::Instant,
+}
+
+impl core::fmt::Debug for StateFollower {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("StateFollower")
+            .field("namespace", &self.namespace)
+            .field("generation", &self.generation)
+            .finish()
+    }
+}
+
+impl StateFollower {
+    /// Reads the newest generation on `namespace` through `node`.
+    pub fn open(node: &Node<Ipc>, namespace: &str) -> Result<Self, ServiceError> {
+        let (reader, generation) = state_reader_generation(node, namespace)?;
+        let now = std::time::Instant::now();
+        Ok(Self {
+            namespace: namespace.to_string(),
+            reader,
+            generation,
+            node: None,
+            last_new: now,
+            last_check: now,
+        })
+    }
+
+    /// The current generation's entry.
+    pub fn get(&self) -> HapticState {
+        *self.reader.get()
+    }
+
+    /// The generation read.
+    pub fn generation(&self) -> u32 {
+        self.generation
+    }
+
+    /// Tells the follower whether the last [`Self::get`] brought a new state; after
+    /// [`GENERATION_CHECK`] without one it looks for a newer generation (at most that
+    /// often). Returns the new generation when it switched; an error when it found one
+    /// but could not open it (it tries again later).
+    pub fn after_read(&mut self, new_state: bool) -> Result<Option<u32>, ServiceError> {
+        let now = std::time::Instant::now();
+        if new_state {
+            self.last_new = now;
+            return Ok(None);
+        }
+        if now - self.last_new < GENERATION_CHECK || now - self.last_check < GENERATION_CHECK {
+            return Ok(None);
+        }
+        self.last_check = now;
+        match newest_state_generation(&self.namespace) {
+            Some(newest) if newest > self.generation => {}
+            _ => return Ok(None),
+        }
+        if self.node.is_none() {
+            let name = format!("state_follower_{}", std::process::id());
+            self.node = Some(create_node(&name)?.0);
+        }
+        let Some(node) = &self.node else {
+            return Ok(None);
+        };
+        let (reader, generation) = state_reader_generation(node, &self.namespace)?;
+        self.reader = reader;
+        self.generation = generation;
+        Ok(Some(generation))
+    }
+}
+
 /// A latest-value publish-subscribe service: history 1, small buffers, safe overflow (a
 /// full subscriber loses its oldest sample; the publisher never blocks).
 fn latest_value_service<T: ZeroCopySend + core::fmt::Debug + 'static>(

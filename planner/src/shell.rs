@@ -14,7 +14,7 @@
 
 use crate::view::feed::{FeedInfo, RoadmapFeed};
 use crate::{Planner, PlannerParams, Scene, Se3};
-use ipc_types::services::{self, GuidancePublisher, RoadmapPublisher, StateReader};
+use ipc_types::services::{self, GuidancePublisher, RoadmapPublisher};
 use ipc_types::{Guidance, GuidanceMode, HapticState, Header, PATH_CAPACITY, Path, Pose};
 use serde::Serialize;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -131,7 +131,7 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
     let roadmap_period = Duration::from_secs_f64(1.0 / config.roadmap_rate_hz.max(1e-3));
     let mut next_roadmap = Instant::now();
     let mut roadmap_publish_total_us = 0.0;
-    let (state_reader, generation) = services::state_reader_generation(&node, &config.namespace)?;
+    let state_source = services::StateFollower::open(&node, &config.namespace)?;
     let mut planner = Planner::new(&config.scene, config.params.clone(), config.seed)?;
 
     let operator = Arc::new(Mutex::new(Operator::default()));
@@ -139,15 +139,9 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
         let operator = operator.clone();
         let stop = stop.clone();
         let poll_ns = (1e9 / config.state_poll_hz) as u64;
-        let source = StateSource {
-            namespace: config.namespace.clone(),
-            reader: state_reader,
-            generation,
-            node: None,
-        };
         std::thread::Builder::new()
             .name("planner-rx".into())
-            .spawn(move || receive_states(source, operator, &stop, poll_ns))?
+            .spawn(move || receive_states(state_source, operator, &stop, poll_ns))?
     };
 
     let guidance_period = Duration::from_secs_f64(1.0 / config.guidance_rate_hz);
@@ -280,55 +274,8 @@ fn lock(m: &Mutex<Operator>) -> std::sync::MutexGuard<'_, Operator> {
     m.lock().unwrap_or_else(|p| p.into_inner())
 }
 
-/// Where the receiver reads the haptic state: the newest generation of the blackboard (see
-/// `ipc_types::services::newest_state_generation`).
-struct StateSource {
-    namespace: String,
-    reader: StateReader,
-    generation: u32,
-    /// The receiver's own node, made when it first has to reopen the reader.
-    node: Option<iceoryx2::node::Node<services::Ipc>>,
-}
-
-/// How long without a new state before the receiver looks for a newer generation (a haptic
-/// loop restarted after a crash), and how often it looks then.
-const GENERATION_CHECK: Duration = Duration::from_millis(500);
-
-impl StateSource {
-    /// Switches to a newer generation if one exists. Allocates; not on any RT path.
-    fn follow_newest(&mut self) {
-        let Some(newest) = services::newest_state_generation(&self.namespace) else {
-            return;
-        };
-        if newest <= self.generation {
-            return;
-        }
-        if self.node.is_none() {
-            let name = format!("planner_rx_{}", std::process::id());
-            match services::create_node(&name) {
-                Ok((node, _)) => self.node = Some(node),
-                Err(e) => {
-                    tracing::warn!("cannot follow a restarted haptic loop: {e}");
-                    return;
-                }
-            }
-        }
-        let Some(node) = &self.node else { return };
-        match services::state_reader_generation(node, &self.namespace) {
-            Ok((reader, generation)) => {
-                tracing::info!(
-                    "following the haptic state of a new loop (generation {generation})"
-                );
-                self.reader = reader;
-                self.generation = generation;
-            }
-            Err(e) => tracing::warn!("cannot open the new haptic state: {e}"),
-        }
-    }
-}
-
 fn receive_states(
-    mut source: StateSource,
+    mut source: services::StateFollower,
     operator: Arc<Mutex<Operator>>,
     stop: &AtomicBool,
     poll_ns: u64,
@@ -337,16 +284,24 @@ fn receive_states(
     let mut last_seq = 0u64;
     let mut last_pid = 0u32;
     let mut next = Instant::now();
-    let mut last_new = Instant::now();
-    let mut last_check = Instant::now();
     while !stop.load(Ordering::Acquire) {
-        let s = *source.reader.get();
+        let s = source.get();
         let seq = s.header.sequence;
         let restarted = s.header.writer_pid != last_pid;
-        if seq != 0 && (seq != last_seq || restarted) {
+        let new_state = seq != 0 && (seq != last_seq || restarted);
+        match source.after_read(new_state) {
+            Ok(Some(generation)) => {
+                tracing::info!(
+                    "following the haptic state of a new loop (generation {generation})"
+                );
+                lock(&operator).loop_generations += 1;
+            }
+            Ok(None) => {}
+            Err(e) => tracing::warn!("cannot follow a restarted haptic loop: {e}"),
+        }
+        if new_state {
             latency.record(ipc_types::monotonic_ns().saturating_sub(s.header.timestamp_ns));
             let now = Instant::now();
-            last_new = now;
             let mut op = lock(&operator);
             if !restarted && seq > last_seq + 1 && last_seq != 0 {
                 op.skipped += seq - last_seq - 1;
@@ -362,14 +317,6 @@ fn receive_states(
             op.last_at = Some(now);
             last_seq = seq;
             last_pid = s.header.writer_pid;
-        } else if last_new.elapsed() >= GENERATION_CHECK && last_check.elapsed() >= GENERATION_CHECK
-        {
-            last_check = Instant::now();
-            let generation = source.generation;
-            source.follow_newest();
-            if source.generation != generation {
-                lock(&operator).loop_generations += 1;
-            }
         }
         next += Duration::from_nanos(poll_ns);
         let now = Instant::now();

@@ -9,7 +9,7 @@ use foxglove::messages::{FrameTransforms, PointCloud, SceneEntityDeletion, Scene
 use foxglove::websocket::{ChannelView, Client, ServerListener};
 use foxglove::{Channel, Context, McapWriterHandle, WebSocketServerHandle};
 use ipc_types::services::{
-    self, GuidanceSubscriber, Ipc, PathSubscriber, RoadmapSubscriber, StateReader,
+    self, GuidanceSubscriber, Ipc, PathSubscriber, RoadmapSubscriber, StateFollower,
 };
 use ipc_types::{ContactCode, Guidance, HapticState, monotonic_ns};
 use serde::Serialize;
@@ -51,6 +51,8 @@ pub struct ViewReport {
     pub port: Option<u16>,
     /// Distinct haptic states seen.
     pub states_seen: u64,
+    /// Times a restarted haptic loop was found and followed.
+    pub loops_followed: u64,
     /// Roadmap samples applied.
     pub roadmap_samples: u64,
     /// Roadmap samples the planner sent that the view missed (sequence gaps).
@@ -131,7 +133,7 @@ const EDGE_REFRESH_CHUNKS: usize = 1;
 pub struct Viewer {
     config: ViewConfig,
     _node: iceoryx2::node::Node<Ipc>,
-    state: StateReader,
+    state: StateFollower,
     guidance: GuidanceSubscriber,
     path_sub: PathSubscriber,
     roadmap: RoadmapSubscriber,
@@ -182,7 +184,7 @@ impl Viewer {
             tracing::info!("removed resources of {cleaned} dead iceoryx2 node(s)");
         }
         let ns = &config.namespace;
-        let state = services::state_reader(&node, ns)?;
+        let state = StateFollower::open(&node, ns)?;
         let guidance = services::guidance_subscriber(&node, ns)?;
         let path_sub = services::path_subscriber(&node, ns)?;
         let roadmap = services::roadmap_subscriber(&node, ns)?;
@@ -312,10 +314,20 @@ impl Viewer {
                 self.last_guidance = Some(*g);
             }
         }
-        let s = *self.state.get();
+        let s = self.state.get();
         let fresh = s.header.sequence != 0
             && (s.header.sequence != self.last_state.header.sequence
                 || s.header.writer_pid != self.last_state.header.writer_pid);
+        match self.state.after_read(fresh) {
+            Ok(Some(generation)) => {
+                tracing::info!(
+                    "following the haptic state of a new loop (generation {generation})"
+                );
+                self.report.loops_followed += 1;
+            }
+            Ok(None) => {}
+            Err(e) => tracing::warn!("cannot follow a restarted haptic loop: {e}"),
+        }
         if fresh {
             self.report.states_seen += 1;
             let p = s.user_pose.position_m;

@@ -252,8 +252,8 @@ fn a_second_loop_on_the_same_namespace_is_refused() {
 
 /// Issue 7: the haptic loop killed with `kill -9` while a planner holds its state: the
 /// planner idles, a new loop on the same namespace starts (on the next generation of the
-/// state blackboard), the planner follows it, and guidance reaches the new loop — twice in
-/// a row.
+/// state blackboard), the planner and a view follow it, and guidance reaches the new loop —
+/// twice in a row.
 #[test]
 fn a_killed_loop_restarts_and_the_planner_follows_it() {
     let _serial = one_loop_at_a_time();
@@ -262,6 +262,26 @@ fn a_killed_loop_restarts_and_the_planner_follows_it() {
     let report_arg = report.to_str().unwrap().to_string();
     let mut lp = start_loop(&ns);
     let mut planner = start_planner(&ns, &["--ttl-ms", "100", "--json", &report_arg]);
+    // A view follows the restarts too (it records, so it needs no port).
+    let view_json = std::env::temp_dir().join(format!("{ns}-view.json"));
+    let view_rec = std::env::temp_dir().join(format!("{ns}-view.mcap"));
+    let (view_json_arg, view_rec_arg) = (
+        view_json.to_str().unwrap().to_string(),
+        view_rec.to_str().unwrap().to_string(),
+    );
+    let mut view = Proc::spawn(
+        &bin("planner"),
+        &[
+            "view",
+            "--namespace",
+            &ns,
+            "--no-server",
+            "--record",
+            &view_rec_arg,
+            "--json",
+            &view_json_arg,
+        ],
+    );
     let (node, _) = services::create_node("it_loopkill_watch").unwrap();
     for cycle in 0..3 {
         // A reader of the newest generation: the current loop's.
@@ -297,6 +317,20 @@ fn a_killed_loop_restarts_and_the_planner_follows_it() {
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     assert_eq!(json["loops_followed"].as_u64(), Some(2), "{json}");
+    view.signal(libc::SIGTERM);
+    let st = view
+        .wait_timeout(Duration::from_secs(10))
+        .expect("view stops on SIGTERM");
+    assert!(st.success(), "view exit {st}");
+    let view_report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&view_json).unwrap()).unwrap();
+    assert_eq!(
+        view_report["loops_followed"].as_u64(),
+        Some(2),
+        "{view_report}"
+    );
+    let _ = std::fs::remove_file(view_json);
+    let _ = std::fs::remove_file(view_rec);
     // While no loop ran (its restart builds a voxmap for a second or more), it idled.
     let idle = json["idle_s"].as_f64().unwrap();
     assert!(idle > 0.5, "idle {idle} s: {json}");
