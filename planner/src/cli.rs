@@ -442,27 +442,17 @@ pub fn solve(args: &SolveArgs) -> anyhow::Result<SolveReport> {
         if !crate::experiment::report::register_font() {
             tracing::warn!("no TrueType font found (DejaVuSans.ttf): the PNG has no text");
         }
-        let title = format!(
-            "{} seed {}: {} nodes, {}",
-            scene.name,
-            args.core.seed,
-            s.nodes,
-            if planner.solved() {
-                "solved"
-            } else {
-                "not solved"
-            }
-        );
-        let pic = crate::picture::Picture {
-            scene: &scene,
-            trees: planner.trees(),
-            solution: planner.solution(),
-            user_path: planner.user_path(),
+        let label = format!("{} seed {}", scene.name, args.core.seed);
+        crate::picture::draw_planner_png(
+            &scene,
+            &planner,
+            &label,
             color_by,
             plane,
-            title: &title,
-        };
-        crate::picture::draw_png(&pic, file, 1000, 1000).map_err(anyhow::Error::msg)?;
+            file,
+            (1000, 1000),
+        )
+        .map_err(anyhow::Error::msg)?;
     }
     Ok(SolveReport {
         scene: scene.name.clone(),

@@ -184,6 +184,35 @@ fn convex_hull(mut pts: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
     hull
 }
 
+/// Draws `planner`'s trees, solution and operator path over `scene` into the PNG `file`
+/// (`size` = width, height in pixels), titled "`label`: N nodes, solved" (or "not solved").
+pub fn draw_planner_png(
+    scene: &Scene,
+    planner: &crate::Planner,
+    label: &str,
+    color_by: ColorBy,
+    plane: Plane,
+    file: &Path,
+    size: (u32, u32),
+) -> Result<(), String> {
+    let solved = if planner.solved() {
+        "solved"
+    } else {
+        "not solved"
+    };
+    let title = format!("{label}: {} nodes, {solved}", planner.stats().nodes);
+    let pic = Picture {
+        scene,
+        trees: planner.trees(),
+        solution: planner.solution(),
+        user_path: planner.user_path(),
+        color_by,
+        plane,
+        title: &title,
+    };
+    draw_png(&pic, file, size.0, size.1)
+}
+
 /// Draws `pic` into a `width`×`height` PNG at `file`. Errors name what failed.
 pub fn draw_png(pic: &Picture<'_>, file: &Path, width: u32, height: u32) -> Result<(), String> {
     draw(pic, file, width, height).map_err(|e| format!("{}: cannot draw: {e}", file.display()))

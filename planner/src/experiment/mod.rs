@@ -144,31 +144,24 @@ pub fn run_drawn(
     let s = planner.stats();
     let drawn = match png {
         Some(file) => {
-            let title = format!(
-                "{} {} seed {}: {} nodes, {}",
+            let label = format!(
+                "{} {} seed {}",
                 spec.scene,
                 match spec.user {
                     UserModel::None => "auto",
                     _ => spec.params.sampling.name(),
                 },
-                spec.seed,
-                s.nodes,
-                if planner.solved() {
-                    "solved"
-                } else {
-                    "not solved"
-                }
+                spec.seed
             );
-            let pic = crate::picture::Picture {
-                scene: &scene,
-                trees: planner.trees(),
-                solution: planner.solution(),
-                user_path: planner.user_path(),
-                color_by: crate::picture::ColorBy::Distance,
-                plane: crate::picture::Plane::XY,
-                title: &title,
-            };
-            crate::picture::draw_png(&pic, file, 900, 900)
+            crate::picture::draw_planner_png(
+                &scene,
+                &planner,
+                &label,
+                crate::picture::ColorBy::Distance,
+                crate::picture::Plane::XY,
+                file,
+                (900, 900),
+            )
         }
         None => Ok(()),
     };
