@@ -203,7 +203,7 @@ impl ShellColumns {
         scratch.candidates[count..padded].fill(filler);
 
         let consts = ForceConsts::new(pass);
-        let mut acc = Accumulators::new();
+        let mut acc = Accumulators::default();
         let mut kept = 0;
         let r = k.rotation.map(|x| x as f32);
         let t = k.translation.map(|x| x as f32);
@@ -308,8 +308,8 @@ pub(super) struct Totals {
     pub max_depth: f64,
 }
 
-/// Per-lane running sums of the force pass.
-#[derive(Clone, Copy)]
+/// Per-lane running sums of the force pass (all zero by default).
+#[derive(Clone, Copy, Default)]
 struct Accumulators {
     wrench: [Lanes; 6],
     /// Σ JJᵀ over penetrating points.
@@ -448,22 +448,6 @@ fn force_chunk(
 }
 
 impl Accumulators {
-    fn new() -> Self {
-        let zero = [0.0; LANES];
-        Self {
-            wrench: [zero; 6],
-            k: [zero; 21],
-            b: [zero; 21],
-            point: [zero; 3],
-            normal: [zero; 3],
-            weight: zero,
-            max_depth: zero,
-            contacts: zero,
-            braking: zero,
-            release: zero,
-        }
-    }
-
     /// Sums the lanes (in `f64`): the centre of mass turns positions relative to it back
     /// into scene coordinates; the damping matrix is the contact damping times the contact
     /// sum plus the braking times the braking sum (N·s/m).
@@ -506,7 +490,7 @@ mod tests {
     /// the last one padded as the search pads it.
     fn force_pass(points: &[(Vector3<f64>, Vector3<f64>, f64)], k: &PassParams) -> Totals {
         let consts = ForceConsts::new(k);
-        let mut acc = Accumulators::new();
+        let mut acc = Accumulators::default();
         for chunk in points.chunks(LANES) {
             let at = |l: usize| chunk.get(l);
             let r = axes(|a| lanes(|l| at(l).map_or(0.0, |(p, _, _)| (p[a] - k.com[a]) as f32)));
