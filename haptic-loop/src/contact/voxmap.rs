@@ -507,8 +507,10 @@ impl Voxmap {
         let frac: [Lanes; 3] = axes(|a| lanes(|l| g[a][l] - cell[a][l] as f32));
         let mut stored = [false; LANES];
         let mut clearance_m = [0.0; LANES];
-        // Node values at the cell's corners, corner index = i + 2j + 4k.
-        let mut raw = [[0i16; LANES]; 8];
+        // Node values at the cell's corners, corner index = i + 2j + 4k, loaded as four
+        // pairs of x-neighbours (corners 2m and 2m + 1 are adjacent in memory): half the
+        // scalar loads and stores of this step, the one part of the look-up not in lanes.
+        let mut pairs = [[0u32; LANES]; 4];
         for l in 0..LANES {
             let (ix, iy, iz) = (
                 cell[0][l] as usize,
@@ -536,19 +538,19 @@ impl Voxmap {
             // The cell's lowest node; its far corner (+1 along each axis) is within the
             // block because local coordinates are ≤ B − 1.
             let at = (ix % B) + N * ((iy % B) + N * (iz % B));
-            let node = |offset: usize| block[at + offset];
-            raw[0][l] = node(0);
-            raw[1][l] = node(1);
-            raw[2][l] = node(N);
-            raw[3][l] = node(N + 1);
-            raw[4][l] = node(N * N);
-            raw[5][l] = node(N * N + 1);
-            raw[6][l] = node(N * N + N);
-            raw[7][l] = node(N * N + N + 1);
+            let pair = |offset: usize| {
+                u32::from(block[at + offset] as u16)
+                    | u32::from(block[at + offset + 1] as u16) << 16
+            };
+            pairs[0][l] = pair(0);
+            pairs[1][l] = pair(N);
+            pairs[2][l] = pair(N * N);
+            pairs[3][l] = pair(N * N + N);
         }
         let mut c = [[0.0; LANES]; 8];
-        for (c, raw) in c.iter_mut().zip(&raw) {
-            *c = lanes(|l| f32::from(raw[l]));
+        for (m, pair) in pairs.iter().enumerate() {
+            c[2 * m] = lanes(|l| f32::from(pair[l] as u16 as i16));
+            c[2 * m + 1] = lanes(|l| f32::from((pair[l] >> 16) as u16 as i16));
         }
         let [fx, fy, fz] = frac;
         let lerp = |a: &Lanes, b: &Lanes, f: &Lanes| lanes(|l| a[l] + (b[l] - a[l]) * f[l]);
