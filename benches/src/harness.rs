@@ -2,6 +2,7 @@
 //! hardest steady contact case, and a planner child process.
 
 use anyhow::{Context, bail};
+use devices::DeviceSpec;
 use devices::sim::{ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmConfig, Waypoint};
 use haptic_loop::contact::{ContactConfig, ContactModel, ContactStage, Coupling};
 use haptic_loop::guidance::GuidanceConfig;
@@ -13,6 +14,8 @@ use haptic_loop::safety::SafetyConfig;
 use haptic_loop::tick::{Tick, TickConfig};
 use ipc_types::services::{self, StateWriter};
 use nalgebra::{Isometry3, Translation3};
+use parry3d_f64::math::Pose;
+use parry3d_f64::shape::SharedShape;
 use planner::Scene;
 use std::process::{Child, Command, Stdio};
 use std::sync::Arc;
@@ -117,11 +120,77 @@ pub fn wall_setup(
 ) -> anyhow::Result<(SimulatedArm, TickConfig, Option<ContactStage>)> {
     let scene = Scene::wall_with_hole();
     let origin = Isometry3::from_parts(Translation3::new(-0.08, 0.15, 0.1), scene.start.rot);
-    let device = |x: f64, y: f64| Waypoint::new(Isometry3::translation(x, y, 0.0));
-    let mut route = vec![device(0.0, 0.0)];
+    let mut route = vec![device(0.0, 0.0, 0.0)];
     for _ in 0..((seconds / 8.0).ceil() as usize).max(1) {
-        route.extend([device(0.06, 0.05), device(0.06, -0.05), device(0.0, 0.0)]);
+        route.extend([
+            device(0.06, 0.05, 0.0),
+            device(0.06, -0.05, 0.0),
+            device(0.0, 0.0, 0.0),
+        ]);
     }
+    let (arm, config, spec) = scripted_arm(route, origin, rate_hz)?;
+    let contact = match voxel_m {
+        Some(voxel_m) => {
+            let contact = ContactConfig::with_voxel_m(voxel_m);
+            let model =
+                ContactModel::from_scene(&scene, &contact.voxmap).map_err(anyhow::Error::msg)?;
+            eprintln!("{}", model.describe());
+            let coupling = Coupling::from_spec(&spec, 1.0, contact.coupling_fraction);
+            Some(ContactStage::new(Arc::new(model), contact, coupling))
+        }
+        None => None,
+    };
+    Ok((arm, config, contact))
+}
+
+/// A cube whose pointshell has about `points` points at `voxel_m`, held 5 mm above a plate
+/// (top face z = 0), that the simulated operator presses face-down onto the plate with the
+/// arm's maximum force and slides back and forth by ±3 cm for `seconds`: a whole face in
+/// contact, the "≥ 10 000 points" case for the full tick.
+pub fn cube_setup(
+    points: usize,
+    rate_hz: f64,
+    seconds: f64,
+    voxel_m: f64,
+) -> anyhow::Result<(SimulatedArm, TickConfig, ContactStage)> {
+    let half = 0.5 * voxel_m * (points as f64 / 6.0).sqrt();
+    let plate = [(
+        Pose::translation(0.0, 0.0, -0.01),
+        SharedShape::cuboid(half + 0.06, half + 0.06, 0.01),
+    )];
+    let cube = [(Pose::IDENTITY, SharedShape::cuboid(half, half, half))];
+    let origin = Isometry3::translation(0.0, 0.0, half + 0.005);
+    // The device target 2 cm below the plate's top: the coupling saturates at the arm's
+    // maximum force while the proxy rests on the plate.
+    let mut route = vec![device(0.0, 0.0, 0.0), device(0.0, 0.0, -0.02)];
+    for _ in 0..((seconds / 4.0).ceil() as usize).max(1) {
+        route.extend([device(0.03, 0.0, -0.02), device(-0.03, 0.0, -0.02)]);
+    }
+    let (arm, config, spec) = scripted_arm(route, origin, rate_hz)?;
+    let stage = ContactStage::from_shapes(
+        &plate,
+        &cube,
+        ContactConfig::with_voxel_m(voxel_m),
+        &spec,
+        config.mapping.position_scale,
+    )
+    .map_err(anyhow::Error::msg)?;
+    eprintln!("{}", stage.model().describe());
+    Ok((arm, config, stage))
+}
+
+/// A device waypoint at (x, y, z), m, in the device base frame.
+fn device(x: f64, y: f64, z: f64) -> Waypoint {
+    Waypoint::new(Isometry3::translation(x, y, z))
+}
+
+/// The simulated arm whose scripted operator follows `route` at 5 cm/s with up to the arm's
+/// maximum force, and a tick at `rate_hz` mapping the device 1:1 onto `origin`.
+fn scripted_arm(
+    route: Vec<Waypoint>,
+    origin: Isometry3<f64>,
+    rate_hz: f64,
+) -> anyhow::Result<(SimulatedArm, TickConfig, DeviceSpec)> {
     let arm_config = SimulatedArmConfig::default();
     let spec = arm_config.spec();
     let user = ScriptedUser::new(
@@ -143,18 +212,7 @@ pub fn wall_setup(
         safety: SafetyConfig::default(),
         period_s: 1.0 / rate_hz,
     };
-    let contact = match voxel_m {
-        Some(voxel_m) => {
-            let contact = ContactConfig::with_voxel_m(voxel_m);
-            let model =
-                ContactModel::from_scene(&scene, &contact.voxmap).map_err(anyhow::Error::msg)?;
-            eprintln!("{}", model.describe());
-            let coupling = Coupling::from_spec(&spec, 1.0, contact.coupling_fraction);
-            Some(ContactStage::new(Arc::new(model), contact, coupling))
-        }
-        None => None,
-    };
-    Ok((arm, config, contact))
+    Ok((arm, config, spec))
 }
 
 /// Starts the real haptic loop of [`wall_setup`] on namespace `ns`, with IPC.

@@ -4,15 +4,15 @@
 //! hardest steady case for the contact stage (`benches::harness::wall_setup`). Prints p50 / p90 / p99 / p99.9 / max of the
 //! compute time per tick from an HDR histogram.
 //!
-//! With `--cube-points N` it times the contact stage alone (`ContactStage::step`) for a
-//! cube of about N pointshell points resting on a plate with a whole face in contact
-//! (`benches::contact_fixture`), the "≥ 10 000 points" case.
+//! With `--cube-points N` the object is instead a cube of about N pointshell points that the
+//! operator presses face-down onto a plate with the arm's maximum force and slides back and
+//! forth (`benches::harness::cube_setup`): a whole face in contact, the "≥ 10 000 points"
+//! case of the tick budget.
 //!
 //! `cargo run --release -p benches --bin tick-budget -- --seconds 20 [--voxel-mm 1] [--cube-points N] [--json F]`
 
 use anyhow::{Context, bail};
-use benches::contact_fixture::{Fixture, Situation};
-use benches::harness::wall_setup;
+use benches::harness::{cube_setup, wall_setup};
 use clap::Parser;
 use haptic_loop::tick::{NoGuidance, NoSink, PrevTiming, Tick};
 use hdrhistogram::Histogram;
@@ -30,8 +30,8 @@ struct Args {
     /// Voxel size and pointshell spacing, mm.
     #[arg(long, default_value_t = 1.0)]
     voxel_mm: f64,
-    /// Time the contact stage of a cube of about this many points resting on a plate
-    /// instead of the full tick in the wall-hole scene.
+    /// Time the full tick with a cube of about this many points pressed onto a plate and
+    /// slid, instead of the wall-hole scene's S.
     #[arg(long)]
     cube_points: Option<usize>,
     /// Write the figures as JSON here.
@@ -73,50 +73,41 @@ fn main() -> anyhow::Result<()> {
     let mut hist = Histogram::<u64>::new_with_bounds(1, 1_000_000_000, 3).context("histogram")?;
     let mut in_contact = 0u64;
     let mut tested_max = 0u32;
-    let mut max_penetration_m = 0.0_f64;
-    let (scenario, points) = if let Some(n) = args.cube_points {
-        if !(100..=1_000_000).contains(&n) {
-            bail!("--cube-points must be within 100–1000000, got {n}");
+    if let Some(n) = args.cube_points
+        && !(100..=1_000_000).contains(&n)
+    {
+        bail!("--cube-points must be within 100–1000000, got {n}");
+    }
+    let voxel_m = args.voxel_mm / 1000.0;
+    let (arm, tick_config, stage, scenario) = match args.cube_points {
+        Some(n) => {
+            let (arm, config, stage) = cube_setup(n, 1000.0, args.seconds, voxel_m)?;
+            let what = "full tick: cube pressed onto a plate and slid";
+            (arm, config, stage, what)
         }
-        let mut f = Fixture::cube_on_plate(n, args.voxel_mm / 1000.0, Situation::Resting);
-        for _ in 0..ticks {
-            let t0 = Instant::now();
-            let penetration_m = f.step();
-            hist.saturating_record((t0.elapsed().as_nanos() as u64).max(1));
-            in_contact += u64::from(penetration_m > 0.0);
-            max_penetration_m = max_penetration_m.max(penetration_m);
-            tested_max = tested_max.max(f.stage().last_points_tested());
+        None => {
+            let (arm, config, stage) = wall_setup(1000.0, args.seconds, Some(voxel_m))?;
+            let what = "full tick: wall-hole S pushed along the wall";
+            (arm, config, stage.context("contact stage")?, what)
         }
-        (
-            "contact stage: cube resting on a plate".to_string(),
-            f.points(),
-        )
-    } else {
-        let (arm, tick_config, contact) =
-            wall_setup(1000.0, args.seconds, Some(args.voxel_mm / 1000.0))?;
-        let stage = contact.context("contact stage")?;
-        let points = stage.model().pointshell().len();
-        let mut tick = Tick::new(arm, &tick_config, NoGuidance, NoSink)
-            .context("open the simulated arm")?
-            .with_contact(stage);
-        for i in 1..=ticks {
-            let t0 = Instant::now();
-            let s = *tick.step(i * 1_000_000, PrevTiming::default());
-            hist.saturating_record((t0.elapsed().as_nanos() as u64).max(1));
-            in_contact += u64::from(s.contact == ContactCode::CONTACT);
-            if let Some(c) = tick.contact() {
-                tested_max = tested_max.max(c.last_points_tested());
-            }
-        }
-        max_penetration_m = tick.max_penetration_m();
-        (
-            "full tick: wall-hole S pushed along the wall".to_string(),
-            points,
-        )
     };
+    let points = stage.model().pointshell().len();
+    let mut tick = Tick::new(arm, &tick_config, NoGuidance, NoSink)
+        .context("open the simulated arm")?
+        .with_contact(stage);
+    for i in 1..=ticks {
+        let t0 = Instant::now();
+        let s = *tick.step(i * 1_000_000, PrevTiming::default());
+        hist.saturating_record((t0.elapsed().as_nanos() as u64).max(1));
+        in_contact += u64::from(s.contact == ContactCode::CONTACT);
+        if let Some(c) = tick.contact() {
+            tested_max = tested_max.max(c.last_points_tested());
+        }
+    }
+    let max_penetration_m = tick.max_penetration_m();
     let us = |q: f64| hist.value_at_quantile(q) as f64 / 1000.0;
     let report = Report {
-        scenario,
+        scenario: scenario.to_string(),
         ticks,
         points,
         voxel_mm: args.voxel_mm,
