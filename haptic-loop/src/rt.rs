@@ -9,26 +9,7 @@ pub use ipc_types::monotonic_ns;
 /// accumulates), then spins for the last `spin_ns` if non-zero. Returns the wake-up time.
 #[inline]
 pub fn sleep_until(deadline_ns: u64, spin_ns: u64) -> u64 {
-    let sleep_to = deadline_ns.saturating_sub(spin_ns);
-    let ts = libc::timespec {
-        tv_sec: (sleep_to / 1_000_000_000) as libc::time_t,
-        tv_nsec: (sleep_to % 1_000_000_000) as libc::c_long,
-    };
-    loop {
-        // SAFETY: `ts` is a valid timespec; a null remainder is allowed with TIMER_ABSTIME.
-        let rc = unsafe {
-            libc::clock_nanosleep(
-                libc::CLOCK_MONOTONIC,
-                libc::TIMER_ABSTIME,
-                &ts,
-                std::ptr::null_mut(),
-            )
-        };
-        // EINTR: a signal interrupted the sleep; the absolute deadline is unchanged.
-        if rc != libc::EINTR {
-            break;
-        }
-    }
+    ipc_types::sleep_until_ns(deadline_ns.saturating_sub(spin_ns));
     let mut now = monotonic_ns();
     while now < deadline_ns {
         std::hint::spin_loop();

@@ -145,6 +145,38 @@ pub fn monotonic_ns() -> u64 {
     ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
 }
 
+/// Sleeps until `CLOCK_MONOTONIC` reaches `deadline_ns` (absolute: no drift accumulates,
+/// and a signal does not cut the sleep short). Returns at once if the deadline has passed.
+pub fn sleep_until_ns(deadline_ns: u64) {
+    let ts = libc::timespec {
+        tv_sec: (deadline_ns / 1_000_000_000) as libc::time_t,
+        tv_nsec: (deadline_ns % 1_000_000_000) as libc::c_long,
+    };
+    loop {
+        // SAFETY: `ts` is a valid timespec; a null remainder is allowed with TIMER_ABSTIME.
+        let rc = unsafe {
+            libc::clock_nanosleep(
+                libc::CLOCK_MONOTONIC,
+                libc::TIMER_ABSTIME,
+                &ts,
+                std::ptr::null_mut(),
+            )
+        };
+        // EINTR: a signal interrupted the sleep; the absolute deadline is unchanged.
+        if rc != libc::EINTR {
+            break;
+        }
+    }
+}
+
+/// Sets the calling thread's timer slack (how late the kernel may end its sleeps to batch
+/// wake-ups), ns. A normal thread has 50 µs; a reader pacing itself to a loop's ticks wants
+/// about 1 µs. Returns whether the kernel accepted it.
+pub fn set_thread_timer_slack_ns(slack_ns: u64) -> bool {
+    // SAFETY: PR_SET_TIMERSLACK takes one integer argument and changes only this thread.
+    unsafe { libc::prctl(libc::PR_SET_TIMERSLACK, slack_ns as libc::c_ulong) == 0 }
+}
+
 const _: () = {
     assert!(core::mem::size_of::<Pose>() == 56);
     assert!(core::mem::size_of::<Wrench>() == 48);

@@ -203,8 +203,11 @@ where
         {
             Ok(f) => return Ok(f),
             Err(BlackboardOpenError::DoesNotExist) => {}
+            // A service another process is creating at this moment can also look corrupted
+            // (its static config not yet complete).
             Err(BlackboardOpenError::IsMarkedForDestruction)
-            | Err(BlackboardOpenError::HangsInCreation) => {
+            | Err(BlackboardOpenError::HangsInCreation)
+            | Err(BlackboardOpenError::ServiceInCorruptedState) => {
                 last = "is being torn down or created".into();
                 std::thread::sleep(Duration::from_millis(10));
                 continue;

@@ -270,9 +270,16 @@ pub struct ServeArgs {
     /// How the operator's input drives sampling.
     #[command(flatten)]
     pub sampling: SamplingArgs,
-    /// How often to poll the haptic state, Hz (above the loop rate to see every tick).
+    /// How often to poll the haptic state until the receiver has locked onto the loop's
+    /// ticks (then it polls once per tick, just after each state is written) and while no
+    /// new state comes, Hz.
     #[arg(long, default_value_t = 2000.0)]
     pub poll_hz: f64,
+    /// Spin this long before and after each state's predicted time instead of sleeping, µs
+    /// (reads the state within ~1 µs of its write for ~2 × this much CPU per tick; 0: only
+    /// sleep, adding the thread's wake-up latency, ~5–20 µs).
+    #[arg(long, default_value_t = 10.0)]
+    pub state_spin_us: f64,
     /// Roadmap increments per second for `planner view` (1024 nodes each; a late viewer
     /// gets the whole roadmap from a rolling window); 0 publishes none.
     #[arg(long, default_value_t = 20.0)]
@@ -372,6 +379,13 @@ impl ServeArgs {
             gain_nm_per_rad: gain("gain-nm-per-rad", self.gain_nm_per_rad)?,
             ttl_s: positive("ttl-ms", self.ttl_ms)? / 1000.0,
             state_poll_hz: positive("poll-hz", self.poll_hz)?,
+            state_spin_us: {
+                let v = gain("state-spin-us", self.state_spin_us)?;
+                if v > 500.0 {
+                    bail!("--state-spin-us must be at most 500 (half a tick at 1 kHz), got {v}");
+                }
+                v
+            },
             state_timeout_s: 0.5,
             plan_without_operator: self.plan_without_operator,
             roadmap_rate_hz: if self.roadmap_rate_hz == 0.0 {

@@ -25,6 +25,7 @@ pub mod collision;
 pub mod experiment;
 pub mod guidance;
 pub mod latency;
+pub mod pacing;
 pub mod params;
 pub mod path;
 pub mod picture;

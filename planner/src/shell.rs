@@ -1,10 +1,12 @@
 //! The planner process: IPC and timing around the pure [`Planner`] core.
 //!
 //! Threads:
-//! - *receiver*: polls the [`HapticState`] blackboard at `state_poll_hz` with absolute-deadline
-//!   sleeps, counts every new tick it sees (and those it skipped, from sequence gaps), and
-//!   keeps the newest operator pose for the planning thread. Polling rather than an event:
-//!   the haptic loop must not call `notify()` from its RT thread (see `ipc_types::services`).
+//! - *receiver*: polls the [`HapticState`] blackboard phase-locked to the loop's ticks
+//!   ([`crate::pacing::StatePacer`]: about one absolute-deadline wake-up per tick, just after
+//!   the state is written; `state_poll_hz` until it has locked on), counts every new tick it
+//!   sees (and those it skipped, from sequence gaps), and keeps the newest operator pose for
+//!   the planning thread. Polling rather than an event: the haptic loop must not call
+//!   `notify()` from its RT thread (see `ipc_types::services`).
 //! - *main*: runs planner iterations as fast as they go and, independently of their speed,
 //!   publishes [`Guidance`] at `guidance_rate_hz`, the [`Path`] once solved, and roadmap
 //!   increments for viewers ([`ipc_types::Roadmap`], filled by
@@ -40,8 +42,12 @@ pub struct ShellConfig {
     pub gain_nm_per_rad: f64,
     /// Time-to-live written into each guidance sample, s.
     pub ttl_s: f64,
-    /// How often the receiver thread polls the haptic state, Hz.
+    /// How often the receiver thread polls the haptic state before it has locked onto the
+    /// loop's ticks, and while no new state comes, Hz.
     pub state_poll_hz: f64,
+    /// Half-width of the window around each predicted state in which the receiver spins
+    /// instead of sleeping, µs (0: never spins).
+    pub state_spin_us: f64,
     /// A haptic state older than this counts as "no operator", s.
     pub state_timeout_s: f64,
     /// Grow the trees also without an operator; otherwise idle until one appears.
@@ -85,7 +91,7 @@ pub struct ShellReport {
     pub idle_s: f64,
     /// Age of each new haptic state when the receiver thread first saw it: its header stamp
     /// (the loop's tick wake-up) → the poll that read it, µs. Includes the rest of that tick
-    /// and the wait for the next poll (up to 1/`state_poll_hz`).
+    /// (the loop's compute after its wake-up) and the receiver's own wake-up latency.
     pub state_latency_us: crate::latency::Percentiles,
     /// Roadmap increments published.
     pub roadmap_published: u64,
@@ -139,9 +145,10 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
         let operator = operator.clone();
         let stop = stop.clone();
         let poll_ns = (1e9 / config.state_poll_hz) as u64;
+        let spin_ns = (config.state_spin_us * 1e3) as u64;
         std::thread::Builder::new()
             .name("planner-rx".into())
-            .spawn(move || receive_states(state_source, operator, &stop, poll_ns))?
+            .spawn(move || receive_states(state_source, operator, &stop, poll_ns, spin_ns))?
     };
 
     let guidance_period = Duration::from_secs_f64(1.0 / config.guidance_rate_hz);
@@ -279,11 +286,16 @@ fn receive_states(
     operator: Arc<Mutex<Operator>>,
     stop: &AtomicBool,
     poll_ns: u64,
+    spin_ns: u64,
 ) -> crate::latency::NsHistogram {
     let mut latency = crate::latency::NsHistogram::new();
     let mut last_seq = 0u64;
     let mut last_pid = 0u32;
-    let mut next = Instant::now();
+    let mut pacer = crate::pacing::StatePacer::new(poll_ns);
+    // The pacer aims within microseconds; the default 50 µs timer slack would blur that.
+    if !ipc_types::set_thread_timer_slack_ns(1_000) {
+        tracing::debug!("cannot set the receiver's timer slack; its polls may be up to 50 µs late");
+    }
     while !stop.load(Ordering::Acquire) {
         let s = source.get();
         let seq = s.header.sequence;
@@ -318,12 +330,19 @@ fn receive_states(
             last_seq = seq;
             last_pid = s.header.writer_pid;
         }
-        next += Duration::from_nanos(poll_ns);
-        let now = Instant::now();
-        if next > now {
-            std::thread::sleep(next - now);
+        let stamp = new_state.then_some((seq, s.header.timestamp_ns));
+        let next = pacer.next_poll(ipc_types::monotonic_ns(), stamp);
+        if spin_ns > 0 && pacer.predicted() {
+            // Wake a little early and watch the entry until the state comes or the window
+            // closes: the state is read within a microsecond of its write, for about
+            // 2 × `spin_ns` of CPU per tick.
+            ipc_types::sleep_until_ns(next.saturating_sub(spin_ns));
+            let end = next + spin_ns;
+            while source.get().header.sequence == seq && ipc_types::monotonic_ns() < end {
+                std::hint::spin_loop();
+            }
         } else {
-            next = now;
+            ipc_types::sleep_until_ns(next);
         }
     }
     latency

@@ -303,6 +303,9 @@ fn a_killed_loop_restarts_and_the_planner_follows_it() {
             lp = start_loop(&ns);
         }
     }
+    // The view looks for a newer loop at most every GENERATION_CHECK; give it two looks
+    // at the last one before stopping everything.
+    std::thread::sleep(3 * services::GENERATION_CHECK);
     lp.signal(libc::SIGTERM);
     assert!(
         lp.wait_timeout(Duration::from_secs(10))
