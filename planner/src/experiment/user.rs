@@ -7,8 +7,12 @@
 //! - *contact-seeking* (our model of the H-RRT-C operator, who pushes the object against
 //!   surfaces): the hand follows the path with a fixed per-run orientation error (a
 //!   dexterity limit, Gaussian σ per axis); the avatar (proxy) moves to the hand when the
-//!   hand's configuration is free, and otherwise stays put, in contact, while the hand
-//!   keeps pushing. In contact it reports the deepest contact's point and normal, the force
+//!   hand's configuration is free, and otherwise only as far toward the hand as it stays
+//!   free (turning first, then a share of the way), in contact, while the hand keeps
+//!   pushing. The device's force holds the hand back: in contact the hand gets no
+//!   farther than [`MAX_STRETCH_M`] from the proxy (the coupling's stretch at the arm's
+//!   maximum force), so it waits at the obstacle instead of walking through it and
+//!   reappearing behind it. In contact it reports the deepest contact's point and normal, the force
 //!   `f_u = k·(hand − proxy)` (a virtual coupling of stiffness k) and the hand's motion Δp,
 //!   as the haptic loop would. Feeling the contact, the operator straightens the object:
 //!   each iteration in contact shrinks the orientation error by [`CORRECTION_PER_STEP`]
@@ -25,6 +29,13 @@ use rand_distr::StandardNormal;
 
 /// Coupling stiffness of the contact-seeking user (N/m, default 200: 1 cm of push is 2 N).
 pub const COUPLING_N_PER_M: f64 = 200.0;
+
+/// Maximum force the operator's device renders, N (the simulated arm's `max_force_n`).
+pub const MAX_PUSH_N: f64 = 8.0;
+
+/// Farthest the hand gets from the proxy while in contact, m: where the coupling's force
+/// reaches [`MAX_PUSH_N`] (4 cm at the default stiffness).
+pub const MAX_STRETCH_M: f64 = MAX_PUSH_N / COUPLING_N_PER_M;
 
 /// Fraction of the orientation error the contact-seeking operator removes per iteration
 /// in contact (0.01: the error halves in about 70 iterations of contact).
@@ -107,18 +118,28 @@ impl SimUser {
 
     /// Advances one iteration and returns the input the planner sees.
     pub fn step(&mut self, space: &dyn ConfigSpace, checker: &CollisionChecker) -> UserInput {
-        self.s += self.eps_v;
-        let on_path = self.at(space, self.s);
         let Some(err) = self.error else {
-            return UserInput::free(on_path);
+            self.s += self.eps_v;
+            return UserInput::free(self.at(space, self.s));
         };
-        let hand = space.project(&Se3::new(on_path.pos, err * on_path.rot));
+        let hand_at = |s: f64| {
+            let on_path = self.at(space, s);
+            space.project(&Se3::new(on_path.pos, err * on_path.rot))
+        };
+        let mut hand = hand_at(self.s + self.eps_v);
+        if !checker.is_free(&hand) && (hand.pos - self.proxy.pos).norm() > MAX_STRETCH_M {
+            // Held back by the device: the hand stays where it is (it may still turn).
+            hand = hand_at(self.s);
+        } else {
+            self.s += self.eps_v;
+        }
         let dp = hand.pos - self.prev_hand.pos;
         self.prev_hand = hand;
         if checker.is_free(&hand) {
             self.proxy = hand;
             return UserInput::free(hand);
         }
+        self.follow(space, checker, &hand);
         let contact = checker
             .deepest_contact(&hand)
             .map(|(point, normal, _)| Contact {
@@ -135,6 +156,25 @@ impl SimUser {
         UserInput {
             q_user: self.proxy,
             contact,
+        }
+    }
+
+    /// Moves the proxy toward a hand that is in collision as far as it stays free, like the
+    /// haptic loop's proxy: first it turns to the hand's orientation where it is, then it
+    /// takes the largest of 1/2, 1/4, … 1/64 of the way to the hand that is free.
+    fn follow(&mut self, space: &dyn ConfigSpace, checker: &CollisionChecker, hand: &Se3) {
+        let turned = Se3::new(self.proxy.pos, hand.rot);
+        if checker.is_free(&turned) {
+            self.proxy = turned;
+        }
+        let mut t = 0.5;
+        for _ in 0..6 {
+            let q = space.interpolate(&self.proxy, hand, t);
+            if checker.is_free(&q) {
+                self.proxy = q;
+                return;
+            }
+            t *= 0.5;
         }
     }
 
@@ -271,5 +311,41 @@ mod tests {
             }
         }
         assert!(contacts > 0 && u.contact_iterations == contacts);
+    }
+
+    #[test]
+    fn the_device_holds_the_hand_at_the_slit_until_the_object_is_straight() {
+        let scene = Scene::crossing_planes();
+        let c = CollisionChecker::new(&scene);
+        let space = Space::for_scene(&scene, Weights::default());
+        let k = keyframes("crossing-planes").expect("k");
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let mut u = SimUser::contact_seeking(&space, k, 0.002, 0.3, &mut rng);
+        // The first slabs' front face is at x = −0.25 m; the slit ends at x = −0.08 m.
+        let mut first_contact_x = None;
+        let mut passed = false;
+        for _ in 0..3000 {
+            let inp = u.step(&space, &c);
+            assert!(c.is_free(&inp.q_user));
+            if let Some(ct) = inp.contact {
+                first_contact_x.get_or_insert(ct.proxy.pos.x);
+                // Pushing: the hand is ahead of the proxy by at most the stretch at the
+                // device's maximum force.
+                assert!(
+                    ct.force_n.norm() <= MAX_PUSH_N + 1e-9,
+                    "{}",
+                    ct.force_n.norm()
+                );
+            }
+            // The proxy never jumps through the slabs: it enters the slit straight.
+            if inp.q_user.pos.x > -0.25 && inp.q_user.pos.x < -0.08 {
+                let tilt = inp.q_user.rot.angle_to(&UnitQuaternion::identity());
+                assert!(tilt < 0.06, "in the slit {tilt} rad off");
+            }
+            passed |= inp.q_user.pos.x > -0.05;
+        }
+        let x0 = first_contact_x.expect("0.3 rad off cannot enter the slit at once");
+        assert!(x0 < -0.25 + 1e-3, "first contact at x = {x0}");
+        assert!(passed, "the straightened object passed the slit");
     }
 }
