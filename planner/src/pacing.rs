@@ -5,9 +5,10 @@
 //! wake-up time (`header.timestamp_ns`), and wakes nobody: its RT thread makes no system call
 //! beyond the clock and the device (see `ipc_types::services` for why an iceoryx2 event is
 //! not notified from it). A reader polling at a fixed rate therefore waits half a poll period
-//! on average. [`StatePacer`] instead predicts when the next state becomes readable — its
-//! stamp is the last stamp plus the loop's period, and it is readable some `delay` after its
-//! stamp (the rest of the tick's compute) — and sleeps until then. A first poll that finds
+//! on average. [`StatePacer`] instead predicts when the next state becomes readable — the
+//! loop's next on-time tick (its grid: a loop never wakes early, so the earliest stamps,
+//! projected by whole periods, mark it) plus some `delay` (its wake-up latency and the
+//! compute before the write) — and sleeps until then. A first poll that finds
 //! the new state shortens `delay` a little; one that does not lengthens it more and polls
 //! again [`RETRY_NS`] later. So `delay` settles where about four first polls in five
 //! succeed, and a state is read a few microseconds after it was written, with about one
@@ -30,12 +31,17 @@ const MAX_PERIOD_NS: u64 = 100_000_000;
 #[derive(Debug, Clone)]
 pub struct StatePacer {
     fallback_ns: u64,
-    /// The loop's tick period, estimated from consecutive stamps (ns).
+    /// The loop's tick period, estimated from the stamps since the anchor (ns).
     period_ns: Option<u64>,
+    /// The first state seen from this loop: sequence and stamp (ns).
+    anchor_sequence: u64,
+    anchor_stamp_ns: u64,
     /// Stamp → readable, as learnt (ns).
     delay_ns: u64,
     last_sequence: u64,
     last_stamp_ns: u64,
+    /// A tick time of the loop's on-time grid near the last stamp, ns.
+    grid_ns: u64,
     /// The poll now pending was predicted (not a fallback poll).
     predicted: bool,
     /// Polls since the prediction that found nothing new.
@@ -48,9 +54,12 @@ impl StatePacer {
         Self {
             fallback_ns: fallback_ns.max(1),
             period_ns: None,
+            anchor_sequence: 0,
+            anchor_stamp_ns: 0,
             delay_ns: 0,
             last_sequence: 0,
             last_stamp_ns: 0,
+            grid_ns: 0,
             predicted: false,
             retries: 0,
         }
@@ -85,36 +94,56 @@ impl StatePacer {
                 self.delay_ns += STEP_UP_NS;
             }
         }
-        let consecutive = self.last_sequence != 0 && sequence == self.last_sequence + 1;
-        if consecutive && stamp_ns > self.last_stamp_ns {
-            let d = stamp_ns - self.last_stamp_ns;
-            self.period_ns = match self.period_ns {
-                // A slow moving average: one late wake-up hardly moves it.
-                Some(p) if d < 2 * p => Some((7 * p + d) / 8),
-                Some(p) => Some(p),
-                None if d <= MAX_PERIOD_NS => Some(d),
-                None => None,
-            };
-        } else if !consecutive && self.last_sequence != 0 {
-            // States skipped or a new loop: relearn the period (and the delay with it).
+        if self.anchor_sequence == 0
+            || sequence <= self.last_sequence
+            || stamp_ns <= self.last_stamp_ns
+        {
+            // The first state, or a new loop (its sequence starts again): relearn.
+            self.anchor_sequence = sequence;
+            self.anchor_stamp_ns = stamp_ns;
             self.period_ns = None;
+            self.grid_ns = 0;
+        } else {
+            // The mean period since the anchor: a late wake-up's error shrinks with every
+            // tick, and skipped states (gaps in the sequence) need no special case.
+            let p = (stamp_ns - self.anchor_stamp_ns) / (sequence - self.anchor_sequence);
+            self.period_ns = (p > 0 && p <= MAX_PERIOD_NS).then_some(p);
         }
         self.last_sequence = sequence;
         self.last_stamp_ns = stamp_ns;
         self.retries = 0;
         match self.period_ns {
             Some(p) => {
+                self.follow_grid(stamp_ns, p);
                 // The delay never grows past a period: then the prediction is useless and
                 // the fallback does as well.
                 self.delay_ns = self.delay_ns.min(p);
                 self.predicted = true;
-                (stamp_ns + p + self.delay_ns).max(now_ns)
+                (self.grid_ns + p + self.delay_ns).max(now_ns)
             }
             None => {
                 self.predicted = false;
                 now_ns + self.fallback_ns
             }
         }
+    }
+
+    /// Moves the grid estimate to the tick of `stamp_ns`: one whole number of periods on,
+    /// then down to the stamp if it came earlier (less late) than the estimate, else a
+    /// 1/64 step up toward it (so an error in the period or one early outlier cannot keep
+    /// the estimate off for long).
+    fn follow_grid(&mut self, stamp_ns: u64, p: u64) {
+        if self.grid_ns == 0 || self.grid_ns > stamp_ns + p {
+            self.grid_ns = stamp_ns;
+            return;
+        }
+        let periods = (stamp_ns + p / 2 - self.grid_ns) / p;
+        let on_time = self.grid_ns + periods * p;
+        self.grid_ns = if stamp_ns <= on_time {
+            stamp_ns
+        } else {
+            on_time + (stamp_ns - on_time) / 64
+        };
     }
 
     fn nothing_new(&mut self, now_ns: u64) -> u64 {
@@ -219,6 +248,25 @@ mod tests {
         assert_eq!(t, 2_001_500 + RETRY_NS);
         assert_eq!(p.next_poll(3_100_000, None), 3_600_000);
         assert_eq!(p.next_poll(3_600_000, None), 4_100_000);
+    }
+
+    #[test]
+    fn skipped_states_keep_the_lock() {
+        let mut p = StatePacer::new(500 * US);
+        for k in 0..100 {
+            p.next_poll(k * MS + 2 * US, Some((k + 1, k * MS)));
+        }
+        assert_eq!(p.period_ns(), Some(MS));
+        // States 101 and 102 were missed: the next one is still predicted on the grid.
+        assert_eq!(
+            p.next_poll(102 * MS + 50 * US, Some((103, 102 * MS))),
+            103 * MS
+        );
+        assert_eq!(p.period_ns(), Some(MS));
+        // A late wake-up hardly moves the grid: the next prediction stays on time (to
+        // within 1/64 of the lateness and its effect on the mean period).
+        let next = p.next_poll(103 * MS + 90 * US, Some((104, 103 * MS + 80 * US)));
+        assert!((104 * MS..104 * MS + 3 * US).contains(&next), "{next}");
     }
 
     #[test]

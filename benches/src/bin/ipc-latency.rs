@@ -10,7 +10,8 @@
 //!    relay's poll).
 //! 2. **ours**: the real haptic loop (simulated arm; contact off unless `--contact`) with a
 //!    real `planner serve` process. State: the tick's header stamp (its wake-up) → the
-//!    planner's receiver thread reading the blackboard (`state_latency_us` of the planner's
+//!    planner's receiver thread reading the blackboard, phase-locked to the ticks with a
+//!    `--state-spin-us` spin window (`planner::pacing`; `state_latency_us` of the planner's
 //!    JSON report). Guidance: the planner's stamp just before `send_copy` → wake-up of the
 //!    first tick rendering it, through the loop's relay thread and triple buffer
 //!    (`guidance_latency_us` of the loop report).
@@ -48,9 +49,14 @@ struct Args {
     /// Tick rate = state write rate, Hz.
     #[arg(long, default_value_t = 1000.0)]
     rate_hz: f64,
-    /// The planner's state poll rate, Hz (`planner serve --poll-hz`).
+    /// The planner's state poll rate before it locks onto the ticks, Hz (`planner serve
+    /// --poll-hz`), and the bare polled blackboard's rate.
     #[arg(long, default_value_t = 2000.0)]
     poll_hz: f64,
+    /// The planner receiver's spin window around each predicted state, µs (`planner serve
+    /// --state-spin-us`; 0: it only sleeps).
+    #[arg(long, default_value_t = 10.0)]
+    state_spin_us: f64,
     /// The planner's guidance rate, Hz (`planner serve --guidance-rate-hz`).
     #[arg(long, default_value_t = 100.0)]
     guidance_rate_hz: f64,
@@ -145,6 +151,7 @@ struct Report {
     baseline_seconds: f64,
     rate_hz: f64,
     state_poll_hz: f64,
+    state_spin_us: f64,
     guidance_rate_hz: f64,
     relay_poll_hz: f64,
     priority: u8,
@@ -171,6 +178,7 @@ fn main() -> anyhow::Result<()> {
         ("baseline-seconds", args.baseline_seconds, 0.5, 600.0),
         ("rate-hz", args.rate_hz, 500.0, 4000.0),
         ("poll-hz", args.poll_hz, 1.0, 100_000.0),
+        ("state-spin-us", args.state_spin_us, 0.0, 500.0),
         ("guidance-rate-hz", args.guidance_rate_hz, 1.0, 10_000.0),
     ] {
         if !(v.is_finite() && (lo..=hi).contains(&v)) {
@@ -225,6 +233,7 @@ fn main() -> anyhow::Result<()> {
         baseline_seconds: secs,
         rate_hz: args.rate_hz,
         state_poll_hz: args.poll_hz,
+        state_spin_us: args.state_spin_us,
         guidance_rate_hz: args.guidance_rate_hz,
         relay_poll_hz: RELAY_POLL_HZ,
         priority: args.priority,
@@ -390,6 +399,8 @@ fn run_ours(
         &[
             "--poll-hz".into(),
             args.poll_hz.to_string(),
+            "--state-spin-us".into(),
+            args.state_spin_us.to_string(),
             "--guidance-rate-hz".into(),
             args.guidance_rate_hz.to_string(),
             "--json".into(),
@@ -431,8 +442,8 @@ fn print_table(r: &Report) {
     };
     let s = &r.state;
     println!(
-        "HapticState at {} Hz, tick stamp → planner receiver polling at {} Hz ({} received, {} skipped)",
-        r.rate_hz, r.state_poll_hz, s.states_received, s.states_skipped
+        "HapticState at {} Hz, tick stamp → planner receiver phase-locked to the ticks, spinning ±{} µs around each ({} received, {} skipped)",
+        r.rate_hz, r.state_spin_us, s.states_received, s.states_skipped
     );
     println!("| µs | p50 | p90 | p99 | p99.9 | max | n |");
     println!("|---|---|---|---|---|---|---|");
@@ -489,6 +500,10 @@ fn print_table(r: &Report) {
         r.goal.statement,
         r.goal.ratio_p50,
         if r.goal.met { "met" } else { "NOT met" }
+    );
+    println!(
+        "same transport as ours (bare blackboard, spinning reader): ratio {:.2} (the RT writer cannot use publish-subscribe: one allocation per send)",
+        r.state.ratio_to_bare_blackboard_spin.p50
     );
     println!(
         "loop: {} ticks, {} deadline misses, compute p50 {:.1} µs, p99 {:.1} µs, allocations/tick {}",
