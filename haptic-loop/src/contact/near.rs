@@ -232,7 +232,7 @@ impl ShellColumns {
                     let sd = s.distance_m[l];
                     // Within reach; a direction (the field is flat midway inside a thin
                     // plate); facing the surface (see the module docs of `contact`).
-                    keep[l] = sd < reach && g2[l] >= 1e-18 && facing[l] >= 0.0;
+                    keep[l] = (sd < reach) & (g2[l] >= 1e-18) & (facing[l] >= 0.0);
                     sd - reach
                 } else {
                     s.clearance_m[l] - reach

@@ -486,7 +486,8 @@ impl Voxmap {
         let g: [Lanes; 3] = axes(|a| lanes(|l| (p[a][l] - origin[a]) * inv_h));
         let inside: [bool; LANES] = lanes(|l| {
             let [x, y, z] = [g[0][l], g[1][l], g[2][l]];
-            x >= 0.0 && y >= 0.0 && z >= 0.0 && x < cells[0] && y < cells[1] && z < cells[2]
+            // `&`, not `&&`: no branch per comparison, so the lanes stay in SIMD registers.
+            (x >= 0.0) & (y >= 0.0) & (z >= 0.0) & (x < cells[0]) & (y < cells[1]) & (z < cells[2])
         });
         // Clamped into the grid so that the conversion and the look-ups below are valid
         // for every lane; lanes outside are dropped by `inside`.
