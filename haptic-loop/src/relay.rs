@@ -5,8 +5,10 @@
 //! Why a relay: `Subscriber::receive()` rebuilds its connections, allocating, when a
 //! publisher appears or vanishes, i.e. whenever a planner (re)starts. That must not happen on
 //! the RT thread. The relay absorbs it; the RT thread only swaps a triple-buffer index.
-//! The relay polls every `poll` (default 1 ms), which adds at most that to the guidance age,
-//! negligible against a time-to-live of ~100 ms.
+//! The relay sleeps on the planner's guidance event (`services::GUIDANCE_EVENT`), so a new
+//! sample reaches the triple buffer microseconds after it was sent and is rendered by the
+//! next tick; it also wakes every `poll` (default 1 ms) on its own, so a planner that does
+//! not notify, or a lost notification, costs at most that.
 
 use crate::tick::GuidanceSource;
 use ipc_types::Guidance;
@@ -54,9 +56,11 @@ impl Relay {
                     let sub =
                         services::create_node(&format!("haptic_relay_{}", std::process::id()))
                             .and_then(|(node, _)| {
-                                Ok((services::guidance_subscriber(&node, &namespace)?, node))
+                                let sub = services::guidance_subscriber(&node, &namespace)?;
+                                let listener = services::guidance_listener(&node, &namespace)?;
+                                Ok((sub, listener, node))
                             });
-                    let (sub, _node) = match sub {
+                    let (sub, listener, _node) = match sub {
                         Ok(s) => {
                             let _ = ready_tx.send(Ok(()));
                             s
@@ -82,7 +86,11 @@ impl Relay {
                             input.write(g);
                             *newest.lock().unwrap_or_else(|p| p.into_inner()) = g;
                         }
-                        std::thread::sleep(poll);
+                        // Woken by the planner's notification or after `poll`; a failed
+                        // wait (e.g. an interrupting signal) falls back to sleeping.
+                        if listener.timed_wait(|_| {}, poll).is_err() {
+                            std::thread::sleep(poll);
+                        }
                     }
                 })?
         };
@@ -116,5 +124,36 @@ impl Drop for Relay {
         if let Some(t) = self.thread.take() {
             let _ = t.join();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Instant;
+
+    #[test]
+    fn the_planners_notification_wakes_the_relay_before_its_poll() {
+        let ns = format!("relay_wake_{}", std::process::id());
+        // A poll period far longer than the wait below: only the event can deliver in time.
+        let (relay, mut output) = Relay::spawn(&ns, Duration::from_secs(30)).unwrap();
+        let (node, _) = services::create_node("relay_wake_planner").unwrap();
+        let publisher = services::guidance_publisher(&node, &ns).unwrap();
+        let event = services::guidance_notifier(&node, &ns).unwrap();
+        // Let the relay enter its wait (it received nothing yet: no publisher existed).
+        std::thread::sleep(Duration::from_millis(200));
+        let mut g = Guidance::default();
+        g.header.sequence = 7;
+        publisher.send_copy(g).unwrap();
+        event.notify().unwrap();
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while output.latest().header.sequence != 7 {
+            assert!(
+                Instant::now() < deadline,
+                "the relay did not wake on the guidance event"
+            );
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        assert_eq!(relay.newest().header.sequence, 7);
     }
 }

@@ -4,6 +4,7 @@
 //! |---|---|---|---|
 //! | [`HAPTIC_STATE`]`/<generation>` | blackboard, one entry | haptic loop (RT thread) | latest value; never blocks, never allocates; a loop restarted after a crash writes a new generation, readers follow the newest ([`newest_state_generation`]) |
 //! | [`GUIDANCE`] | publish-subscribe | planner | history 1, safe overflow: latest value; a restarted planner simply publishes again |
+//! | [`GUIDANCE_EVENT`] | event | planner | "a guidance sample was sent": wakes the loop's relay thread (non-RT); the relay also polls, so a lost or absent notification costs only latency |
 //! | [`PATH`] | publish-subscribe | planner | history 1, safe overflow: late subscribers get the newest path; the planner never blocks |
 //! | [`ROADMAP`] | publish-subscribe | planner | no history, [`ROADMAP_SUBSCRIBER_BUFFER`] samples, safe overflow: increments; a slow or late viewer catches up from the rolling window (see [`crate::Roadmap`]); the planner never blocks |
 //! | [`DRIVER_STATE`] | publish-subscribe | external device driver | history 1, safe overflow: latest value; a restarted driver simply publishes again |
@@ -39,6 +40,9 @@ use iceoryx2::port::writer::EntryHandleMut;
 use iceoryx2::prelude::*;
 use iceoryx2::service::builder::blackboard::{BlackboardCreateError, BlackboardOpenError};
 
+/// Leaf name of the event the planner notifies after each [`GUIDANCE`] sample, which wakes
+/// the loop's non-RT relay thread at once instead of at its next poll.
+pub const GUIDANCE_EVENT: &str = "guidance_event";
 /// Leaf name of the [`HapticState`] blackboard.
 pub const HAPTIC_STATE: &str = "haptic_state";
 /// Leaf name of the [`Guidance`] blackboard.
@@ -98,6 +102,10 @@ pub type RoadmapPublisher = iceoryx2::port::publisher::Publisher<Ipc, Roadmap, (
 pub type RoadmapSubscriber = iceoryx2::port::subscriber::Subscriber<Ipc, Roadmap, ()>;
 /// Subscriber of [`PATH`].
 pub type PathSubscriber = iceoryx2::port::subscriber::Subscriber<Ipc, Path, ()>;
+/// Notifier of [`GUIDANCE_EVENT`] (planner).
+pub type GuidanceNotifier = iceoryx2::port::notifier::Notifier<Ipc>;
+/// Listener of [`GUIDANCE_EVENT`] (the loop's relay thread).
+pub type GuidanceListener = iceoryx2::port::listener::Listener<Ipc>;
 
 /// What went wrong opening a service; the message names the service.
 #[derive(Debug)]
@@ -511,6 +519,56 @@ pub fn guidance_subscriber(
     namespace: &str,
 ) -> Result<GuidanceSubscriber, ServiceError> {
     subscriber::<Guidance>(node, namespace, GUIDANCE)
+}
+
+fn guidance_event(
+    node: &Node<Ipc>,
+    namespace: &str,
+) -> Result<iceoryx2::service::port_factory::event::PortFactory<Ipc>, ServiceError> {
+    let full = service_name(namespace, GUIDANCE_EVENT);
+    let name: ServiceName = full
+        .as_str()
+        .try_into()
+        .map_err(|e| err(&full, format!("invalid service name: {e:?}")))?;
+    node.service_builder(&name)
+        .event()
+        .max_notifiers(MAX_PLANNER_PUBLISHERS)
+        .max_listeners(MAX_READERS)
+        .max_nodes(MAX_NODES)
+        .open_or_create()
+        .map_err(|e| err(&full, format!("cannot open or create: {e:?}")))
+}
+
+/// Notifier of [`GUIDANCE_EVENT`] (for the planner, after each guidance sample).
+pub fn guidance_notifier(
+    node: &Node<Ipc>,
+    namespace: &str,
+) -> Result<GuidanceNotifier, ServiceError> {
+    guidance_event(node, namespace)?
+        .notifier_builder()
+        .create()
+        .map_err(|e| {
+            err(
+                &service_name(namespace, GUIDANCE_EVENT),
+                format!("cannot create notifier: {e:?}"),
+            )
+        })
+}
+
+/// Listener of [`GUIDANCE_EVENT`] (for the loop's relay thread, never the RT thread).
+pub fn guidance_listener(
+    node: &Node<Ipc>,
+    namespace: &str,
+) -> Result<GuidanceListener, ServiceError> {
+    guidance_event(node, namespace)?
+        .listener_builder()
+        .create()
+        .map_err(|e| {
+            err(
+                &service_name(namespace, GUIDANCE_EVENT),
+                format!("cannot create listener: {e:?}"),
+            )
+        })
 }
 
 /// Publisher of [`PATH`] (for the planner).

@@ -16,7 +16,7 @@
 
 use crate::view::feed::{FeedInfo, RoadmapFeed};
 use crate::{Planner, PlannerParams, Scene, Se3};
-use ipc_types::services::{self, GuidancePublisher, RoadmapPublisher};
+use ipc_types::services::{self, GuidanceNotifier, GuidancePublisher, RoadmapPublisher};
 use ipc_types::{Guidance, GuidanceMode, HapticState, Header, PATH_CAPACITY, Path, Pose};
 use serde::Serialize;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -127,6 +127,7 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
         tracing::info!("removed resources of {cleaned} dead iceoryx2 node(s)");
     }
     let guidance = services::guidance_publisher(&node, &config.namespace)?;
+    let guidance_event = services::guidance_notifier(&node, &config.namespace)?;
     let path_pub = services::path_publisher(&node, &config.namespace)?;
     let roadmap_pub = if config.roadmap_rate_hz > 0.0 {
         Some(services::roadmap_publisher(&node, &config.namespace)?)
@@ -224,7 +225,7 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
             }
             guidance_seq += 1;
             let g = make_guidance(config, &planner, q_user.as_ref(), &op, guidance_seq, pid);
-            publish_guidance(&guidance, g);
+            publish_guidance(&guidance, &guidance_event, g);
             report.guidance_published += 1;
         }
         if let Some(rp) = &roadmap_pub
@@ -428,9 +429,15 @@ fn publish_roadmap(
     }
 }
 
-fn publish_guidance(publisher: &GuidancePublisher, g: Guidance) {
+/// Sends `g` and wakes the loop's relay thread, which then hands it to the next tick.
+fn publish_guidance(publisher: &GuidancePublisher, event: &GuidanceNotifier, g: Guidance) {
     if let Err(e) = publisher.send_copy(g) {
         tracing::warn!("cannot publish guidance: {e:?}");
+        return;
+    }
+    // Without the wake-up the relay still polls: a failed notification only costs latency.
+    if let Err(e) = event.notify() {
+        tracing::debug!("cannot notify the guidance event: {e:?}");
     }
 }
 

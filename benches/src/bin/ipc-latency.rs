@@ -13,7 +13,8 @@
 //!    planner's receiver thread reading the blackboard, phase-locked to the ticks with a
 //!    `--state-spin-us` spin window (`planner::pacing`; `state_latency_us` of the planner's
 //!    JSON report). Guidance: the planner's stamp just before `send_copy` → wake-up of the
-//!    first tick rendering it, through the loop's relay thread and triple buffer
+//!    first tick rendering it, through the loop's relay thread (woken by the planner's
+//!    guidance event) and triple buffer
 //!    (`guidance_latency_us` of the loop report).
 //!
 //! Prints a table with the ratios ours / bare and writes JSON with `--json`.
@@ -478,7 +479,7 @@ fn print_table(r: &Report) {
     let g = &r.guidance;
     println!();
     println!(
-        "Guidance at {} Hz, planner stamp → first tick rendering it (relay polls at {} Hz)",
+        "Guidance at {} Hz, planner stamp → first tick rendering it (relay woken by the planner's event, else polling at {} Hz)",
         r.guidance_rate_hz, r.relay_poll_hz
     );
     println!("| µs | p50 | p90 | p99 | p99.9 | max | n |");
