@@ -13,6 +13,8 @@
 //   WIDTH, HEIGHT   viewport                                     [1600, 900]
 //   CHROMIUM        browser binary                               [/usr/bin/chromium]
 //   GL              extra GL flags, space separated   [--use-angle=swiftshader --enable-unsafe-swiftshader]
+//   MCAP            instead of WS_URL: open this recording (`planner view --record`) through
+//                   Lichtblick's local-file input and play it for WAIT_S seconds
 //   VARIANT         `no-roadmap`: the same layout with the roadmap topics hidden and the camera
 //                   at 0.7 m, so the object, proxy, forces and paths are not behind the nodes
 
@@ -73,12 +75,25 @@ const gl = env("GL", "--use-angle=swiftshader --enable-unsafe-swiftshader").spli
     route.fulfill({ status: 200, contentType: "application/json", body: layout }),
   );
 
+  const mcap = env("MCAP", "");
   const url = new URL(base);
-  url.searchParams.set("ds", "foxglove-websocket");
-  url.searchParams.set("ds.url", wsUrl);
+  if (mcap === "") {
+    url.searchParams.set("ds", "foxglove-websocket");
+    url.searchParams.set("ds.url", wsUrl);
+  }
   url.searchParams.set("layoutUrl", layoutUrl);
   console.log(`opening ${url}`);
   await page.goto(url.toString(), { waitUntil: "load" });
+  if (mcap !== "") {
+    // Lichtblick's hidden file input behind "Open local file" and drag-and-drop.
+    const input = page.locator("input[data-puppeteer-file-upload]");
+    await input.waitFor({ state: "attached", timeout: 60000 });
+    await page.waitForTimeout(3000); // let the layout from layoutUrl arrive first
+    await input.setInputFiles(mcap);
+    console.log(`opened ${mcap}`);
+    await page.waitForTimeout(5000);
+    await page.keyboard.press("Space"); // play
+  }
 
   const t0 = Date.now();
   while (Date.now() - t0 < waitS * 1000) {
