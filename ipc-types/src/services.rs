@@ -19,9 +19,10 @@
 //! allocate one `Arc` per sample, and `Notifier::notify()` rebuilds its connection list
 //! (allocating) when a listener joins. A blackboard entry is a lock-free single-writer,
 //! multi-reader cell in shared memory: `update_with_copy()` and `get()` touch only that
-//! memory, whatever the other process does. The price is latest-value semantics: a reader
-//! that wants every tick polls faster than the loop and uses `header.sequence` to count what
-//! it skipped.
+//! memory, whatever the other process does. The price is latest-value semantics and no
+//! wake-up: a reader that wants every tick polls once per tick just after each write (the
+//! planner locks onto the stamps' tick grid) and uses `header.sequence` to count what it
+//! skipped.
 //!
 //! Why not a blackboard for guidance: the writer of a blackboard entry holds a producer flag
 //! in shared memory that iceoryx2 0.10 does not release when the writer's process dies, so a
