@@ -183,6 +183,16 @@ pub fn cleanup_dead_nodes() -> usize {
     cleaned
 }
 
+/// The full name of service `leaf` on `namespace`, and as an iceoryx2 service name.
+fn iceoryx_name(namespace: &str, leaf: &str) -> Result<(String, ServiceName), ServiceError> {
+    let full = service_name(namespace, leaf);
+    let name = full
+        .as_str()
+        .try_into()
+        .map_err(|e| err(&full, format!("invalid service name: {e:?}")))?;
+    Ok((full, name))
+}
+
 /// Opens the blackboard `leaf` holding one `T`, creating it with `initial` if nobody has.
 /// Every wire type's `Default` has `header.sequence == 0`: "never written".
 /// Either process may come first.
@@ -195,11 +205,7 @@ fn blackboard<T>(
 where
     T: ZeroCopySend + Copy + core::fmt::Debug + 'static,
 {
-    let full = service_name(namespace, leaf);
-    let name: ServiceName = full
-        .as_str()
-        .try_into()
-        .map_err(|e| err(&full, format!("invalid service name: {e:?}")))?;
+    let (full, name) = iceoryx_name(namespace, leaf)?;
     // Open-or-create by hand: blackboards have no open_or_create. Creation races and services
     // being torn down by their last user are transient, so retry for a short while.
     let mut last = String::new();
@@ -457,11 +463,7 @@ fn latest_value_service<T: ZeroCopySend + core::fmt::Debug + 'static>(
     leaf: &str,
 ) -> Result<iceoryx2::service::port_factory::publish_subscribe::PortFactory<Ipc, T, ()>, ServiceError>
 {
-    let full = service_name(namespace, leaf);
-    let name: ServiceName = full
-        .as_str()
-        .try_into()
-        .map_err(|e| err(&full, format!("invalid service name: {e:?}")))?;
+    let (full, name) = iceoryx_name(namespace, leaf)?;
     node.service_builder(&name)
         .publish_subscribe::<T>()
         .history_size(1)
@@ -526,11 +528,7 @@ fn guidance_event(
     node: &Node<Ipc>,
     namespace: &str,
 ) -> Result<iceoryx2::service::port_factory::event::PortFactory<Ipc>, ServiceError> {
-    let full = service_name(namespace, GUIDANCE_EVENT);
-    let name: ServiceName = full
-        .as_str()
-        .try_into()
-        .map_err(|e| err(&full, format!("invalid service name: {e:?}")))?;
+    let (full, name) = iceoryx_name(namespace, GUIDANCE_EVENT)?;
     node.service_builder(&name)
         .event()
         .max_notifiers(MAX_PLANNER_PUBLISHERS)
@@ -591,11 +589,7 @@ fn roadmap_service(
     iceoryx2::service::port_factory::publish_subscribe::PortFactory<Ipc, Roadmap, ()>,
     ServiceError,
 > {
-    let full = service_name(namespace, ROADMAP);
-    let name: ServiceName = full
-        .as_str()
-        .try_into()
-        .map_err(|e| err(&full, format!("invalid service name: {e:?}")))?;
+    let (full, name) = iceoryx_name(namespace, ROADMAP)?;
     node.service_builder(&name)
         .publish_subscribe::<Roadmap>()
         .history_size(0)
