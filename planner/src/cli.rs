@@ -160,6 +160,10 @@ pub struct ExperimentArgs {
     /// hrrtc: σ of the operator's orientation error, rad per axis (its dexterity).
     #[arg(long, default_value_t = 0.1)]
     pub error_sigma: f64,
+    /// hrrtc: operator samples that cannot connect to a tree start I-RRT local trees,
+    /// merged when they connect (as `planner serve --local-trees`).
+    #[arg(long)]
+    pub local_trees: bool,
     /// Also draw the final roadmap of each configuration's first seed, top-down with
     /// the operator's path and the solution, into OUT/roadmaps/*.png.
     #[arg(long)]
@@ -649,6 +653,7 @@ pub fn experiment(a: &ExperimentArgs) -> anyhow::Result<()> {
             &a.alphas,
             a.hrrtc_eps,
             a.error_sigma,
+            a.local_trees,
             a.seeds,
             limit,
         )

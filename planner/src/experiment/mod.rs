@@ -179,6 +179,7 @@ pub fn run_drawn(
         scene: spec.scene.clone(),
         method: match spec.user {
             UserModel::None => "auto".into(),
+            _ if spec.params.local_trees => format!("{}+local", spec.params.sampling.name()),
             _ => spec.params.sampling.name().into(),
         },
         sigma: spec.params.user_sigma,
@@ -231,12 +232,14 @@ pub fn irrt_specs(
 }
 
 /// The `hrrtc` sweep: automatic RRT-Connect and H-RRT-C for every α, per scene and seed,
-/// with a contact-seeking operator.
+/// with a contact-seeking operator; `local_trees`: operator samples that cannot connect
+/// start I-RRT local trees.
 pub fn hrrtc_specs(
     scenes: &[String],
     alphas: &[f64],
     eps_v: f64,
     error_sigma_rad: f64,
+    local_trees: bool,
     seeds: u64,
     time_limit_s: f64,
 ) -> Vec<RunSpec> {
@@ -257,6 +260,7 @@ pub fn hrrtc_specs(
                     scene: scene.clone(),
                     params: PlannerParams {
                         sampling: Sampling::Hrrtc { alpha },
+                        local_trees,
                         ..PlannerParams::default()
                     },
                     user: UserModel::ContactSeeking {
@@ -334,8 +338,15 @@ mod tests {
             irrt_specs("maze", &m, &[0.01, 0.05], &[0.001], 3, 1.0).len(),
             2 * 2 * 3
         );
-        let h = hrrtc_specs(&["tunnels".into()], &[0.0, 0.5], 0.002, 0.1, 4, 1.0);
+        let h = hrrtc_specs(&["tunnels".into()], &[0.0, 0.5], 0.002, 0.1, false, 4, 1.0);
         assert_eq!(h.len(), 4 * 3);
         assert_eq!(h.iter().filter(|s| s.user == UserModel::None).count(), 4);
+        assert!(h.iter().all(|s| !s.params.local_trees));
+        // Local trees go to the operator-driven runs only (automatic runs have no operator).
+        let l = hrrtc_specs(&["tunnels".into()], &[0.5], 0.002, 0.1, true, 2, 1.0);
+        assert!(
+            l.iter()
+                .all(|s| s.params.local_trees == (s.user != UserModel::None))
+        );
     }
 }

@@ -136,7 +136,7 @@ pub fn to_markdown(summaries: &[Summary]) -> String {
             "| {} | {} | {} | {} | {} | {}/{} | {:.3} | {:.0} | {:.0} |",
             s.scene,
             s.method,
-            if s.method == "auto" || s.method == "hrrtc" {
+            if s.method == "auto" || s.method.starts_with("hrrtc") {
                 "–".into()
             } else {
                 opt(s.sigma)
@@ -251,7 +251,7 @@ pub fn plot_hrrtc(summaries: &[Summary], limit_s: f64, path: &Path) -> PlotResul
             .draw()?;
         let mut pts: Vec<(f64, f64)> = summaries
             .iter()
-            .filter(|s| &s.scene == scene && s.method == "hrrtc")
+            .filter(|s| &s.scene == scene && s.method.starts_with("hrrtc"))
             .map(|s| (s.alpha, s.median_time_s))
             .collect();
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
