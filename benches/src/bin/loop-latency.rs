@@ -49,7 +49,8 @@ struct Args {
     /// `cyclictest`, or `builtin`.
     #[arg(long, default_value = "auto")]
     floor: String,
-    /// Attach a planner process (`planner serve`, from the same target directory).
+    /// Attach a planner process (`planner serve`, from the same target directory), running
+    /// through the floor phase too so that both phases carry its load.
     #[arg(long)]
     planner: bool,
     /// Render no contact.
@@ -138,6 +139,17 @@ fn main() -> anyhow::Result<()> {
     let period_ns = (1e9 / args.rate_hz).round() as u64;
     let phase = Duration::from_secs_f64(args.seconds);
 
+    // The planner runs through both phases (planning without an operator while the floor
+    // is measured), so that the floor sees the same load as the loop.
+    let ns = format!("latency_{}", std::process::id());
+    let _planner = if args.planner {
+        Some(PlannerChild::spawn_with(
+            &ns,
+            &["--plan-without-operator".into()],
+        )?)
+    } else {
+        None
+    };
     let use_cyclictest = match args.floor.as_str() {
         "builtin" => false,
         "cyclictest" => true,
@@ -171,7 +183,7 @@ fn main() -> anyhow::Result<()> {
     };
 
     eprintln!("loop: {:.0} s", args.seconds);
-    let (report, contact, planner) = run_loop(&args, rt, phase)?;
+    let (report, contact, planner) = run_loop(&args, &ns, rt, phase)?;
     let loop_ = LoopFigures {
         ticks: report.ticks,
         deadline_misses: report.deadline_misses,
@@ -482,17 +494,12 @@ fn builtin_floor(rt: RtOptions, period_ns: u64, phase: Duration) -> anyhow::Resu
 
 fn run_loop(
     args: &Args,
+    ns: &str,
     rt: RtOptions,
     phase: Duration,
 ) -> anyhow::Result<(LoopReport, bool, bool)> {
-    let ns = format!("latency_{}", std::process::id());
-    let _planner = if args.planner {
-        Some(PlannerChild::spawn(&ns)?)
-    } else {
-        None
-    };
     let running = wall_loop(
-        &ns,
+        ns,
         &WallLoop {
             rate_hz: args.rate_hz,
             rt,
