@@ -1,0 +1,107 @@
+#!/usr/bin/env python3
+"""Our automatic RRT-Connect (`planner solve`) vs OMPL RRTConnect + FCL (ompl_solve).
+
+Usage: benches/ompl/run.py --planner target/release/planner --seeds 20 --time-limit 10 \
+           --out out/ompl [--scenes wall-hole,tunnels-1axis,silencer]
+Writes OUT/runs.csv and OUT/summary.md; see docs/ompl-comparison.md.
+"""
+import argparse, csv, json, os, statistics, subprocess, tomllib
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def flatten(toml_path, out_path):
+    """Scene TOML -> the line format ompl_solve reads (axis-aligned parts only)."""
+    with open(toml_path, "rb") as f:
+        s = tomllib.load(f)
+    base = os.path.dirname(os.path.abspath(toml_path))
+    lines = [f"space {s.get('space', 'se3')}",
+             "bounds " + " ".join(map(str, s["bounds"]["min_m"] + s["bounds"]["max_m"])),
+             "start " + " ".join(map(str, s["start"]["position_m"])),
+             "goal " + " ".join(map(str, s["goal"]["position_m"]))]
+    for key, tag in (("start", None), ("goal", None)):
+        extra = set(s[key]) - {"position_m"}
+        if extra:
+            raise SystemExit(f"{toml_path}: [{key}] {sorted(extra)} not supported by ompl_solve")
+    for key, tag in (("obstacles", "obs"), ("moving_object", "mov")):
+        for p in s.get(key, []):
+            extra = set(p) - {"shape", "half_extents_m", "radius_m", "file", "scale", "position_m"}
+            if extra:
+                raise SystemExit(f"{toml_path}: {key} field(s) {sorted(extra)} not supported")
+            pos = " ".join(map(str, p.get("position_m", [0, 0, 0])))
+            if p["shape"] == "box":
+                geom = "box " + " ".join(map(str, p["half_extents_m"]))
+            elif p["shape"] == "sphere":
+                geom = f"sphere {p['radius_m']}"
+            elif p["shape"] == "mesh":
+                geom = f"mesh {os.path.join(base, p['file'])} {p.get('scale', 1.0)}"
+            else:
+                raise SystemExit(f"{toml_path}: shape {p['shape']} not supported")
+            lines.append(f"{tag} {geom} {pos}")
+    with open(out_path, "w") as f:
+        f.write("\n".join(lines) + "\n")
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--planner", default="target/release/planner")
+    ap.add_argument("--ompl", default=os.path.join(HERE, "ompl_solve"))
+    ap.add_argument("--seeds", type=int, default=20)
+    ap.add_argument("--time-limit", type=float, default=10)
+    ap.add_argument("--step", type=float, default=0.05)
+    ap.add_argument("--edge-resolution", type=float, default=0.005)
+    ap.add_argument("--scenes", default="wall-hole,tunnels-1axis,silencer,crossing-planes,maze")
+    ap.add_argument("--out", default="out/ompl")
+    a = ap.parse_args()
+    os.makedirs(a.out, exist_ok=True)
+    sdir = os.path.join(a.out, "scenes")
+    subprocess.run([a.planner, "scenes", "--write", sdir], check=True, stdout=subprocess.DEVNULL)
+    rows = []
+    for scene in a.scenes.split(","):
+        flat = os.path.join(sdir, scene + ".txt")
+        flatten(os.path.join(sdir, scene + ".toml"), flat)
+        for seed in range(1, a.seeds + 1):
+            js = os.path.join(a.out, f"ours-{scene}-{seed}.json")
+            subprocess.run([a.planner, "solve", "--scene", os.path.join(sdir, scene + ".toml"),
+                            "--seed", str(seed), "--time-limit", str(a.time_limit),
+                            "--step", str(a.step), "--edge-resolution", str(a.edge_resolution),
+                            "--shortcut-attempts", "0", "--json", js],
+                           check=False, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            r = json.load(open(js))
+            rows.append(dict(scene=scene, impl="ours", seed=seed, solved=r["solved"],
+                             time_s=r["time_s"], checks=r["collision_checks"]))
+            out = subprocess.run([a.ompl, flat, "--seed", str(seed), "--time-limit",
+                                  str(a.time_limit), "--step", str(a.step),
+                                  "--edge-resolution", str(a.edge_resolution)],
+                                 check=True, capture_output=True, text=True).stdout
+            r = json.loads(out)
+            rows.append(dict(scene=scene, impl="ompl+fcl", seed=seed, solved=r["solved"],
+                             time_s=r["time_s"], checks=r["collision_checks"]))
+            print(scene, seed, rows[-2]["solved"], round(rows[-2]["time_s"], 4),
+                  rows[-1]["solved"], round(rows[-1]["time_s"], 4), flush=True)
+    with open(os.path.join(a.out, "runs.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    md = ["| scene | impl | solved | median time (s), solved runs | checks/s | µs per check |",
+          "|---|---|---|---|---|---|"]
+    for scene in a.scenes.split(","):
+        for impl in ("ours", "ompl+fcl"):
+            rs = [r for r in rows if r["scene"] == scene and r["impl"] == impl]
+            ok = [r for r in rs if r["solved"]]
+            med = f"{statistics.median(r['time_s'] for r in ok):.3f}" if ok else "—"
+            t = sum(r["time_s"] for r in rs)
+            n = sum(r["checks"] for r in rs)
+            md.append(f"| {scene} | {impl} | {len(ok)}/{len(rs)} | {med} | {n / t:,.0f} | "
+                      f"{t * 1e6 / n:.2f} |")
+    md.append("")
+    md.append(f"{a.seeds} seeds, time limit {a.time_limit} s, step {a.step}, edge resolution "
+              f"{a.edge_resolution} (weighted m). checks/s and µs per check: all runs' time / "
+              "all runs' collision checks (includes tree work, so an upper bound per check).")
+    with open(os.path.join(a.out, "summary.md"), "w") as f:
+        f.write("\n".join(md) + "\n")
+    print("\n".join(md))
+
+
+if __name__ == "__main__":
+    main()
