@@ -84,10 +84,14 @@ static Scene load_scene(const std::string &path) {
             else if (shape == "sphere") { double r; ls >> r; g = std::make_shared<fcl::Sphered>(r); }
             else if (shape == "mesh") { std::string f; double sc; ls >> f >> sc; g = load_obj(f, sc); }
             else { std::cerr << "unknown shape " << shape << "\n"; std::exit(2); }
-            double x, y, z;
-            ls >> x >> y >> z;
+            double x, y, z, roll = 0, pitch = 0, yaw = 0;
+            ls >> x >> y >> z >> roll >> pitch >> yaw;
             fcl::Transform3d tf = fcl::Transform3d::Identity();
             tf.translation() = fcl::Vector3d(x, y, z);
+            // Scene convention: Rz(yaw)·Ry(pitch)·Rx(roll), fixed axes.
+            tf.linear() = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
+                           Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+                           Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX())).toRotationMatrix();
             auto o = std::make_shared<fcl::CollisionObjectd>(g, tf);
             if (tag == "obs") s.obstacles.push_back(o);
             else { s.moving.push_back(o); s.moving_offset.push_back(tf); }

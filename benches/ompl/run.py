@@ -11,7 +11,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 
 
 def flatten(toml_path, out_path):
-    """Scene TOML -> the line format ompl_solve reads (axis-aligned parts only)."""
+    """Scene TOML -> the line format ompl_solve reads (parts: shape, position, rpy)."""
     with open(toml_path, "rb") as f:
         s = tomllib.load(f)
     base = os.path.dirname(os.path.abspath(toml_path))
@@ -25,7 +25,7 @@ def flatten(toml_path, out_path):
             raise SystemExit(f"{toml_path}: [{key}] {sorted(extra)} not supported by ompl_solve")
     for key, tag in (("obstacles", "obs"), ("moving_object", "mov")):
         for p in s.get(key, []):
-            extra = set(p) - {"shape", "half_extents_m", "radius_m", "file", "scale", "position_m"}
+            extra = set(p) - {"shape", "half_extents_m", "radius_m", "file", "scale", "position_m", "rpy_rad"}
             if extra:
                 raise SystemExit(f"{toml_path}: {key} field(s) {sorted(extra)} not supported")
             pos = " ".join(map(str, p.get("position_m", [0, 0, 0])))
@@ -37,7 +37,8 @@ def flatten(toml_path, out_path):
                 geom = f"mesh {os.path.join(base, p['file'])} {p.get('scale', 1.0)}"
             else:
                 raise SystemExit(f"{toml_path}: shape {p['shape']} not supported")
-            lines.append(f"{tag} {geom} {pos}")
+            rpy = " ".join(map(str, p.get("rpy_rad", [0, 0, 0])))
+            lines.append(f"{tag} {geom} {pos} {rpy}")
     with open(out_path, "w") as f:
         f.write("\n".join(lines) + "\n")
 
@@ -57,9 +58,15 @@ def main():
     sdir = os.path.join(a.out, "scenes")
     subprocess.run([a.planner, "scenes", "--write", sdir], check=True, stdout=subprocess.DEVNULL)
     rows = []
+    scenes = []
     for scene in a.scenes.split(","):
         flat = os.path.join(sdir, scene + ".txt")
-        flatten(os.path.join(sdir, scene + ".toml"), flat)
+        try:
+            flatten(os.path.join(sdir, scene + ".toml"), flat)
+        except SystemExit as e:
+            print(f"skipping {scene}: {e}", flush=True)
+            continue
+        scenes.append(scene)
         for seed in range(1, a.seeds + 1):
             js = os.path.join(a.out, f"ours-{scene}-{seed}.json")
             subprocess.run([a.planner, "solve", "--scene", os.path.join(sdir, scene + ".toml"),
@@ -85,7 +92,7 @@ def main():
         w.writerows(rows)
     md = ["| scene | impl | solved | median time (s), solved runs | checks/s | µs per check |",
           "|---|---|---|---|---|---|"]
-    for scene in a.scenes.split(","):
+    for scene in scenes:
         for impl in ("ours", "ompl+fcl"):
             rs = [r for r in rows if r["scene"] == scene and r["impl"] == impl]
             ok = [r for r in rs if r["solved"]]
