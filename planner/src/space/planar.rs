@@ -72,6 +72,17 @@ impl ConfigSpace for PlanarSpace {
         (self.weights.translation * (dx * dx + dy * dy) + self.weights.rotation * dt * dt).sqrt()
     }
 
+    fn distance_below(&self, a: &Se3, b: &Se3, bound: f64) -> Option<f64> {
+        // The translation term alone is a lower bound: skip the two angles (atan2 each)
+        // when it suffices, as most candidates of a nearest-neighbour search do.
+        let (dx, dy) = (b.pos.x - a.pos.x, b.pos.y - a.pos.y);
+        if self.weights.translation * (dx * dx + dy * dy) >= bound * bound {
+            return None;
+        }
+        let d = self.distance(a, b);
+        (d < bound).then_some(d)
+    }
+
     fn interpolate(&self, a: &Se3, b: &Se3, t: f64) -> Se3 {
         let ta = self.theta(a);
         let dt = wrap_angle(self.theta(b) - ta);
