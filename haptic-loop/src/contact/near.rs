@@ -42,6 +42,42 @@ pub(super) fn axes<T>(f: impl Fn(usize) -> T) -> [T; 3] {
     [f(0), f(1), f(2)]
 }
 
+/// `column[idx[l]]` for each lane, through an AVX2 gather if `AVX2`.
+///
+/// # Safety
+///
+/// Every index is within `column`; `AVX2` only on a CPU that has AVX2.
+#[inline(always)]
+unsafe fn gather<const AVX2: bool>(column: &[f32], idx: &[u32; LANES]) -> Lanes {
+    #[cfg(target_arch = "x86_64")]
+    if AVX2 {
+        // SAFETY: as promised by the caller.
+        return unsafe { gather_avx2(column, idx) };
+    }
+    lanes(|l| column[idx[l] as usize])
+}
+
+/// [`gather`] with one AVX2 instruction instead of eight loads and inserts.
+///
+/// # Safety
+///
+/// Every index is within `column`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn gather_avx2(column: &[f32], idx: &[u32; LANES]) -> Lanes {
+    use std::arch::x86_64::*;
+    let mut out = [0.0; LANES];
+    // SAFETY: `idx` and `out` hold LANES 32-bit values; the indices are within `column`
+    // (the caller's promise), below 2^31 since a pointshell's indices are u32 of a Vec
+    // of f32.
+    unsafe {
+        let offsets = _mm256_loadu_si256(idx.as_ptr().cast());
+        let v = _mm256_i32gather_ps::<4>(column.as_ptr(), offsets);
+        _mm256_storeu_ps(out.as_mut_ptr(), v);
+    }
+    out
+}
+
 /// The upper triangle of a symmetric 6×6 matrix, in [`JtJ`]'s layout (the force pass
 /// spells the same list out): `nn` (6), `mn` (9), `mm` (6), with J = [n; m] as indices 0..3
 /// and 3..6.
@@ -121,6 +157,15 @@ pub(super) struct Found {
 
 impl ShellColumns {
     pub(super) fn new(shell: &Pointshell) -> Self {
+        // The search's gathers rely on it (see `gather`).
+        let points = shell.points().len();
+        assert!(
+            shell
+                .clusters()
+                .iter()
+                .all(|c| c.start <= c.end && c.end as usize <= points),
+            "clusters index the pointshell's points"
+        );
         let column = |v: &[Vector3<f64>], a: usize| v.iter().map(|p| p[a] as f32).collect();
         Self {
             point: std::array::from_fn(|a| column(shell.points(), a)),
@@ -150,7 +195,8 @@ impl ShellColumns {
                 self.search_avx2(cluster_budgets, point_budgets, k, pass, vox, scratch)
             };
         }
-        self.search_impl(cluster_budgets, point_budgets, k, pass, vox, scratch)
+        // SAFETY: without AVX2 instructions.
+        unsafe { self.search_impl::<false>(cluster_budgets, point_budgets, k, pass, vox, scratch) }
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -164,11 +210,17 @@ impl ShellColumns {
         vox: &Voxmap,
         scratch: &mut Scratch,
     ) -> Found {
-        self.search_impl(cluster_budgets, point_budgets, k, pass, vox, scratch)
+        // SAFETY: this function runs only on CPUs with AVX2.
+        unsafe { self.search_impl::<true>(cluster_budgets, point_budgets, k, pass, vox, scratch) }
     }
 
+    /// The search, with AVX2 gathers for the loads if `AVX2`.
+    ///
+    /// # Safety
+    ///
+    /// `AVX2` only on a CPU that has AVX2.
     #[inline(always)]
-    fn search_impl(
+    unsafe fn search_impl<const AVX2: bool>(
         &self,
         cluster_budgets: &mut [f64],
         point_budgets: &mut [f64],
@@ -210,9 +262,14 @@ impl ShellColumns {
         let com = pass.com.map(|x| x as f32);
         let reach = k.reach_m as f32;
         for start in (0..padded).step_by(LANES) {
-            let idx: [usize; LANES] = lanes(|l| scratch.candidates[start + l] as usize);
-            let x: [Lanes; 3] = axes(|a| lanes(|l| self.point[a][idx[l]]));
-            let nl: [Lanes; 3] = axes(|a| lanes(|l| self.normal[a][idx[l]]));
+            let idx: &[u32; LANES] = scratch.candidates[start..start + LANES]
+                .try_into()
+                .expect("chunks are LANES long");
+            // SAFETY: candidates index the pointshell's points (cluster ranges or the
+            // filler, a copy of one); AVX2 as promised by the caller.
+            let column = |c: &[f32]| unsafe { gather::<AVX2>(c, idx) };
+            let x: [Lanes; 3] = axes(|a| column(&self.point[a]));
+            let nl: [Lanes; 3] = axes(|a| column(&self.normal[a]));
             let rotate = |v: &[Lanes; 3], a: usize| {
                 lanes(|l| r[(a, 0)] * v[0][l] + r[(a, 1)] * v[1][l] + r[(a, 2)] * v[2][l])
             };
@@ -221,24 +278,31 @@ impl ShellColumns {
                 lanes(|l| rx[l] + t[a])
             });
             let n: [Lanes; 3] = axes(|a| rotate(&nl, a));
-            let s = vox.sample_lanes(&p);
+            // SAFETY: AVX2 as promised by the caller.
+            let s = unsafe { vox.sample_lanes::<AVX2>(&p) };
             let g = &s.gradient;
             let g2 = lanes(|l| g[0][l] * g[0][l] + g[1][l] * g[1][l] + g[2][l] * g[2][l]);
             let facing = lanes(|l| n[0][l] * g[0][l] + n[1][l] * g[1][l] + n[2][l] * g[2][l]);
-            let mut keep = [false; LANES];
-            for l in 0..LANES.min(count - start) {
-                // The budget: the distance the point can move before it may be in reach.
-                let ahead = if s.stored[l] {
-                    let sd = s.distance_m[l];
-                    // Within reach; a direction (the field is flat midway inside a thin
-                    // plate); facing the surface (see the module docs of `contact`).
-                    keep[l] = (sd < reach) & (g2[l] >= 1e-18) & (facing[l] >= 0.0);
-                    sd - reach
+            let stored = lanes(|l| s.stored[l] != 0);
+            // Within reach; a direction (the field is flat midway inside a thin plate);
+            // facing the surface (see the module docs of `contact`).
+            let keep = lanes(|l| {
+                stored[l] & (s.distance_m[l] < reach) & (g2[l] >= 1e-18) & (facing[l] >= 0.0)
+            });
+            // The budget: the distance the point can move before it may be in reach.
+            let ahead = lanes(|l| {
+                if stored[l] {
+                    s.distance_m[l] - reach
                 } else {
                     s.clearance_m[l] - reach
-                };
-                point_budgets[idx[l]] = moved + f64::from(ahead);
+                }
+            });
+            let real = LANES.min(count - start);
+            for l in 0..real {
+                point_budgets[idx[l] as usize] = moved + f64::from(ahead[l]);
             }
+            // Padding lanes repeat a real candidate: never kept twice.
+            let keep = lanes(|l| keep[l] & (l < real));
             if keep.iter().any(|&k| k) {
                 kept += keep.iter().filter(|&&k| k).count() as u32;
                 // Lanes not kept become points beyond every layer with a unit gradient:

@@ -88,8 +88,10 @@ pub enum VoxmapError {
     },
 }
 
-/// Memory limit of one voxmap (block index plus stored blocks), bytes.
+/// Memory limit of one voxmap (block index plus stored blocks), bytes. It also keeps every
+/// block and node index below 2^31, which the AVX2 look-up's 32-bit offsets rely on.
 pub const MAX_BYTES: usize = 1 << 30;
+const _: () = assert!(MAX_BYTES / 2 <= i32::MAX as usize);
 
 /// Facts about a built voxmap, for the start-up report.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -132,8 +134,9 @@ impl std::fmt::Display for VoxmapReport {
 /// stored layers (`stored`); distance and gradient are zero elsewhere.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct LaneSamples {
-    /// The point lies in a stored block (within the stored layers).
-    pub stored: [bool; LANES],
+    /// All bits set where the point lies in a stored block (within the stored layers),
+    /// 0 elsewhere: a SIMD mask.
+    pub stored: [i32; LANES],
     /// Signed distance, m (negative inside).
     pub distance_m: Lanes,
     /// Gradient of the signed distance.
@@ -141,6 +144,21 @@ pub(super) struct LaneSamples {
     /// Where not `stored`: a lower bound of the distance to the surface, m (0 if unknown).
     pub clearance_m: Lanes,
 }
+
+/// What [`Voxmap::sample_lanes`] reads from the grid: per lane, the cell's eight corner
+/// nodes (corner index = i + 2j + 4k, in stored units; 0 where not stored), the position
+/// within the cell, the `stored` mask and the clearance of [`LaneSamples`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct LaneCorners {
+    stored: [i32; LANES],
+    frac: [Lanes; 3],
+    c: [Lanes; 8],
+    clearance_m: Lanes,
+}
+
+/// Offsets from a cell's lowest node to the first node of each pair of x-neighbours among
+/// its corners (corners 2m and 2m + 1 are adjacent in memory).
+const PAIR_OFFSETS: [usize; 4] = [0, N, N * N, N * N + N];
 
 /// One query of the field.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -476,84 +494,30 @@ impl Voxmap {
     /// lane, whether the point lies within the stored layers, and there its signed distance
     /// (m) and gradient; elsewhere a lower bound of its clearance (0 when unknown: deep
     /// inside, or outside the grid). The same interpolation as [`Self::sample`] in `f32`,
-    /// written lane by lane so the arithmetic runs in SIMD registers; only the block
-    /// look-up and the eight node loads are per lane.
+    /// written lane by lane so the arithmetic runs in SIMD registers. The block look-up and
+    /// the node loads use AVX2 gathers when `AVX2` is set, per lane otherwise; both give
+    /// the same bits.
+    ///
+    /// # Safety
+    ///
+    /// `AVX2` only on a CPU that has AVX2.
     #[inline(always)]
-    pub(super) fn sample_lanes(&self, p: &[Lanes; 3]) -> LaneSamples {
-        let inv_h = self.inv_h as f32;
-        let origin = self.origin.map(|o| o as f32);
-        let cells = self.cells_f.map(|c| c as f32);
-        let g: [Lanes; 3] = axes(|a| lanes(|l| (p[a][l] - origin[a]) * inv_h));
-        let inside: [bool; LANES] = lanes(|l| {
-            let [x, y, z] = [g[0][l], g[1][l], g[2][l]];
-            // `&`, not `&&`: no branch per comparison, so the lanes stay in SIMD registers.
-            (x >= 0.0) & (y >= 0.0) & (z >= 0.0) & (x < cells[0]) & (y < cells[1]) & (z < cells[2])
-        });
-        // Clamped into the grid so that the conversion and the look-ups below are valid
-        // for every lane; lanes outside are dropped by `inside`.
-        // Comparisons rather than `max`/`min`, whose NaN rules cost extra instructions; a
-        // NaN coordinate becomes 0 here (`inside` drops it).
-        let cell: [[i32; LANES]; 3] = axes(|a| {
-            let top = cells[a] - 1.0;
-            lanes(|l| {
-                let x = g[a][l];
-                let x = if x >= 0.0 { x } else { 0.0 };
-                let x = if x > top { top } else { x };
-                // SAFETY: x is finite and within [0, cells − 1], which fits an i32 (the
-                // grid has far fewer than 2^31 cells per axis). The checked `as` would
-                // keep this conversion out of SIMD registers.
-                unsafe { x.to_int_unchecked::<i32>() }
-            })
-        });
-        let frac: [Lanes; 3] = axes(|a| lanes(|l| g[a][l] - cell[a][l] as f32));
-        let mut stored = [false; LANES];
-        let mut clearance_m = [0.0; LANES];
-        // Node values at the cell's corners, corner index = i + 2j + 4k, loaded as four
-        // pairs of x-neighbours (corners 2m and 2m + 1 are adjacent in memory): half the
-        // scalar loads and stores of this step, the one part of the look-up not in lanes.
-        let mut pairs = [[0u32; LANES]; 4];
-        for l in 0..LANES {
-            let (ix, iy, iz) = (
-                cell[0][l] as usize,
-                cell[1][l] as usize,
-                cell[2][l] as usize,
-            );
-            let b = ix / B + self.blocks[0] * (iy / B + self.blocks[1] * (iz / B));
-            let slot = self.index[b];
-            if !inside[l] {
-                continue;
-            }
-            if slot == OUTSIDE {
-                clearance_m[l] = self.far_clearance(f64::from(self.block_distance[b])) as f32;
-                continue;
-            }
-            let Some(block) = slot.checked_sub(FIRST).and_then(|s| {
-                let start = s as usize * BLOCK_NODES;
-                self.data
-                    .get(start..start + BLOCK_NODES)
-                    .and_then(|b| <&[i16; BLOCK_NODES]>::try_from(b).ok())
-            }) else {
-                continue; // INSIDE: deep, no direction
-            };
-            stored[l] = true;
-            // The cell's lowest node; its far corner (+1 along each axis) is within the
-            // block because local coordinates are ≤ B − 1.
-            let at = (ix % B) + N * ((iy % B) + N * (iz % B));
-            let pair = |offset: usize| {
-                u32::from(block[at + offset] as u16)
-                    | u32::from(block[at + offset + 1] as u16) << 16
-            };
-            pairs[0][l] = pair(0);
-            pairs[1][l] = pair(N);
-            pairs[2][l] = pair(N * N);
-            pairs[3][l] = pair(N * N + N);
-        }
-        let mut c = [[0.0; LANES]; 8];
-        for (m, pair) in pairs.iter().enumerate() {
-            c[2 * m] = lanes(|l| f32::from(pair[l] as u16 as i16));
-            c[2 * m + 1] = lanes(|l| f32::from((pair[l] >> 16) as u16 as i16));
-        }
-        let [fx, fy, fz] = frac;
+    pub(super) unsafe fn sample_lanes<const AVX2: bool>(&self, p: &[Lanes; 3]) -> LaneSamples {
+        #[cfg(target_arch = "x86_64")]
+        let k = if AVX2 {
+            // SAFETY: the caller promises AVX2.
+            unsafe { self.corners_avx2(p) }
+        } else {
+            self.corners(p)
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let k = self.corners(p);
+        let LaneCorners {
+            stored,
+            frac: [fx, fy, fz],
+            c,
+            clearance_m,
+        } = k;
         let lerp = |a: &Lanes, b: &Lanes, f: &Lanes| lanes(|l| a[l] + (b[l] - a[l]) * f[l]);
         let c00 = lerp(&c[0], &c[1], &fx);
         let c10 = lerp(&c[2], &c[3], &fx);
@@ -590,6 +554,205 @@ impl Voxmap {
                 lanes(|l| dy[l] * per_unit),
                 lanes(|l| dz[l] * per_unit),
             ],
+            clearance_m,
+        }
+    }
+
+    /// The points' positions in cells (`g`, relative to the grid's origin).
+    #[inline(always)]
+    fn cell_coordinates(&self, p: &[Lanes; 3]) -> [Lanes; 3] {
+        let inv_h = self.inv_h as f32;
+        let origin = self.origin.map(|o| o as f32);
+        axes(|a| lanes(|l| (p[a][l] - origin[a]) * inv_h))
+    }
+
+    /// The cells' corner nodes, lane by lane (see [`Self::sample_lanes`]).
+    #[inline(always)]
+    fn corners(&self, p: &[Lanes; 3]) -> LaneCorners {
+        let cells = self.cells_f.map(|c| c as f32);
+        let g = self.cell_coordinates(p);
+        let inside: [bool; LANES] = lanes(|l| {
+            let [x, y, z] = [g[0][l], g[1][l], g[2][l]];
+            // `&`, not `&&`: no branch per comparison, so the lanes stay in SIMD registers.
+            (x >= 0.0) & (y >= 0.0) & (z >= 0.0) & (x < cells[0]) & (y < cells[1]) & (z < cells[2])
+        });
+        // Clamped into the grid so that the conversion and the look-ups below are valid
+        // for every lane; lanes outside are dropped by `inside`.
+        // Comparisons rather than `max`/`min`, whose NaN rules cost extra instructions; a
+        // NaN coordinate becomes 0 here (`inside` drops it).
+        let cell: [[i32; LANES]; 3] = axes(|a| {
+            let top = cells[a] - 1.0;
+            lanes(|l| {
+                let x = g[a][l];
+                let x = if x >= 0.0 { x } else { 0.0 };
+                let x = if x > top { top } else { x };
+                // SAFETY: x is finite and within [0, cells − 1], which fits an i32 (the
+                // grid has far fewer than 2^31 cells per axis). The checked `as` would
+                // keep this conversion out of SIMD registers.
+                unsafe { x.to_int_unchecked::<i32>() }
+            })
+        });
+        let frac: [Lanes; 3] = axes(|a| lanes(|l| g[a][l] - cell[a][l] as f32));
+        let mut stored = [0; LANES];
+        let mut clearance_m = [0.0; LANES];
+        // Node values at the cell's corners, corner index = i + 2j + 4k, loaded as four
+        // pairs of x-neighbours (corners 2m and 2m + 1 are adjacent in memory).
+        let mut pairs = [[0u32; LANES]; 4];
+        for l in 0..LANES {
+            let (ix, iy, iz) = (
+                cell[0][l] as usize,
+                cell[1][l] as usize,
+                cell[2][l] as usize,
+            );
+            let b = ix / B + self.blocks[0] * (iy / B + self.blocks[1] * (iz / B));
+            let slot = self.index[b];
+            if !inside[l] {
+                continue;
+            }
+            if slot == OUTSIDE {
+                clearance_m[l] = self.far_clearance(f64::from(self.block_distance[b])) as f32;
+                continue;
+            }
+            let Some(block) = slot.checked_sub(FIRST).and_then(|s| {
+                let start = s as usize * BLOCK_NODES;
+                self.data
+                    .get(start..start + BLOCK_NODES)
+                    .and_then(|b| <&[i16; BLOCK_NODES]>::try_from(b).ok())
+            }) else {
+                continue; // INSIDE: deep, no direction
+            };
+            stored[l] = -1;
+            // The cell's lowest node; its far corner (+1 along each axis) is within the
+            // block because local coordinates are ≤ B − 1.
+            let at = (ix % B) + N * ((iy % B) + N * (iz % B));
+            let pair = |offset: usize| {
+                u32::from(block[at + offset] as u16)
+                    | u32::from(block[at + offset + 1] as u16) << 16
+            };
+            for (m, offset) in PAIR_OFFSETS.iter().enumerate() {
+                pairs[m][l] = pair(*offset);
+            }
+        }
+        let mut c = [[0.0; LANES]; 8];
+        for (m, pair) in pairs.iter().enumerate() {
+            c[2 * m] = lanes(|l| f32::from(pair[l] as u16 as i16));
+            c[2 * m + 1] = lanes(|l| f32::from((pair[l] >> 16) as u16 as i16));
+        }
+        LaneCorners {
+            stored,
+            frac,
+            c,
+            clearance_m,
+        }
+    }
+
+    /// [`Self::corners`] with AVX2 gathers: the block index and the node pairs are loaded
+    /// eight lanes at a time instead of through per-lane scalar loads and stores (which
+    /// also stalled on store forwarding when read back as vectors).
+    ///
+    /// Every block and node index fits an `i32` ([`MAX_BYTES`]); a pair read at a cell's
+    /// node stays within its block (see [`Self::corners`]).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn corners_avx2(&self, p: &[Lanes; 3]) -> LaneCorners {
+        use std::arch::x86_64::*;
+        const {
+            assert!(
+                B == 8,
+                "block coordinates are cell >> 3, local ones cell & 7"
+            )
+        };
+        let g = self.cell_coordinates(p);
+        let zero = _mm256_setzero_ps();
+        let mut inside = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
+        let mut cell = [_mm256_setzero_si256(); 3];
+        let mut frac = [[0.0; LANES]; 3];
+        for a in 0..3 {
+            // SAFETY: `g[a]` holds LANES f32.
+            let x = unsafe { _mm256_loadu_ps(g[a].as_ptr()) };
+            let cells = _mm256_set1_ps(self.cells_f[a] as f32);
+            inside = _mm256_and_ps(inside, _mm256_cmp_ps::<_CMP_GE_OQ>(x, zero));
+            inside = _mm256_and_ps(inside, _mm256_cmp_ps::<_CMP_LT_OQ>(x, cells));
+            // max(NaN, 0) is 0; the clamped value converts exactly as `corners`' does.
+            let top = _mm256_set1_ps(self.cells_f[a] as f32 - 1.0);
+            let clamped = _mm256_min_ps(_mm256_max_ps(x, zero), top);
+            cell[a] = _mm256_cvttps_epi32(clamped);
+            let f = _mm256_sub_ps(x, _mm256_cvtepi32_ps(cell[a]));
+            // SAFETY: `frac[a]` holds LANES f32.
+            unsafe { _mm256_storeu_ps(frac[a].as_mut_ptr(), f) };
+        }
+        let inside = _mm256_castps_si256(inside);
+        let block = |a: usize| _mm256_srli_epi32::<3>(cell[a]);
+        let local = |a: usize| _mm256_and_si256(cell[a], _mm256_set1_epi32(B as i32 - 1));
+        let times = |x: __m256i, n: usize| _mm256_mullo_epi32(x, _mm256_set1_epi32(n as i32));
+        let b = _mm256_add_epi32(
+            block(0),
+            times(
+                _mm256_add_epi32(block(1), times(block(2), self.blocks[1])),
+                self.blocks[0],
+            ),
+        );
+        // SAFETY: the cells are clamped into the grid, so every `b` indexes `index`.
+        let slot = unsafe { _mm256_i32gather_epi32::<4>(self.index.as_ptr().cast(), b) };
+        let stored = _mm256_and_si256(
+            inside,
+            _mm256_cmpgt_epi32(slot, _mm256_set1_epi32(INSIDE as i32)),
+        );
+        let mut clearance_m = [0.0f32; LANES];
+        let outside = _mm256_and_si256(
+            inside,
+            _mm256_cmpeq_epi32(slot, _mm256_set1_epi32(OUTSIDE as i32)),
+        );
+        let mut far = _mm256_movemask_ps(_mm256_castsi256_ps(outside)) as u32;
+        if far != 0 {
+            let mut blocks = [0i32; LANES];
+            // SAFETY: `blocks` holds LANES i32.
+            unsafe { _mm256_storeu_si256(blocks.as_mut_ptr().cast(), b) };
+            while far != 0 {
+                let l = far.trailing_zeros() as usize;
+                let distance = self.block_distance[blocks[l] as usize];
+                clearance_m[l] = self.far_clearance(f64::from(distance)) as f32;
+                far &= far - 1;
+            }
+        }
+        let at = _mm256_add_epi32(
+            local(0),
+            times(_mm256_add_epi32(local(1), times(local(2), N)), N),
+        );
+        let first = times(
+            _mm256_sub_epi32(slot, _mm256_set1_epi32(FIRST as i32)),
+            BLOCK_NODES,
+        );
+        // Lanes not stored read nothing (masked) and get zeros, as in `corners`.
+        let node = _mm256_and_si256(stored, _mm256_add_epi32(first, at));
+        let mut c = [[0.0; LANES]; 8];
+        for (m, offset) in PAIR_OFFSETS.iter().enumerate() {
+            let offsets = _mm256_add_epi32(node, _mm256_set1_epi32(*offset as i32));
+            // SAFETY: stored lanes read two `i16` of their own block (scale 2 = one node),
+            // the others nothing.
+            let pair = unsafe {
+                _mm256_mask_i32gather_epi32::<2>(
+                    _mm256_setzero_si256(),
+                    self.data.as_ptr().cast(),
+                    offsets,
+                    stored,
+                )
+            };
+            let low = _mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(pair));
+            let high = _mm256_srai_epi32::<16>(pair);
+            // SAFETY: `c[i]` holds LANES f32.
+            unsafe {
+                _mm256_storeu_ps(c[2 * m].as_mut_ptr(), _mm256_cvtepi32_ps(low));
+                _mm256_storeu_ps(c[2 * m + 1].as_mut_ptr(), _mm256_cvtepi32_ps(high));
+            }
+        }
+        let mut stored_lanes = [0i32; LANES];
+        // SAFETY: `stored_lanes` holds LANES i32.
+        unsafe { _mm256_storeu_si256(stored_lanes.as_mut_ptr().cast(), stored) };
+        LaneCorners {
+            stored: stored_lanes,
+            frac,
+            c,
             clearance_m,
         }
     }
@@ -686,6 +849,98 @@ mod tests {
             let c = v.clearance(&p);
             assert!(c <= z_mm * 1e-3 + 1e-12, "z {z_mm} mm: clearance {c}");
             assert!(c >= 0.002, "z {z_mm} mm: clearance {c}");
+        }
+    }
+
+    /// Points around and inside a slab and a solid cube (stored, outside, deep-inside and
+    /// off-grid cells), a few of them NaN.
+    fn lane_chunks(v: &Voxmap, seed: u64) -> Vec<[Lanes; 3]> {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let (lo, cells) = (v.origin, v.cells_f);
+        let mut chunk = || {
+            let mut p = [[0.0; LANES]; 3];
+            for (a, axis) in p.iter_mut().enumerate() {
+                for x in axis.iter_mut() {
+                    let span = cells[a] * v.h;
+                    *x = if rng.random_bool(0.01) {
+                        f32::NAN
+                    } else {
+                        (lo[a] + rng.random_range(-0.1..1.1) * span) as f32
+                    };
+                }
+            }
+            p
+        };
+        (0..500).map(|_| chunk()).collect()
+    }
+
+    #[test]
+    fn the_lane_look_up_agrees_with_the_point_look_up() {
+        let cube = vec![(Pose::IDENTITY, SharedShape::cuboid(0.05, 0.05, 0.05))];
+        for scene in [slab(), cube] {
+            let v = Voxmap::build(&scene, &VoxmapConfig::default()).unwrap();
+            let (mut near, mut far) = (0, 0);
+            for p in lane_chunks(&v, 3) {
+                // SAFETY: without AVX2.
+                let s = unsafe { v.sample_lanes::<false>(&p) };
+                for l in 0..LANES {
+                    let q = Vector3::new(p[0][l], p[1][l], p[2][l]).map(f64::from);
+                    match v.sample(&q) {
+                        Sample::Near {
+                            distance_m,
+                            gradient,
+                        } => {
+                            near += 1;
+                            assert_eq!(s.stored[l], -1, "{q:?}");
+                            // f32 positions: 0.1 µm; the gradient's f32 rounding.
+                            assert!((f64::from(s.distance_m[l]) - distance_m).abs() < 1e-6);
+                            let g = Vector3::from(s.gradient.map(|g| g[l])).map(f64::from);
+                            assert!((g - gradient).norm() < 1e-3, "{g:?} vs {gradient:?}");
+                        }
+                        Sample::Far { clearance_m } if q.iter().all(|x| x.is_finite()) => {
+                            far += 1;
+                            assert_eq!(s.stored[l], 0);
+                            // Off the grid the lanes know nothing (0); on it, the same bound.
+                            let c = f64::from(s.clearance_m[l]);
+                            assert!(
+                                c == 0.0 || (c - clearance_m).abs() < 1e-6,
+                                "{c} vs {clearance_m}"
+                            );
+                        }
+                        _ => assert_eq!((s.stored[l], s.clearance_m[l]), (0, 0.0), "{q:?}"),
+                    }
+                }
+            }
+            assert!(near > 100 && far > 100, "{near} near, {far} far");
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn the_avx2_look_up_gives_the_same_bits() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            eprintln!("no AVX2 on this CPU: nothing to compare");
+            return;
+        }
+        let cube = vec![(Pose::IDENTITY, SharedShape::cuboid(0.05, 0.05, 0.05))];
+        for scene in [slab(), cube] {
+            let v = Voxmap::build(&scene, &VoxmapConfig::default()).unwrap();
+            for p in lane_chunks(&v, 4) {
+                let plain = v.corners(&p);
+                // SAFETY: the CPU has AVX2, checked above.
+                let gathered = unsafe { v.corners_avx2(&p) };
+                let bits = |k: &LaneCorners| {
+                    let f = |x: &Lanes| x.map(f32::to_bits);
+                    (
+                        k.stored,
+                        k.frac.map(|x| f(&x)),
+                        k.c.map(|x| f(&x)),
+                        f(&k.clearance_m),
+                    )
+                };
+                assert_eq!(bits(&plain), bits(&gathered), "{p:?}");
+            }
         }
     }
 
