@@ -51,7 +51,7 @@ use ipc_types::ContactCode;
 use nalgebra::{
     Isometry3, Matrix3, Matrix6, Point3, Translation3, UnitQuaternion, Vector3, Vector6,
 };
-use near::{Found, PassParams, Scratch, SearchParams, ShellColumns};
+use near::{ClusterBudget, Found, PassParams, Scratch, SearchParams, ShellColumns};
 use parry3d_f64::math::Pose;
 use parry3d_f64::shape::{Compound, Shape, SharedShape};
 use planner::Scene;
@@ -363,7 +363,7 @@ struct Coherence {
     /// Pose at the last search.
     last: Option<Isometry3<f64>>,
     object: f64,
-    clusters: Vec<f64>,
+    clusters: Vec<ClusterBudget>,
     points: Vec<f64>,
 }
 
@@ -373,7 +373,7 @@ impl Coherence {
             motion_m: 0.0,
             last: None,
             object: 0.0,
-            clusters: vec![0.0; clusters],
+            clusters: vec![ClusterBudget::default(); clusters],
             points: vec![0.0; points],
         }
     }
@@ -383,7 +383,7 @@ impl Coherence {
         self.motion_m = 0.0;
         self.last = None;
         self.object = 0.0;
-        self.clusters.fill(0.0);
+        self.clusters.fill(ClusterBudget::default());
         self.points.fill(0.0);
     }
 

@@ -128,6 +128,15 @@ pub(super) struct SearchParams {
     pub moved_m: f64,
 }
 
+/// A cluster's motion budget (see `Coherence`): until the running motion total reaches
+/// `check_at` (m), a far cluster is skipped and a `near` one has its points looked at
+/// without a new clearance check.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(super) struct ClusterBudget {
+    pub check_at: f64,
+    pub near: bool,
+}
+
 /// The search's scratch: the candidate points' indices. Room for every point of the shell,
 /// allocated once, so the search never allocates.
 #[derive(Debug, Clone, Default)]
@@ -181,7 +190,7 @@ impl ShellColumns {
     /// they face go through the force pass ([`force_chunk`]) in the same chunk.
     pub(super) fn search(
         &self,
-        cluster_budgets: &mut [f64],
+        cluster_budgets: &mut [ClusterBudget],
         point_budgets: &mut [f64],
         k: &SearchParams,
         pass: &PassParams,
@@ -203,7 +212,7 @@ impl ShellColumns {
     #[target_feature(enable = "avx2")]
     fn search_avx2(
         &self,
-        cluster_budgets: &mut [f64],
+        cluster_budgets: &mut [ClusterBudget],
         point_budgets: &mut [f64],
         k: &SearchParams,
         pass: &PassParams,
@@ -222,7 +231,7 @@ impl ShellColumns {
     #[inline(always)]
     unsafe fn search_impl<const AVX2: bool>(
         &self,
-        cluster_budgets: &mut [f64],
+        cluster_budgets: &mut [ClusterBudget],
         point_budgets: &mut [f64],
         k: &SearchParams,
         pass: &PassParams,
@@ -233,13 +242,16 @@ impl ShellColumns {
         // Candidates: points of clusters that may be in reach, whose budget is used up.
         let mut count = 0;
         for (cl, budget) in self.clusters.iter().zip(cluster_budgets.iter_mut()) {
-            if moved < *budget {
-                continue;
+            if moved >= budget.check_at {
+                let centre = k.rotation * cl.centre + k.translation;
+                let slack = vox.clearance(&centre) - cl.radius_m - k.reach_m;
+                budget.near = slack <= 0.0;
+                // A near cluster is checked again only after moving a reach: its points
+                // carry their own budgets, so a late check costs point compares, never a
+                // missed contact.
+                budget.check_at = moved + if budget.near { k.reach_m } else { slack };
             }
-            let centre = k.rotation * cl.centre + k.translation;
-            let slack = vox.clearance(&centre) - cl.radius_m - k.reach_m;
-            *budget = moved + slack;
-            if slack > 0.0 {
+            if !budget.near {
                 continue;
             }
             for i in cl.start..cl.end {
@@ -257,7 +269,8 @@ impl ShellColumns {
         let consts = ForceConsts::new(pass);
         let mut acc = Accumulators::default();
         let mut kept = 0;
-        let r = k.rotation.map(|x| x as f32);
+        let r: [[f32; 3]; 3] =
+            std::array::from_fn(|a| std::array::from_fn(|b| k.rotation[(a, b)] as f32));
         let t = k.translation.map(|x| x as f32);
         let com = pass.com.map(|x| x as f32);
         let reach = k.reach_m as f32;
@@ -271,7 +284,8 @@ impl ShellColumns {
             let x: [Lanes; 3] = axes(|a| column(&self.point[a]));
             let nl: [Lanes; 3] = axes(|a| column(&self.normal[a]));
             let rotate = |v: &[Lanes; 3], a: usize| {
-                lanes(|l| r[(a, 0)] * v[0][l] + r[(a, 1)] * v[1][l] + r[(a, 2)] * v[2][l])
+                let [r0, r1, r2] = r[a];
+                lanes(|l| r0 * v[0][l] + r1 * v[1][l] + r2 * v[2][l])
             };
             let p: [Lanes; 3] = axes(|a| {
                 let rx = rotate(&x, a);
@@ -297,12 +311,15 @@ impl ShellColumns {
                     s.clearance_m[l] - reach
                 }
             });
-            let real = LANES.min(count - start);
-            for l in 0..real {
+            // Padding lanes repeat the first candidate's look-up bit for bit, so they
+            // store its budget again; they are never kept (it would count twice).
+            for l in 0..LANES {
                 point_budgets[idx[l] as usize] = moved + f64::from(ahead[l]);
             }
-            // Padding lanes repeat a real candidate: never kept twice.
-            let keep = lanes(|l| keep[l] & (l < real));
+            let mut keep = keep;
+            if start + LANES > count {
+                keep[count - start..].fill(false);
+            }
             if keep.iter().any(|&k| k) {
                 kept += keep.iter().filter(|&&k| k).count() as u32;
                 // Lanes not kept become points beyond every layer with a unit gradient:
