@@ -9,14 +9,19 @@
 //!    surface they face: penalty, braking and the implicit step's JᵀJ sums, without
 //!    branches.
 //!
-//! Steps 2 and 3 are written lane by lane, each statement over all lanes and choices as selections,
-//! so the compiler turns them into SIMD; they are compiled a second time for AVX2 and the
-//! CPU's choice is made at run time. They compute in `f32` (twice the lanes of `f64`):
+//! Steps 2 and 3 are written twice: lane by lane, each statement over all lanes and
+//! choices as selections ([`ShellColumns::chunks`], portable, and the reference), and in
+//! AVX2 registers with gathers ([`avx2`]), the same operations in the same order, so the
+//! same bits (tested). The CPU's choice is made at run time. They compute in `f32` (twice
+//! the lanes of `f64`):
 //! positions relative to the scene's origin or the centre of mass are below a metre, where
 //! `f32` resolves 0.1 µm, far below the voxmap's 1/256-voxel quantisation; sums are
 //! returned in `f64`.
 
 use super::{Cluster, JtJ, Pointshell, Voxmap};
+
+#[cfg(target_arch = "x86_64")]
+mod avx2;
 use nalgebra::{Matrix3, Vector3, Vector6};
 
 /// Points processed together: eight `f32` fill an AVX2 register.
@@ -40,42 +45,6 @@ pub(super) fn lanes<T: Copy + Default>(f: impl Fn(usize) -> T) -> [T; LANES] {
 #[inline(always)]
 pub(super) fn axes<T>(f: impl Fn(usize) -> T) -> [T; 3] {
     [f(0), f(1), f(2)]
-}
-
-/// `column[idx[l]]` for each lane, through an AVX2 gather if `AVX2`.
-///
-/// # Safety
-///
-/// Every index is within `column`; `AVX2` only on a CPU that has AVX2.
-#[inline(always)]
-unsafe fn gather<const AVX2: bool>(column: &[f32], idx: &[u32; LANES]) -> Lanes {
-    #[cfg(target_arch = "x86_64")]
-    if AVX2 {
-        // SAFETY: as promised by the caller.
-        return unsafe { gather_avx2(column, idx) };
-    }
-    lanes(|l| column[idx[l] as usize])
-}
-
-/// [`gather`] with one AVX2 instruction instead of eight loads and inserts.
-///
-/// # Safety
-///
-/// Every index is within `column`.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn gather_avx2(column: &[f32], idx: &[u32; LANES]) -> Lanes {
-    use std::arch::x86_64::*;
-    let mut out = [0.0; LANES];
-    // SAFETY: `idx` and `out` hold LANES 32-bit values; the indices are within `column`
-    // (the caller's promise), below 2^31 since a pointshell's indices are u32 of a Vec
-    // of f32.
-    unsafe {
-        let offsets = _mm256_loadu_si256(idx.as_ptr().cast());
-        let v = _mm256_i32gather_ps::<4>(column.as_ptr(), offsets);
-        _mm256_storeu_ps(out.as_mut_ptr(), v);
-    }
-    out
 }
 
 /// The upper triangle of a symmetric 6×6 matrix, in [`JtJ`]'s layout (the force pass
@@ -197,49 +166,42 @@ impl ShellColumns {
         vox: &Voxmap,
         scratch: &mut Scratch,
     ) -> Found {
+        let count = self.candidates(cluster_budgets, point_budgets, k, vox, scratch);
+        let chunks = Chunks {
+            candidates: &scratch.candidates[..count.div_ceil(LANES) * LANES],
+            count,
+            search: k,
+            force: ForceConsts::new(pass),
+            com: pass.com.map(|x| x as f32),
+        };
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
+        let (acc, kept) = if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2, checked just above.
-            return unsafe {
-                self.search_avx2(cluster_budgets, point_budgets, k, pass, vox, scratch)
-            };
+            unsafe { avx2::chunks(self, &chunks, point_budgets, vox) }
+        } else {
+            self.chunks(&chunks, point_budgets, vox)
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let (acc, kept) = self.chunks(&chunks, point_budgets, vox);
+        Found {
+            totals: acc.reduce(pass),
+            tested: count as u32,
+            near: kept,
         }
-        // SAFETY: without AVX2 instructions.
-        unsafe { self.search_impl::<false>(cluster_budgets, point_budgets, k, pass, vox, scratch) }
     }
 
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn search_avx2(
+    /// Step 1: lists the points of clusters that may be in reach whose budget is used up
+    /// (renewing the clusters' budgets), pads the list to whole chunks with copies of its
+    /// first entry, and returns the number of real candidates.
+    fn candidates(
         &self,
         cluster_budgets: &mut [ClusterBudget],
-        point_budgets: &mut [f64],
+        point_budgets: &[f64],
         k: &SearchParams,
-        pass: &PassParams,
         vox: &Voxmap,
         scratch: &mut Scratch,
-    ) -> Found {
-        // SAFETY: this function runs only on CPUs with AVX2.
-        unsafe { self.search_impl::<true>(cluster_budgets, point_budgets, k, pass, vox, scratch) }
-    }
-
-    /// The search, with AVX2 gathers for the loads if `AVX2`.
-    ///
-    /// # Safety
-    ///
-    /// `AVX2` only on a CPU that has AVX2.
-    #[inline(always)]
-    unsafe fn search_impl<const AVX2: bool>(
-        &self,
-        cluster_budgets: &mut [ClusterBudget],
-        point_budgets: &mut [f64],
-        k: &SearchParams,
-        pass: &PassParams,
-        vox: &Voxmap,
-        scratch: &mut Scratch,
-    ) -> Found {
+    ) -> usize {
         let moved = k.moved_m;
-        // Candidates: points of clusters that may be in reach, whose budget is used up.
         let mut count = 0;
         for (cl, budget) in self.clusters.iter().zip(cluster_budgets.iter_mut()) {
             if moved >= budget.check_at {
@@ -261,28 +223,28 @@ impl ShellColumns {
                 }
             }
         }
-        // Pad the last chunk with copies of a real candidate, ignored below.
+        // Padding lanes repeat the first candidate's look-up bit for bit (so they store
+        // its budget again) and are never kept (it would count twice).
         let padded = count.div_ceil(LANES) * LANES;
         let filler = scratch.candidates.first().copied().unwrap_or(0);
         scratch.candidates[count..padded].fill(filler);
+        count
+    }
 
-        let consts = ForceConsts::new(pass);
+    /// Steps 2 and 3, lane by lane (see the module docs); [`avx2::chunks`] is the same in
+    /// AVX2 registers. Returns the force pass's sums and the number of points kept.
+    fn chunks(&self, c: &Chunks, point_budgets: &mut [f64], vox: &Voxmap) -> (Accumulators, u32) {
+        let k = c.search;
+        let moved = k.moved_m;
         let mut acc = Accumulators::default();
         let mut kept = 0;
         let r: [[f32; 3]; 3] =
             std::array::from_fn(|a| std::array::from_fn(|b| k.rotation[(a, b)] as f32));
         let t = k.translation.map(|x| x as f32);
-        let com = pass.com.map(|x| x as f32);
         let reach = k.reach_m as f32;
-        for start in (0..padded).step_by(LANES) {
-            let idx: &[u32; LANES] = scratch.candidates[start..start + LANES]
-                .try_into()
-                .expect("chunks are LANES long");
-            // SAFETY: candidates index the pointshell's points (cluster ranges or the
-            // filler, a copy of one); AVX2 as promised by the caller.
-            let column = |c: &[f32]| unsafe { gather::<AVX2>(c, idx) };
-            let x: [Lanes; 3] = axes(|a| column(&self.point[a]));
-            let nl: [Lanes; 3] = axes(|a| column(&self.normal[a]));
+        for (chunk, idx) in c.candidates.chunks_exact(LANES).enumerate() {
+            let x: [Lanes; 3] = axes(|a| lanes(|l| self.point[a][idx[l] as usize]));
+            let nl: [Lanes; 3] = axes(|a| lanes(|l| self.normal[a][idx[l] as usize]));
             let rotate = |v: &[Lanes; 3], a: usize| {
                 let [r0, r1, r2] = r[a];
                 lanes(|l| r0 * v[0][l] + r1 * v[1][l] + r2 * v[2][l])
@@ -292,16 +254,20 @@ impl ShellColumns {
                 lanes(|l| rx[l] + t[a])
             });
             let n: [Lanes; 3] = axes(|a| rotate(&nl, a));
-            // SAFETY: AVX2 as promised by the caller.
-            let s = unsafe { vox.sample_lanes::<AVX2>(&p) };
+            let s = vox.sample_lanes(&p);
             let g = &s.gradient;
             let g2 = lanes(|l| g[0][l] * g[0][l] + g[1][l] * g[1][l] + g[2][l] * g[2][l]);
             let facing = lanes(|l| n[0][l] * g[0][l] + n[1][l] * g[1][l] + n[2][l] * g[2][l]);
             let stored = lanes(|l| s.stored[l] != 0);
             // Within reach; a direction (the field is flat midway inside a thin plate);
-            // facing the surface (see the module docs of `contact`).
+            // facing the surface (see the module docs of `contact`); not padding.
+            let real = c.count - chunk * LANES;
             let keep = lanes(|l| {
-                stored[l] & (s.distance_m[l] < reach) & (g2[l] >= 1e-18) & (facing[l] >= 0.0)
+                stored[l]
+                    & (s.distance_m[l] < reach)
+                    & (g2[l] >= 1e-18)
+                    & (facing[l] >= 0.0)
+                    & (l < real)
             });
             // The budget: the distance the point can move before it may be in reach.
             let ahead = lanes(|l| {
@@ -311,20 +277,14 @@ impl ShellColumns {
                     s.clearance_m[l] - reach
                 }
             });
-            // Padding lanes repeat the first candidate's look-up bit for bit, so they
-            // store its budget again; they are never kept (it would count twice).
             for l in 0..LANES {
                 point_budgets[idx[l] as usize] = moved + f64::from(ahead[l]);
-            }
-            let mut keep = keep;
-            if start + LANES > count {
-                keep[count - start..].fill(false);
             }
             if keep.iter().any(|&k| k) {
                 kept += keep.iter().filter(|&&k| k).count() as u32;
                 // Lanes not kept become points beyond every layer with a unit gradient:
                 // every selection in the force pass is false for them.
-                let r = axes(|a| lanes(|l| if keep[l] { p[a][l] - com[a] } else { 0.0 }));
+                let r = axes(|a| lanes(|l| if keep[l] { p[a][l] - c.com[a] } else { 0.0 }));
                 let unit = |a: usize| if a == 0 { 1.0 } else { 0.0 };
                 let g = axes(|a| lanes(|l| if keep[l] { g[a][l] } else { unit(a) }));
                 let sd = lanes(|l| {
@@ -334,15 +294,23 @@ impl ShellColumns {
                         f32::INFINITY
                     }
                 });
-                force_chunk(&mut acc, &r, &g, &sd, &consts);
+                force_chunk(&mut acc, &r, &g, &sd, &c.force);
             }
         }
-        Found {
-            totals: acc.reduce(pass),
-            tested: count as u32,
-            near: kept,
-        }
+        (acc, kept)
     }
+}
+
+/// What steps 2 and 3 work on.
+struct Chunks<'a> {
+    /// Candidate point indices, padded to whole chunks (see [`ShellColumns::candidates`]).
+    candidates: &'a [u32],
+    /// Real candidates.
+    count: usize,
+    search: &'a SearchParams,
+    force: ForceConsts,
+    /// Centre of mass, scene frame, m.
+    com: Vector3<f32>,
 }
 
 /// What the force pass needs besides the points.
@@ -698,5 +666,120 @@ mod tests {
             release_m: 1.0,
         };
         assert_eq!(force_pass(&[], &k), Totals::default());
+    }
+
+    /// Every sum of `acc`, as bits.
+    fn bits(acc: &Accumulators) -> Vec<u32> {
+        let Accumulators {
+            wrench,
+            k,
+            b,
+            point,
+            normal,
+            weight,
+            max_depth,
+            contacts,
+            braking,
+            release,
+        } = acc;
+        [wrench.as_slice(), k, b, point, normal]
+            .into_iter()
+            .flatten()
+            .chain([weight, max_depth, contacts, braking, release])
+            .flatten()
+            .map(|x| x.to_bits())
+            .collect()
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn the_avx2_chunks_give_the_same_bits_as_the_lane_by_lane_ones() {
+        use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+        use parry3d_f64::math::Pose;
+        use parry3d_f64::shape::SharedShape;
+        use rand::{Rng, SeedableRng};
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            eprintln!("no AVX2 on this CPU: nothing to compare");
+            return;
+        }
+        // A 40 mm cube over a slab whose top face is z = 0, at 1 mm.
+        let slab = [(
+            Pose::translation(0.0, 0.0, -0.01),
+            SharedShape::cuboid(0.1, 0.1, 0.01),
+        )];
+        let vox = Voxmap::build(&slab, &super::super::VoxmapConfig::default()).unwrap();
+        let cube = [(Pose::IDENTITY, SharedShape::cuboid(0.02, 0.02, 0.02))];
+        let shell = ShellColumns::new(&Pointshell::build(&cube, 0.001).unwrap());
+        let points = shell.point[0].len();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let (mut contacts, mut braking) = (0.0, 0.0);
+        for _ in 0..200 {
+            // Tilted a little, its lowest corner between 2 mm above and 1.5 mm into the
+            // slab: penetrating, braking and far points together.
+            let rotation = UnitQuaternion::from_euler_angles(
+                rng.random_range(-0.3..0.3),
+                rng.random_range(-0.3..0.3),
+                rng.random_range(-3.0..3.0),
+            );
+            let lowest = (0..points)
+                .map(|i| {
+                    (rotation * Vector3::from(shell.point.each_ref().map(|c| f64::from(c[i])))).z
+                })
+                .fold(f64::INFINITY, f64::min);
+            let z = rng.random_range(-0.0015..0.002) - lowest;
+            let pose = Isometry3::from_parts(
+                Translation3::new(
+                    rng.random_range(-0.05..0.05),
+                    rng.random_range(-0.05..0.05),
+                    z,
+                ),
+                rotation,
+            );
+            let k = SearchParams {
+                rotation: pose.rotation.to_rotation_matrix().into_inner(),
+                translation: pose.translation.vector,
+                reach_m: 0.003,
+                moved_m: 0.0,
+            };
+            let pass = PassParams {
+                com: pose.translation.vector,
+                velocity: Vector3::from_fn(|_, _| rng.random_range(-0.2..0.2)),
+                angular_velocity: Vector3::from_fn(|_, _| rng.random_range(-2.0..2.0)),
+                point_stiffness_n_per_m: 2000.0,
+                contact_damping_n_s_per_m: 0.5,
+                braking_n_s_per_m: 0.2,
+                proximity_m: 0.002,
+                release_m: 0.0005,
+            };
+            let mut scratch = Scratch::with_capacity(points);
+            let mut clusters = vec![ClusterBudget::default(); shell.clusters.len()];
+            let mut budgets = vec![0.0; points];
+            let count = shell.candidates(&mut clusters, &budgets, &k, &vox, &mut scratch);
+            let chunks = Chunks {
+                candidates: &scratch.candidates[..count.div_ceil(LANES) * LANES],
+                count,
+                search: &k,
+                force: ForceConsts::new(&pass),
+                com: pass.com.map(|x| x as f32),
+            };
+            let mut budgets_avx2 = budgets.clone();
+            let (plain, kept) = shell.chunks(&chunks, &mut budgets, &vox);
+            // SAFETY: the CPU has AVX2, checked above.
+            let (fast, kept_avx2) =
+                unsafe { avx2::chunks(&shell, &chunks, &mut budgets_avx2, &vox) };
+            assert_eq!(kept, kept_avx2);
+            assert_eq!(bits(&plain), bits(&fast));
+            assert_eq!(
+                budgets.iter().map(|b| b.to_bits()).collect::<Vec<_>>(),
+                budgets_avx2.iter().map(|b| b.to_bits()).collect::<Vec<_>>()
+            );
+            let totals = plain.reduce(&pass);
+            contacts += f64::from(totals.contacts);
+            braking += f64::from(totals.braking_points);
+        }
+        assert!(
+            contacts > 1000.0 && braking > 1000.0,
+            "{contacts} contacts, {braking} braking"
+        );
     }
 }

@@ -156,6 +156,26 @@ struct LaneCorners {
     clearance_m: Lanes,
 }
 
+/// [`LaneCorners`] in AVX2 registers (`stored` all ones or zero per lane).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+struct CornersM256 {
+    stored: std::arch::x86_64::__m256i,
+    frac: [std::arch::x86_64::__m256; 3],
+    c: [std::arch::x86_64::__m256; 8],
+    clearance_m: std::arch::x86_64::__m256,
+}
+
+/// [`LaneSamples`] in AVX2 registers (`stored` a mask: all ones or zero per lane).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+pub(super) struct SamplesM256 {
+    pub stored: std::arch::x86_64::__m256,
+    pub distance_m: std::arch::x86_64::__m256,
+    pub gradient: [std::arch::x86_64::__m256; 3],
+    pub clearance_m: std::arch::x86_64::__m256,
+}
+
 /// Offsets from a cell's lowest node to the first node of each pair of x-neighbours among
 /// its corners (corners 2m and 2m + 1 are adjacent in memory).
 const PAIR_OFFSETS: [usize; 4] = [0, N, N * N, N * N + N];
@@ -494,23 +514,10 @@ impl Voxmap {
     /// lane, whether the point lies within the stored layers, and there its signed distance
     /// (m) and gradient; elsewhere a lower bound of its clearance (0 when unknown: deep
     /// inside, or outside the grid). The same interpolation as [`Self::sample`] in `f32`,
-    /// written lane by lane so the arithmetic runs in SIMD registers. The block look-up and
-    /// the node loads use AVX2 gathers when `AVX2` is set, per lane otherwise; both give
-    /// the same bits.
-    ///
-    /// # Safety
-    ///
-    /// `AVX2` only on a CPU that has AVX2.
+    /// written lane by lane so the arithmetic runs in SIMD registers; only the block
+    /// look-up and the node loads are per lane ([`Self::sample_m256`] gathers them).
     #[inline(always)]
-    pub(super) unsafe fn sample_lanes<const AVX2: bool>(&self, p: &[Lanes; 3]) -> LaneSamples {
-        #[cfg(target_arch = "x86_64")]
-        let k = if AVX2 {
-            // SAFETY: the caller promises AVX2.
-            unsafe { self.corners_avx2(p) }
-        } else {
-            self.corners(p)
-        };
-        #[cfg(not(target_arch = "x86_64"))]
+    pub(super) fn sample_lanes(&self, p: &[Lanes; 3]) -> LaneSamples {
         let k = self.corners(p);
         let LaneCorners {
             stored,
@@ -646,15 +653,42 @@ impl Voxmap {
         }
     }
 
-    /// [`Self::corners`] with AVX2 gathers: the block index and the node pairs are loaded
-    /// eight lanes at a time instead of through per-lane scalar loads and stores (which
-    /// also stalled on store forwarding when read back as vectors).
+    /// [`Self::corners`] through [`Self::corners_m256`], for the test that compares them.
+    #[cfg(all(test, target_arch = "x86_64"))]
+    #[target_feature(enable = "avx2")]
+    fn corners_avx2(&self, p: &[Lanes; 3]) -> LaneCorners {
+        use std::arch::x86_64::*;
+        // SAFETY: every array written or read holds LANES 32-bit values.
+        unsafe {
+            let k = self.corners_m256(axes(|a| _mm256_loadu_ps(p[a].as_ptr())));
+            let mut out = LaneCorners {
+                stored: [0; LANES],
+                frac: [[0.0; LANES]; 3],
+                c: [[0.0; LANES]; 8],
+                clearance_m: [0.0; LANES],
+            };
+            _mm256_storeu_si256(out.stored.as_mut_ptr().cast(), k.stored);
+            for (o, v) in out.frac.iter_mut().zip(&k.frac) {
+                _mm256_storeu_ps(o.as_mut_ptr(), *v);
+            }
+            for (o, v) in out.c.iter_mut().zip(&k.c) {
+                _mm256_storeu_ps(o.as_mut_ptr(), *v);
+            }
+            _mm256_storeu_ps(out.clearance_m.as_mut_ptr(), k.clearance_m);
+            out
+        }
+    }
+
+    /// [`Self::corners`] with AVX2 gathers, in registers: the block index and the node
+    /// pairs are loaded eight lanes at a time instead of through per-lane loads and stores.
+    /// Same bits as [`Self::corners`].
     ///
     /// Every block and node index fits an `i32` ([`MAX_BYTES`]); a pair read at a cell's
     /// node stays within its block (see [`Self::corners`]).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn corners_avx2(&self, p: &[Lanes; 3]) -> LaneCorners {
+    #[inline]
+    fn corners_m256(&self, p: [std::arch::x86_64::__m256; 3]) -> CornersM256 {
         use std::arch::x86_64::*;
         const {
             assert!(
@@ -662,14 +696,16 @@ impl Voxmap {
                 "block coordinates are cell >> 3, local ones cell & 7"
             )
         };
-        let g = self.cell_coordinates(p);
         let zero = _mm256_setzero_ps();
         let mut inside = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
         let mut cell = [_mm256_setzero_si256(); 3];
-        let mut frac = [[0.0; LANES]; 3];
+        let mut frac = [zero; 3];
         for a in 0..3 {
-            // SAFETY: `g[a]` holds LANES f32.
-            let x = unsafe { _mm256_loadu_ps(g[a].as_ptr()) };
+            // The same operations as `cell_coordinates`.
+            let x = _mm256_mul_ps(
+                _mm256_sub_ps(p[a], _mm256_set1_ps(self.origin[a] as f32)),
+                _mm256_set1_ps(self.inv_h as f32),
+            );
             let cells = _mm256_set1_ps(self.cells_f[a] as f32);
             inside = _mm256_and_ps(inside, _mm256_cmp_ps::<_CMP_GE_OQ>(x, zero));
             inside = _mm256_and_ps(inside, _mm256_cmp_ps::<_CMP_LT_OQ>(x, cells));
@@ -677,9 +713,7 @@ impl Voxmap {
             let top = _mm256_set1_ps(self.cells_f[a] as f32 - 1.0);
             let clamped = _mm256_min_ps(_mm256_max_ps(x, zero), top);
             cell[a] = _mm256_cvttps_epi32(clamped);
-            let f = _mm256_sub_ps(x, _mm256_cvtepi32_ps(cell[a]));
-            // SAFETY: `frac[a]` holds LANES f32.
-            unsafe { _mm256_storeu_ps(frac[a].as_mut_ptr(), f) };
+            frac[a] = _mm256_sub_ps(x, _mm256_cvtepi32_ps(cell[a]));
         }
         let inside = _mm256_castps_si256(inside);
         let block = |a: usize| _mm256_srli_epi32::<3>(cell[a]);
@@ -698,22 +732,26 @@ impl Voxmap {
             inside,
             _mm256_cmpgt_epi32(slot, _mm256_set1_epi32(INSIDE as i32)),
         );
-        let mut clearance_m = [0.0f32; LANES];
         let outside = _mm256_and_si256(
             inside,
             _mm256_cmpeq_epi32(slot, _mm256_set1_epi32(OUTSIDE as i32)),
         );
         let mut far = _mm256_movemask_ps(_mm256_castsi256_ps(outside)) as u32;
+        let mut clearance_m = zero;
         if far != 0 {
+            // Rare within a contact: scalar.
             let mut blocks = [0i32; LANES];
+            let mut clearance = [0.0f32; LANES];
             // SAFETY: `blocks` holds LANES i32.
             unsafe { _mm256_storeu_si256(blocks.as_mut_ptr().cast(), b) };
             while far != 0 {
                 let l = far.trailing_zeros() as usize;
                 let distance = self.block_distance[blocks[l] as usize];
-                clearance_m[l] = self.far_clearance(f64::from(distance)) as f32;
+                clearance[l] = self.far_clearance(f64::from(distance)) as f32;
                 far &= far - 1;
             }
+            // SAFETY: `clearance` holds LANES f32.
+            clearance_m = unsafe { _mm256_loadu_ps(clearance.as_ptr()) };
         }
         let at = _mm256_add_epi32(
             local(0),
@@ -725,7 +763,7 @@ impl Voxmap {
         );
         // Lanes not stored read nothing (masked) and get zeros, as in `corners`.
         let node = _mm256_and_si256(stored, _mm256_add_epi32(first, at));
-        let mut c = [[0.0; LANES]; 8];
+        let mut c = [zero; 8];
         for (m, offset) in PAIR_OFFSETS.iter().enumerate() {
             let offsets = _mm256_add_epi32(node, _mm256_set1_epi32(*offset as i32));
             // SAFETY: stored lanes read two `i16` of their own block (scale 2 = one node),
@@ -740,19 +778,50 @@ impl Voxmap {
             };
             let low = _mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(pair));
             let high = _mm256_srai_epi32::<16>(pair);
-            // SAFETY: `c[i]` holds LANES f32.
-            unsafe {
-                _mm256_storeu_ps(c[2 * m].as_mut_ptr(), _mm256_cvtepi32_ps(low));
-                _mm256_storeu_ps(c[2 * m + 1].as_mut_ptr(), _mm256_cvtepi32_ps(high));
-            }
+            c[2 * m] = _mm256_cvtepi32_ps(low);
+            c[2 * m + 1] = _mm256_cvtepi32_ps(high);
         }
-        let mut stored_lanes = [0i32; LANES];
-        // SAFETY: `stored_lanes` holds LANES i32.
-        unsafe { _mm256_storeu_si256(stored_lanes.as_mut_ptr().cast(), stored) };
-        LaneCorners {
-            stored: stored_lanes,
+        CornersM256 {
+            stored,
             frac,
             c,
+            clearance_m,
+        }
+    }
+
+    /// [`Self::sample_lanes`] in AVX2 registers: the same operations in the same order,
+    /// so the same bits.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(super) fn sample_m256(&self, p: [std::arch::x86_64::__m256; 3]) -> SamplesM256 {
+        use std::arch::x86_64::*;
+        let CornersM256 {
+            stored,
+            frac: [fx, fy, fz],
+            c,
+            clearance_m,
+        } = self.corners_m256(p);
+        let (add, sub, mul) = (_mm256_add_ps, _mm256_sub_ps, _mm256_mul_ps);
+        let lerp = |a: __m256, b: __m256, f: __m256| add(a, mul(sub(b, a), f));
+        let c00 = lerp(c[0], c[1], fx);
+        let c10 = lerp(c[2], c[3], fx);
+        let c01 = lerp(c[4], c[5], fx);
+        let c11 = lerp(c[6], c[7], fx);
+        let c0 = lerp(c00, c10, fy);
+        let c1 = lerp(c01, c11, fy);
+        let value = lerp(c0, c1, fz);
+        let dx0 = lerp(sub(c[1], c[0]), sub(c[3], c[2]), fy);
+        let dx1 = lerp(sub(c[5], c[4]), sub(c[7], c[6]), fy);
+        let dx = lerp(dx0, dx1, fz);
+        let dy = lerp(sub(c10, c00), sub(c11, c01), fz);
+        let dz = sub(c1, c0);
+        let scale = _mm256_set1_ps((self.h / Q) as f32);
+        let per_unit = _mm256_set1_ps((1.0 / Q) as f32);
+        SamplesM256 {
+            stored: _mm256_castsi256_ps(stored),
+            distance_m: mul(value, scale),
+            gradient: [mul(dx, per_unit), mul(dy, per_unit), mul(dz, per_unit)],
             clearance_m,
         }
     }
@@ -882,8 +951,7 @@ mod tests {
             let v = Voxmap::build(&scene, &VoxmapConfig::default()).unwrap();
             let (mut near, mut far) = (0, 0);
             for p in lane_chunks(&v, 3) {
-                // SAFETY: without AVX2.
-                let s = unsafe { v.sample_lanes::<false>(&p) };
+                let s = v.sample_lanes(&p);
                 for l in 0..LANES {
                     let q = Vector3::new(p[0][l], p[1][l], p[2][l]).map(f64::from);
                     match v.sample(&q) {
@@ -918,7 +986,7 @@ mod tests {
 
     #[cfg(target_arch = "x86_64")]
     #[test]
-    fn the_avx2_look_up_gives_the_same_bits() {
+    fn the_avx2_look_up_and_interpolation_give_the_same_bits() {
         if !std::arch::is_x86_feature_detected!("avx2") {
             eprintln!("no AVX2 on this CPU: nothing to compare");
             return;
@@ -940,6 +1008,32 @@ mod tests {
                     )
                 };
                 assert_eq!(bits(&plain), bits(&gathered), "{p:?}");
+                // And the interpolation after it.
+                let s = v.sample_lanes(&p);
+                // SAFETY: as above; every array holds LANES f32.
+                let fast = unsafe {
+                    use std::arch::x86_64::*;
+                    let f = v.sample_m256(axes(|a| _mm256_loadu_ps(p[a].as_ptr())));
+                    let out = |x: __m256| {
+                        let mut o = [0.0f32; LANES];
+                        _mm256_storeu_ps(o.as_mut_ptr(), x);
+                        o.map(f32::to_bits)
+                    };
+                    (
+                        out(f.stored).map(|b| b as i32),
+                        out(f.distance_m),
+                        f.gradient.map(out),
+                        out(f.clearance_m),
+                    )
+                };
+                let f = |x: &Lanes| x.map(f32::to_bits);
+                let plain = (
+                    s.stored,
+                    f(&s.distance_m),
+                    s.gradient.each_ref().map(f),
+                    f(&s.clearance_m),
+                );
+                assert_eq!(plain, fast, "{p:?}");
             }
         }
     }
