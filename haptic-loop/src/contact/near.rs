@@ -216,11 +216,12 @@ impl ShellColumns {
             if !budget.near {
                 continue;
             }
-            for i in cl.start..cl.end {
-                if moved >= point_budgets[i as usize] {
-                    scratch.candidates[count] = i;
-                    count += 1;
-                }
+            // Branch-free: every index is written, and kept by advancing `count`
+            // (`count` ≤ the points seen so far, so the write stays in the list).
+            let budgets = &point_budgets[cl.start as usize..cl.end as usize];
+            for (i, budget) in (cl.start..cl.end).zip(budgets) {
+                scratch.candidates[count] = i;
+                count += usize::from(moved >= *budget);
             }
         }
         // Padding lanes repeat the first candidate's look-up bit for bit (so they store
