@@ -59,24 +59,11 @@ impl Default for RtOptions {
 pub fn setup_current_thread(opts: &RtOptions) -> RtSetupReport {
     let mut report = RtSetupReport::default();
     if let Some(prio) = opts.fifo_priority {
-        use thread_priority::{
-            RealtimeThreadSchedulePolicy, ThreadPriority, ThreadPriorityValue,
-            ThreadSchedulePolicy, set_thread_priority_and_policy, thread_native_id,
-        };
-        match ThreadPriorityValue::try_from(prio) {
-            Ok(value) => match set_thread_priority_and_policy(
-                thread_native_id(),
-                ThreadPriority::Crossplatform(value),
-                ThreadSchedulePolicy::Realtime(RealtimeThreadSchedulePolicy::Fifo),
-            ) {
-                Ok(()) => report.fifo = true,
-                Err(e) => report.warnings.push(format!(
-                    "SCHED_FIFO priority {prio} not permitted ({e:?}); running with the normal scheduler"
-                )),
-            },
+        match ipc_types::set_thread_fifo_priority(prio) {
+            Ok(()) => report.fifo = true,
             Err(e) => report
                 .warnings
-                .push(format!("invalid SCHED_FIFO priority {prio}: {e}")),
+                .push(format!("{e}; running with the normal scheduler")),
         }
     }
     if let Some(cpu) = opts.cpu {

@@ -27,7 +27,9 @@ pub trait StateSink {
 
 impl StateSink for ipc_types::services::StateWriter {
     fn publish(&mut self, state: &HapticState) {
-        self.update_with_copy(*state);
+        let mut s = *state;
+        s.published_ns = ipc_types::monotonic_ns();
+        self.update_with_copy(s);
     }
 }
 

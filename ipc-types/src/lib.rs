@@ -169,6 +169,23 @@ pub fn sleep_until_ns(deadline_ns: u64) {
     }
 }
 
+/// Puts the calling thread under SCHED_FIFO at `priority` (1–99). Fails (with the reason)
+/// without `CAP_SYS_NICE` or an `rtprio` limit; the thread then keeps its scheduler.
+pub fn set_thread_fifo_priority(priority: u8) -> Result<(), String> {
+    use thread_priority::{
+        RealtimeThreadSchedulePolicy, ThreadPriority, ThreadPriorityValue, ThreadSchedulePolicy,
+        set_thread_priority_and_policy, thread_native_id,
+    };
+    let value = ThreadPriorityValue::try_from(priority)
+        .map_err(|e| format!("invalid SCHED_FIFO priority {priority}: {e}"))?;
+    set_thread_priority_and_policy(
+        thread_native_id(),
+        ThreadPriority::Crossplatform(value),
+        ThreadSchedulePolicy::Realtime(RealtimeThreadSchedulePolicy::Fifo),
+    )
+    .map_err(|e| format!("SCHED_FIFO priority {priority} not permitted ({e:?})"))
+}
+
 /// Sets the calling thread's timer slack (how late the kernel may end its sleeps to batch
 /// wake-ups), ns. A normal thread has 50 µs; a reader pacing itself to a loop's ticks wants
 /// about 1 µs. Returns whether the kernel accepted it.

@@ -70,9 +70,14 @@ pub struct HapticState {
     pub prev_period_ns: u64,
     /// Deadline misses since start.
     pub deadline_misses: u64,
+    /// `CLOCK_MONOTONIC` time the loop handed this state to the transport (just before the
+    /// blackboard write), ns; 0 where it was not published. `header.timestamp_ns` − this is
+    /// the tick's compute before publishing; a reader's clock − this is the transport's
+    /// latency.
+    pub published_ns: u64,
 }
 
 const _: () = {
-    assert!(core::mem::size_of::<HapticState>() == 544);
+    assert!(core::mem::size_of::<HapticState>() == 552);
     assert!(core::mem::align_of::<HapticState>() == 8);
 };

@@ -284,6 +284,13 @@ pub struct ServeArgs {
     /// sleep, adding the thread's wake-up latency, ~5–20 µs).
     #[arg(long, default_value_t = 10.0)]
     pub state_spin_us: f64,
+    /// SCHED_FIFO priority of the thread that receives the haptic state (below the haptic
+    /// loop's, 80 by default), so that it wakes on time on a busy machine and catches each
+    /// state as it is written; it sleeps but for the spin window. 0 keeps the normal
+    /// scheduler; without permission (see README "Real-time permissions") it is kept too,
+    /// with a warning.
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u8).range(0..=98))]
+    pub state_priority: u8,
     /// Roadmap increments per second for `planner view` (1024 nodes each; a late viewer
     /// gets the whole roadmap from a rolling window); 0 publishes none.
     #[arg(long, default_value_t = 20.0)]
@@ -390,6 +397,7 @@ impl ServeArgs {
                 }
                 v
             },
+            state_priority: self.state_priority,
             state_timeout_s: 0.5,
             plan_without_operator: self.plan_without_operator,
             roadmap_rate_hz: if self.roadmap_rate_hz == 0.0 {

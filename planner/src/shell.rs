@@ -48,6 +48,8 @@ pub struct ShellConfig {
     /// Half-width of the window around each predicted state in which the receiver spins
     /// instead of sleeping, µs (0: never spins).
     pub state_spin_us: f64,
+    /// SCHED_FIFO priority of the state receiver thread (0: the normal scheduler).
+    pub state_priority: u8,
     /// A haptic state older than this counts as "no operator", s.
     pub state_timeout_s: f64,
     /// Grow the trees also without an operator; otherwise idle until one appears.
@@ -89,10 +91,14 @@ pub struct ShellReport {
     pub loops_followed: u64,
     /// Seconds spent idle for want of an operator (no fresh haptic state).
     pub idle_s: f64,
-    /// Age of each new haptic state when the receiver thread first saw it: its header stamp
-    /// (the loop's tick wake-up) → the poll that read it, µs. Includes the rest of that tick
-    /// (the loop's compute after its wake-up) and the receiver's own wake-up latency.
+    /// Publish → receive of each new haptic state: the loop's stamp just before its
+    /// blackboard write (`published_ns`) → the receiver thread's read that first saw it, µs.
+    /// Includes the receiver's own wake-up latency.
     pub state_latency_us: crate::latency::Percentiles,
+    /// Age of each new haptic state when the receiver first saw it: its header stamp (the
+    /// loop's tick wake-up) → that read, µs: [`Self::state_latency_us`] plus the tick's
+    /// compute before publishing.
+    pub state_age_us: crate::latency::Percentiles,
     /// Roadmap increments published.
     pub roadmap_published: u64,
     /// Roadmap increments skipped because no sample could be loaned.
@@ -147,9 +153,17 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
         let stop = stop.clone();
         let poll_ns = (1e9 / config.state_poll_hz) as u64;
         let spin_ns = (config.state_spin_us * 1e3) as u64;
+        let priority = config.state_priority;
         std::thread::Builder::new()
             .name("planner-rx".into())
-            .spawn(move || receive_states(state_source, operator, &stop, poll_ns, spin_ns))?
+            .spawn(move || {
+                if priority > 0
+                    && let Err(e) = ipc_types::set_thread_fifo_priority(priority)
+                {
+                    tracing::warn!("state receiver: {e}; it keeps the normal scheduler");
+                }
+                receive_states(state_source, operator, &stop, poll_ns, spin_ns)
+            })?
     };
 
     let guidance_period = Duration::from_secs_f64(1.0 / config.guidance_rate_hz);
@@ -253,7 +267,8 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
 
     stop.store(true, Ordering::Release);
     if let Ok(latency) = receiver.join() {
-        report.state_latency_us = latency.percentiles_us();
+        report.state_latency_us = latency.transport.percentiles_us();
+        report.state_age_us = latency.age.percentiles_us();
     }
     let op = *lock(&operator);
     let s = planner.stats();
@@ -282,14 +297,24 @@ fn lock(m: &Mutex<Operator>) -> std::sync::MutexGuard<'_, Operator> {
     m.lock().unwrap_or_else(|p| p.into_inner())
 }
 
+/// What the state receiver measured (see [`ShellReport`]'s `state_latency_us` and
+/// `state_age_us`).
+struct StateLatency {
+    transport: crate::latency::NsHistogram,
+    age: crate::latency::NsHistogram,
+}
+
 fn receive_states(
     mut source: services::StateFollower,
     operator: Arc<Mutex<Operator>>,
     stop: &AtomicBool,
     poll_ns: u64,
     spin_ns: u64,
-) -> crate::latency::NsHistogram {
-    let mut latency = crate::latency::NsHistogram::new();
+) -> StateLatency {
+    let mut latency = StateLatency {
+        transport: crate::latency::NsHistogram::new(),
+        age: crate::latency::NsHistogram::new(),
+    };
     let mut last_seq = 0u64;
     let mut last_pid = 0u32;
     let mut pacer = crate::pacing::StatePacer::new(poll_ns);
@@ -313,7 +338,14 @@ fn receive_states(
             Err(e) => tracing::warn!("cannot follow a restarted haptic loop: {e}"),
         }
         if new_state {
-            latency.record(ipc_types::monotonic_ns().saturating_sub(s.header.timestamp_ns));
+            let now = ipc_types::monotonic_ns();
+            latency
+                .age
+                .record(now.saturating_sub(s.header.timestamp_ns));
+            // A loop older than the stamp publishes 0: nothing to measure.
+            if s.published_ns != 0 {
+                latency.transport.record(now.saturating_sub(s.published_ns));
+            }
             let now = Instant::now();
             let mut op = lock(&operator);
             if !restarted && seq > last_seq + 1 && last_seq != 0 {

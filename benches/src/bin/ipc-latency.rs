@@ -9,10 +9,11 @@
 //!    publish-subscribe at the planner's guidance rate, spinning and polling at 1 kHz (the
 //!    relay's poll).
 //! 2. **ours**: the real haptic loop (simulated arm; contact off unless `--contact`) with a
-//!    real `planner serve` process. State: the tick's header stamp (its wake-up) → the
+//!    real `planner serve` process. State: the loop's stamp just before its blackboard
+//!    write (`HapticState::published_ns`; the bare writers stamp just before theirs) → the
 //!    planner's receiver thread reading the blackboard, phase-locked to the ticks with a
 //!    `--state-spin-us` spin window (`planner::pacing`; `state_latency_us` of the planner's
-//!    JSON report). Guidance: the planner's stamp just before `send_copy` → wake-up of the
+//!    JSON report; from the tick's wake-up instead: `state_age_us`). Guidance: the planner's stamp just before `send_copy` → wake-up of the
 //!    first tick rendering it, through the loop's relay thread (woken by the planner's
 //!    guidance event) and triple buffer
 //!    (`guidance_latency_us` of the loop report).
@@ -67,6 +68,11 @@ struct Args {
     /// --state-spin-us`; 0: it only sleeps).
     #[arg(long, default_value_t = 10.0)]
     state_spin_us: f64,
+    /// SCHED_FIFO priority of the planner's state receiver (`planner serve
+    /// --state-priority`) and, for a like-for-like baseline, of the bare state readers
+    /// (0 = the normal scheduler).
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u8).range(0..=98))]
+    state_priority: u8,
     /// The planner's guidance rate, Hz (`planner serve --guidance-rate-hz`).
     #[arg(long, default_value_t = 100.0)]
     guidance_rate_hz: f64,
@@ -82,8 +88,9 @@ struct Args {
     /// Write the figures as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
-    /// Internal: be the reader of a bare baseline, `PATTERN:PAYLOAD:POLL_HZ:NAMESPACE`
-    /// (POLL_HZ 0 = spin).
+    /// Internal: be the reader of a bare baseline,
+    /// `PATTERN:PAYLOAD:POLL_HZ:PRIORITY:NAMESPACE` (POLL_HZ 0 = spin, PRIORITY 0 = the
+    /// normal scheduler).
     #[arg(long, hide = true)]
     bare_rx: Option<String>,
 }
@@ -121,8 +128,11 @@ fn ratio(a: &Percentiles, b: &Percentiles) -> Triple {
 
 #[derive(Debug, Serialize)]
 struct StateFigures {
-    /// Loop tick stamp → planner receiver, µs.
+    /// The loop's publish stamp (just before its blackboard write) → planner receiver, µs.
     ours_us: Percentiles,
+    /// The tick's wake-up stamp → planner receiver, µs: `ours_us` plus the tick's compute
+    /// before publishing.
+    ours_from_tick_start_us: Percentiles,
     bare_pubsub_spin: Baseline,
     bare_blackboard_spin: Baseline,
     bare_blackboard_polled: Baseline,
@@ -222,12 +232,21 @@ fn main() -> anyhow::Result<()> {
         seconds: secs,
     };
     eprintln!("bare baselines: 4 × {secs} s");
-    let s_bb = baseline::<HapticState>(base(Pattern::Blackboard, args.rate_hz, Poll::Busy), rt)?;
+    let s_bb = baseline::<HapticState>(
+        base(Pattern::Blackboard, args.rate_hz, Poll::Busy),
+        rt,
+        args.state_priority,
+    )?;
     let s_bbp = baseline::<HapticState>(
         base(Pattern::Blackboard, args.rate_hz, Poll::Every(args.poll_hz)),
         rt,
+        args.state_priority,
     )?;
-    let g_ps = baseline::<Guidance>(base(Pattern::PubSub, args.guidance_rate_hz, Poll::Busy), rt)?;
+    let g_ps = baseline::<Guidance>(
+        base(Pattern::PubSub, args.guidance_rate_hz, Poll::Busy),
+        rt,
+        0,
+    )?;
     let g_psp = baseline::<Guidance>(
         base(
             Pattern::PubSub,
@@ -235,6 +254,7 @@ fn main() -> anyhow::Result<()> {
             Poll::Every(RELAY_POLL_HZ),
         ),
         rt,
+        0,
     )?;
 
     let mut rounds = Vec::new();
@@ -243,7 +263,11 @@ fn main() -> anyhow::Result<()> {
             "round {round}/{}: bare pub/sub spinning {secs} s, then the haptic loop + planner process {} s",
             args.rounds, args.seconds
         );
-        let bare = baseline::<HapticState>(base(Pattern::PubSub, args.rate_hz, Poll::Busy), rt)?;
+        let bare = baseline::<HapticState>(
+            base(Pattern::PubSub, args.rate_hz, Poll::Busy),
+            rt,
+            args.state_priority,
+        )?;
         let (report, planner) = run_ours(&args, rt)?;
         let ours = percentiles_from_json(&planner["state_latency_us"])
             .context("the planner's report has no state_latency_us")?;
@@ -289,6 +313,8 @@ fn main() -> anyhow::Result<()> {
             ratio_to_bare_blackboard_spin: ratio(&state_ours, &s_bb.latency_us),
             ratio_to_bare_blackboard_polled: ratio(&state_ours, &s_bbp.latency_us),
             ours_us: state_ours,
+            ours_from_tick_start_us: percentiles_from_json(&planner["state_age_us"])
+                .context("the planner's report has no state_age_us")?,
             bare_pubsub_spin: s_ps,
             bare_blackboard_spin: s_bb,
             bare_blackboard_polled: s_bbp,
@@ -345,7 +371,11 @@ fn payload_name<T: 'static>() -> &'static str {
 
 /// One bare baseline: the writer on a thread here (at the RT options), the reader in a child
 /// process.
-fn baseline<T: Stamped>(bare: Bare, rt: RtOptions) -> anyhow::Result<Baseline> {
+fn baseline<T: Stamped>(
+    bare: Bare,
+    rt: RtOptions,
+    reader_priority: u8,
+) -> anyhow::Result<Baseline> {
     let ns = format!("ipcbare_{}_{}", std::process::id(), unique());
     let payload = payload_name::<T>();
     let poll_hz = match bare.poll {
@@ -367,7 +397,7 @@ fn baseline<T: Stamped>(bare: Bare, rt: RtOptions) -> anyhow::Result<Baseline> {
             let mut child = Command::new(&exe)
                 .arg("--bare-rx")
                 .arg(format!(
-                    "{}:{payload}:{}:{ns}",
+                    "{}:{payload}:{}:{reader_priority}:{ns}",
                     bare.pattern.name(),
                     poll_hz.unwrap_or(0.0)
                 ))
@@ -413,10 +443,16 @@ fn unique() -> u64 {
 
 /// The child side of [`baseline`].
 fn bare_reader(spec: &str) -> anyhow::Result<()> {
-    let parts: Vec<&str> = spec.splitn(4, ':').collect();
-    let [pattern, payload, poll_hz, ns] = parts[..] else {
-        bail!("--bare-rx wants PATTERN:PAYLOAD:POLL_HZ:NAMESPACE, got '{spec}'");
+    let parts: Vec<&str> = spec.splitn(5, ':').collect();
+    let [pattern, payload, poll_hz, priority, ns] = parts[..] else {
+        bail!("--bare-rx wants PATTERN:PAYLOAD:POLL_HZ:PRIORITY:NAMESPACE, got '{spec}'");
     };
+    let priority: u8 = priority.parse().context("--bare-rx priority")?;
+    if priority > 0
+        && let Err(e) = ipc_types::set_thread_fifo_priority(priority)
+    {
+        eprintln!("bare reader: {e}; it keeps the normal scheduler");
+    }
     let pattern = Pattern::parse(pattern)?;
     let poll_hz: f64 = poll_hz.parse().context("--bare-rx poll rate")?;
     let poll = if poll_hz > 0.0 {
@@ -447,6 +483,8 @@ fn run_ours(
             args.poll_hz.to_string(),
             "--state-spin-us".into(),
             args.state_spin_us.to_string(),
+            "--state-priority".into(),
+            args.state_priority.to_string(),
             "--guidance-rate-hz".into(),
             args.guidance_rate_hz.to_string(),
             "--json".into(),
@@ -488,12 +526,13 @@ fn print_table(r: &Report) {
     };
     let s = &r.state;
     println!(
-        "HapticState at {} Hz, tick stamp → planner receiver phase-locked to the ticks, spinning ±{} µs around each ({} received, {} skipped)",
+        "HapticState at {} Hz, loop publish → planner receiver phase-locked to the ticks, spinning ±{} µs around each ({} received, {} skipped)",
         r.rate_hz, r.state_spin_us, s.states_received, s.states_skipped
     );
     println!("| µs | p50 | p90 | p99 | p99.9 | max | n |");
     println!("|---|---|---|---|---|---|---|");
-    row("ours: loop → planner", &s.ours_us);
+    row("ours: loop publish → planner", &s.ours_us);
+    row("ours: tick start → planner", &s.ours_from_tick_start_us);
     row(
         &format!("bare blackboard, reader polling at {} Hz", r.state_poll_hz),
         &s.bare_blackboard_polled.latency_us,

@@ -39,6 +39,14 @@ fn planner_receives_haptic_state_at_loop_rate() {
     wait_for("the loop publishes", Duration::from_secs(30), || {
         (state.get().header.sequence > 100).then_some(())
     });
+    // Stamped at the tick's wake-up, then again as it is handed to the blackboard.
+    let s = *state.get();
+    assert!(
+        s.header.timestamp_ns <= s.published_ns && s.published_ns <= ipc_types::monotonic_ns(),
+        "tick {} published {}",
+        s.header.timestamp_ns,
+        s.published_ns
+    );
     let report_arg = report.to_str().unwrap().to_string();
     let mut planner = start_planner(&ns, &["--duration-s", "3", "--json", &report_arg]);
     let status = planner
@@ -54,6 +62,15 @@ fn planner_receives_haptic_state_at_loop_rate() {
         "planner saw {rate:.0} Hz of HapticState: {json}"
     );
     assert!(received >= 1800, "over >= 2 s: {received} states");
+    // Publish → receive for each state it received; from the tick's wake-up, never less.
+    let quantile = |k: &str, q: &str| json[k][q].as_f64().unwrap();
+    assert_eq!(json["state_latency_us"]["count"].as_u64(), Some(received));
+    for q in ["p50", "p99", "max"] {
+        assert!(
+            quantile("state_age_us", q) >= quantile("state_latency_us", q),
+            "{q}: {json}"
+        );
+    }
     assert!(lp.is_running(), "the loop is unaffected");
     let _ = std::fs::remove_file(report);
 }
