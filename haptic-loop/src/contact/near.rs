@@ -358,21 +358,65 @@ pub(super) struct Totals {
     pub max_depth: f64,
 }
 
-/// Per-lane running sums of the force pass (all zero by default).
-#[derive(Clone, Copy, Default)]
-struct Accumulators {
-    wrench: [Lanes; 6],
+/// Per-lane running sums of the force pass, one `T` holding [`LANES`] of each: [`Lanes`]
+/// here ([`Accumulators`]), an AVX2 register in [`avx2`].
+#[derive(Clone, Copy)]
+struct Sums<T> {
+    wrench: [T; 6],
     /// Σ JJᵀ over penetrating points.
-    k: [Lanes; 21],
+    k: [T; 21],
     /// Σ w JJᵀ over braking points, w the braking weight.
-    b: [Lanes; 21],
-    point: [Lanes; 3],
-    normal: [Lanes; 3],
-    weight: Lanes,
-    max_depth: Lanes,
-    contacts: Lanes,
-    braking: Lanes,
-    release: Lanes,
+    b: [T; 21],
+    point: [T; 3],
+    normal: [T; 3],
+    weight: T,
+    max_depth: T,
+    contacts: T,
+    braking: T,
+    release: T,
+}
+
+/// The force pass's sums, lane by lane.
+type Accumulators = Sums<Lanes>;
+
+impl<T: Copy> Sums<T> {
+    /// Every sum `v`.
+    fn splat(v: T) -> Self {
+        Self {
+            wrench: [v; 6],
+            k: [v; 21],
+            b: [v; 21],
+            point: [v; 3],
+            normal: [v; 3],
+            weight: v,
+            max_depth: v,
+            contacts: v,
+            braking: v,
+            release: v,
+        }
+    }
+
+    /// Each sum through `f`.
+    fn map<U>(&self, mut f: impl FnMut(&T) -> U) -> Sums<U> {
+        Sums {
+            wrench: self.wrench.each_ref().map(&mut f),
+            k: self.k.each_ref().map(&mut f),
+            b: self.b.each_ref().map(&mut f),
+            point: self.point.each_ref().map(&mut f),
+            normal: self.normal.each_ref().map(&mut f),
+            weight: f(&self.weight),
+            max_depth: f(&self.max_depth),
+            contacts: f(&self.contacts),
+            braking: f(&self.braking),
+            release: f(&self.release),
+        }
+    }
+}
+
+impl Default for Accumulators {
+    fn default() -> Self {
+        Self::splat([0.0; LANES])
+    }
 }
 
 /// [`PassParams`] as the force pass uses them.

@@ -10,20 +10,8 @@ use super::{Accumulators, Chunks, LANES, ShellColumns};
 use crate::contact::voxmap::Voxmap;
 use std::arch::x86_64::*;
 
-/// The force pass's running sums in registers (see [`Accumulators`]).
-#[derive(Clone, Copy)]
-struct Sums {
-    wrench: [__m256; 6],
-    k: [__m256; 21],
-    b: [__m256; 21],
-    point: [__m256; 3],
-    normal: [__m256; 3],
-    weight: __m256,
-    max_depth: __m256,
-    contacts: __m256,
-    braking: __m256,
-    release: __m256,
-}
+/// The force pass's running sums in registers.
+type Sums = super::Sums<__m256>;
 
 /// [`ShellColumns::chunks`] in AVX2.
 ///
@@ -55,18 +43,7 @@ pub(super) fn chunks(
     let com: [__m256; 3] = std::array::from_fn(|a| set(c.com[a]));
     let reach = set(k.reach_m as f32);
     let lane_index = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-    let mut sums = Sums {
-        wrench: [zero; 6],
-        k: [zero; 21],
-        b: [zero; 21],
-        point: [zero; 3],
-        normal: [zero; 3],
-        weight: zero,
-        max_depth: zero,
-        contacts: zero,
-        braking: zero,
-        release: zero,
-    };
+    let mut sums = Sums::splat(zero);
     let mut kept = 0;
     for (chunk, idx) in c.candidates.chunks_exact(LANES).enumerate() {
         // SAFETY: `idx` holds LANES u32, each indexing the shell's columns (see above).
@@ -242,22 +219,10 @@ fn force_chunk(
 /// The sums as [`Accumulators`], for the shared reduction.
 #[target_feature(enable = "avx2")]
 fn unload(s: &Sums) -> Accumulators {
-    let out = |v: &__m256| {
+    s.map(|v| {
         let mut x = [0.0; LANES];
         // SAFETY: `x` holds LANES f32.
         unsafe { _mm256_storeu_ps(x.as_mut_ptr(), *v) };
         x
-    };
-    Accumulators {
-        wrench: s.wrench.each_ref().map(out),
-        k: s.k.each_ref().map(out),
-        b: s.b.each_ref().map(out),
-        point: s.point.each_ref().map(out),
-        normal: s.normal.each_ref().map(out),
-        weight: out(&s.weight),
-        max_depth: out(&s.max_depth),
-        contacts: out(&s.contacts),
-        braking: out(&s.braking),
-        release: out(&s.release),
-    }
+    })
 }
