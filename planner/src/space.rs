@@ -75,10 +75,20 @@ pub trait ConfigSpace {
         (d < bound).then_some(d)
     }
 
-    /// `c ≥ 0` with `distance(a, b) ≥ c·|p_a − p_b|` for every pair (1/m·weighted m):
-    /// lets a spatial index over positions prune. 0 (the default) disables pruning.
-    fn translation_factor(&self) -> f64 {
-        0.0
+    /// A point of R^7 for `q` whose Euclidean distances bound the metric from below:
+    /// `distance(a, b) ≥ min(|embed(a) − embed(b)|, |embed(a) − embed_mirror(b)|)` (the
+    /// second term only where `embed_mirror` is `Some`). Nearest-neighbour indexes
+    /// ([`crate::tree`]) prune with it. `None` (the default) disables the index.
+    fn embed(&self, q: &Se3) -> Option<Embedded> {
+        let _ = q;
+        None
+    }
+
+    /// The second image of `q` in an embedding where a configuration has two (SE(3):
+    /// `q` and `−q` are the same rotation); `None` (the default) when it has one.
+    fn embed_mirror(&self, q: &Se3) -> Option<Embedded> {
+        let _ = q;
+        None
     }
 
     /// The configuration of this space nearest to `q` (identity for SE(3); the planar
@@ -98,6 +108,12 @@ pub trait ConfigSpace {
         }
     }
 }
+
+/// Dimension of the embedding of [`ConfigSpace::embed`].
+pub const EMBED_DIM: usize = 7;
+
+/// A point of the embedding of [`ConfigSpace::embed`] (weighted m per coordinate).
+pub type Embedded = [f64; EMBED_DIM];
 
 /// Weighted length (I-RRT eq. 2 metric) of the polyline through `path`.
 pub fn path_length(space: &dyn ConfigSpace, path: &[Se3]) -> f64 {
@@ -165,11 +181,31 @@ impl ConfigSpace for Se3Space {
         (d < bound).then_some(d)
     }
 
-    fn translation_factor(&self) -> f64 {
-        // True bound: sqrt(w_t). But with rotation weighing up to 0.31 weighted m the
-        // position grid prunes too little in 6-D and cost 30 % of the iterations on the
-        // tunnels (see `tree::grid`): disable it here.
-        0.0
+    fn embed(&self, q: &Se3) -> Option<Embedded> {
+        // (√w_t·p, 2·√w_r·q) with q on the w ≥ 0 hemisphere. For unit quaternions at
+        // angle θ (rad) the nearer of ±q is at chord 2·sin(θ/4) ≤ θ/2, so the rotation
+        // part is at most √w_r·θ; with `embed_mirror` (−q) the query sees both images.
+        let (t, r) = (
+            self.weights.translation.sqrt(),
+            2.0 * self.weights.rotation.sqrt(),
+        );
+        let c = q.rot.coords;
+        let r = if c.w < 0.0 { -r } else { r };
+        Some([
+            t * q.pos.x,
+            t * q.pos.y,
+            t * q.pos.z,
+            r * c.w,
+            r * c.x,
+            r * c.y,
+            r * c.z,
+        ])
+    }
+
+    fn embed_mirror(&self, q: &Se3) -> Option<Embedded> {
+        let mut e = self.embed(q)?;
+        e[3..].iter_mut().for_each(|v| *v = -*v);
+        Some(e)
     }
 
     fn interpolate(&self, a: &Se3, b: &Se3, t: f64) -> Se3 {
@@ -299,6 +335,45 @@ mod tests {
             (d - Vector6::new(0.0, 0.2, 0.0, 0.2, 0.0, 0.0)).norm() < 1e-12,
             "{d}"
         );
+    }
+
+    #[test]
+    fn embedding_bounds_the_metric_from_below() {
+        let s = space();
+        let mut rng = ChaCha8Rng::seed_from_u64(6);
+        let d2 = |x: &Embedded, y: &Embedded| {
+            x.iter().zip(y).map(|(u, v)| (u - v) * (u - v)).sum::<f64>()
+        };
+        let mut tight = 0;
+        for i in 0..2000 {
+            let a = s.sample_uniform(&mut rng);
+            let mut b = match i % 3 {
+                0 => s.sample_uniform(&mut rng),
+                1 => s.sample_near(&a, 0.01, &mut rng),
+                // Almost the opposite rotation, a small move away.
+                _ => Se3::new(
+                    a.pos,
+                    a.rot * UnitQuaternion::from_axis_angle(&Vector3::y_axis(), PI - 1e-3),
+                ),
+            };
+            if i % 2 == 0 {
+                // The same rotation given by the other quaternion.
+                b.rot = UnitQuaternion::new_unchecked(-b.rot.into_inner());
+            }
+            let d = s.distance(&a, &b);
+            let ea = s.embed(&a).expect("SE(3) embeds");
+            let lb2 = d2(&ea, &s.embed(&b).unwrap()).min(d2(&ea, &s.embed_mirror(&b).unwrap()));
+            assert!(
+                lb2.sqrt() <= d * (1.0 + 1e-12) + 1e-15,
+                "{} > {d}",
+                lb2.sqrt()
+            );
+            tight += usize::from(lb2.sqrt() > 0.9 * d);
+            // The stored image is canonical: ±q embed alike.
+            let neg = Se3::new(a.pos, UnitQuaternion::new_unchecked(-a.rot.into_inner()));
+            assert_eq!(s.embed(&neg), s.embed(&a));
+        }
+        assert!(tight > 1000, "{tight}");
     }
 
     #[test]

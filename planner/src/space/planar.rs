@@ -6,7 +6,7 @@
 //! the start's orientation (usually identity). The distance is I-RRT eq. 2 in its planar
 //! form, `d = sqrt(w_t·(Δx² + Δy²) + w_r·Δθ²)`, with Δθ wrapped into [−π, π].
 
-use super::{ConfigSpace, Se3Space, Weights};
+use super::{ConfigSpace, Embedded, Se3Space, Weights};
 use crate::pose::Se3;
 use crate::scene::{Bounds, Scene, SpaceKind};
 use nalgebra::{UnitQuaternion, Vector3, Vector6};
@@ -46,9 +46,17 @@ impl PlanarSpace {
 
     /// θ of `q` (rad, in [−π, π]): the angle about scene z of `q.rot · tilt⁻¹`.
     pub fn theta(&self, q: &Se3) -> f64 {
+        let (w, k) = self.half_angle(q);
+        wrap_angle(2.0 * k.atan2(w))
+    }
+
+    /// `(w, k)` of `q.rot · tilt⁻¹`: for a rotation by θ about z, `(cos θ/2, sin θ/2)`.
+    fn half_angle(&self, q: &Se3) -> (f64, f64) {
+        if self.tilt == UnitQuaternion::identity() {
+            return (q.rot.w, q.rot.k);
+        }
         let r = q.rot * self.tilt.inverse();
-        // For a rotation about z the quaternion is (cos θ/2, 0, 0, sin θ/2).
-        wrap_angle(2.0 * r.k.atan2(r.w))
+        (r.w, r.k)
     }
 
     /// The configuration at `(x, y)` (m) and `theta` (rad).
@@ -133,9 +141,23 @@ impl ConfigSpace for PlanarSpace {
         self.config(q.pos.x, q.pos.y, self.theta(q))
     }
 
-    fn translation_factor(&self) -> f64 {
-        // Configurations of this space share z = z_m, so |Δp| is the planar |Δ(x, y)|.
-        self.weights.translation.sqrt()
+    fn embed(&self, q: &Se3) -> Option<Embedded> {
+        // (√w_t·x, √w_t·y, √w_r·cos θ, √w_r·sin θ): the chord 2·sin(|Δθ|/2) of the unit
+        // circle is at most the wrapped |Δθ|, and z is the same for every configuration.
+        // cos θ and sin θ straight from the quaternion (w, k) = (cos θ/2, sin θ/2) of
+        // `theta`, normalised as its atan2 is: no trigonometry.
+        let (t, r) = (
+            self.weights.translation.sqrt(),
+            self.weights.rotation.sqrt(),
+        );
+        let (w, k) = self.half_angle(q);
+        let n = w * w + k * k;
+        let (c, s) = if n > 0.0 {
+            ((w * w - k * k) / n, 2.0 * w * k / n)
+        } else {
+            (1.0, 0.0)
+        };
+        Some([t * q.pos.x, t * q.pos.y, r * c, r * s, 0.0, 0.0, 0.0])
     }
 }
 
@@ -200,8 +222,11 @@ impl ConfigSpace for Space {
     fn project(&self, q: &Se3) -> Se3 {
         self.inner().project(q)
     }
-    fn translation_factor(&self) -> f64 {
-        self.inner().translation_factor()
+    fn embed(&self, q: &Se3) -> Option<Embedded> {
+        self.inner().embed(q)
+    }
+    fn embed_mirror(&self, q: &Se3) -> Option<Embedded> {
+        self.inner().embed_mirror(q)
     }
 }
 
@@ -261,5 +286,37 @@ mod tests {
         let off = Se3::from_rpy(Vector3::new(0.1, 0.1, 0.3), 0.2, 0.0, 0.5);
         let p = s.project(&off);
         assert!(p.pos.z == s.z_m && (s.theta(&p) - 0.5).abs() < 0.05);
+    }
+
+    #[test]
+    fn embedding_bounds_the_metric_from_below() {
+        let s = space();
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let e = |q: &Se3| s.embed(q).expect("planar embeds");
+        let mut tight = 0;
+        for i in 0..2000 {
+            let a = s.sample_uniform(&mut rng);
+            // Near pairs too, and pairs across θ = ±π.
+            let b = match i % 3 {
+                0 => s.sample_uniform(&mut rng),
+                1 => s.sample_near(&a, 0.01, &mut rng),
+                _ => s.config(a.pos.x, a.pos.y, wrap_angle(s.theta(&a) + PI - 1e-3)),
+            };
+            let d = s.distance(&a, &b);
+            let lb = e(&a)
+                .iter()
+                .zip(e(&b))
+                .map(|(x, y)| (x - y) * (x - y))
+                .sum::<f64>()
+                .sqrt();
+            assert!(lb <= d * (1.0 + 1e-12) + 1e-15, "{lb} > {d}");
+            tight += usize::from(lb > 0.9 * d);
+            let (c, sn) = (e(&a)[2] / 0.1, e(&a)[3] / 0.1);
+            let th = s.theta(&a);
+            assert!((c - th.cos()).abs() < 1e-12 && (sn - th.sin()).abs() < 1e-12);
+        }
+        // Not vacuous: most random pairs are bounded within 10 %.
+        assert!(tight > 1000, "{tight}");
+        assert_eq!(s.embed_mirror(&s.config(0.0, 0.0, 1.0)), None);
     }
 }
