@@ -17,6 +17,7 @@ use crate::scene::Bounds;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3, Vector6};
 use rand::{Rng, RngCore};
 use rand_distr::StandardNormal;
+use std::f64::consts::{PI, TAU};
 
 mod planar;
 pub use planar::{PlanarSpace, Space, wrap_angle};
@@ -120,6 +121,92 @@ pub fn path_length(space: &dyn ConfigSpace, path: &[Se3]) -> f64 {
     path.windows(2).map(|w| space.distance(&w[0], &w[1])).sum()
 }
 
+/// Points along one geodesic, with the per-edge work (relative rotation, angles) done
+/// once: [`Geodesic::at`] costs a lerp and one `sin_cos`. Built by [`Space::geodesic`];
+/// both spaces' `interpolate` go through it, so the two agree exactly.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Geodesic {
+    a: Vector3<f64>,
+    b: Vector3<f64>,
+    rot: GeodesicRot,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum GeodesicRot {
+    /// `a.rot · exp(t·rel)`, `rel` the rotation vector of `a.rot⁻¹·b.rot` (rad).
+    Se3 {
+        base: UnitQuaternion<f64>,
+        rel: Vector3<f64>,
+    },
+    /// `Rz(theta_a + t·dt) · tilt` at height `z` (rad, m).
+    Planar {
+        theta_a: f64,
+        dt: f64,
+        tilt: UnitQuaternion<f64>,
+        z: f64,
+    },
+}
+
+impl Geodesic {
+    /// The SE(3) geodesic: straight position, rotation about the fixed axis of
+    /// `a.rot⁻¹·b.rot`.
+    pub fn se3(a: &Se3, b: &Se3) -> Self {
+        Geodesic {
+            a: a.pos,
+            b: b.pos,
+            rot: GeodesicRot::Se3 {
+                base: a.rot,
+                rel: rotation_vector(&(a.rot.inverse() * b.rot)),
+            },
+        }
+    }
+
+    fn planar(a: &Se3, b: &Se3, theta_a: f64, dt: f64, space: &PlanarSpace) -> Self {
+        Geodesic {
+            a: a.pos,
+            b: b.pos,
+            rot: GeodesicRot::Planar {
+                theta_a,
+                dt,
+                tilt: space.tilt,
+                z: space.z_m,
+            },
+        }
+    }
+
+    /// The configuration at fraction `t ∈ [0, 1]`.
+    pub fn at(&self, t: f64) -> Se3 {
+        let pos = self.a.lerp(&self.b, t);
+        match &self.rot {
+            GeodesicRot::Se3 { base, rel } => Se3 {
+                pos,
+                rot: base * exp_rotation(&(rel * t)),
+            },
+            GeodesicRot::Planar {
+                theta_a,
+                dt,
+                tilt,
+                z,
+            } => {
+                // θ_a and t·dt are in [−π, π]: one turn at most brings the sum back
+                // (as `wrap_angle` would, without its `fmod`).
+                let th = theta_a + t * dt;
+                let th = if th > PI {
+                    th - TAU
+                } else if th <= -PI {
+                    th + TAU
+                } else {
+                    th
+                };
+                let half = 0.5 * th;
+                let (s, c) = half.sin_cos();
+                let rz = UnitQuaternion::new_unchecked(Quaternion::new(c, 0.0, 0.0, s));
+                Se3::new(Vector3::new(pos.x, pos.y, *z), rz * tilt)
+            }
+        }
+    }
+}
+
 /// SE(3) with a box for the reference point. See the module docs for the metric.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Se3Space {
@@ -209,11 +296,7 @@ impl ConfigSpace for Se3Space {
     }
 
     fn interpolate(&self, a: &Se3, b: &Se3, t: f64) -> Se3 {
-        let rel = rotation_vector(&(a.rot.inverse() * b.rot));
-        Se3 {
-            pos: a.pos.lerp(&b.pos, t),
-            rot: a.rot * exp_rotation(&(rel * t)),
-        }
+        Geodesic::se3(a, b).at(t)
     }
 
     fn sample_uniform(&self, rng: &mut dyn RngCore) -> Se3 {
@@ -257,7 +340,6 @@ mod tests {
     use crate::scene::Scene;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
-    use std::f64::consts::PI;
 
     fn space() -> Se3Space {
         Se3Space::new(Scene::wall_with_hole().bounds, Weights::default())

@@ -59,6 +59,21 @@ impl PlanarSpace {
         (r.w, r.k)
     }
 
+    /// θ(b) − θ(a) wrapped into [−π, π] (rad), with one `atan2`: the angle of the
+    /// relative half-angle rotation `(w_a·w_b + k_a·k_b, w_a·k_b − k_a·w_b)`.
+    pub fn delta_theta(&self, a: &Se3, b: &Se3) -> f64 {
+        let ((wa, ka), (wb, kb)) = (self.half_angle(a), self.half_angle(b));
+        let (w, k) = (wa * wb + ka * kb, wa * kb - ka * wb);
+        // The half angle on the w ≥ 0 side is the short way round, in [−π/2, π/2].
+        let (w, k) = if w < 0.0 { (-w, -k) } else { (w, k) };
+        2.0 * k.atan2(w)
+    }
+
+    /// The planar geodesic from `a` to `b`: straight (x, y), θ the short way round.
+    pub fn geodesic(&self, a: &Se3, b: &Se3) -> super::Geodesic {
+        super::Geodesic::planar(a, b, self.theta(a), self.delta_theta(a, b), self)
+    }
+
     /// The configuration at `(x, y)` (m) and `theta` (rad).
     pub fn config(&self, x: f64, y: f64, theta: f64) -> Se3 {
         Se3::new(
@@ -76,7 +91,7 @@ impl PlanarSpace {
 impl ConfigSpace for PlanarSpace {
     fn distance(&self, a: &Se3, b: &Se3) -> f64 {
         let (dx, dy) = (b.pos.x - a.pos.x, b.pos.y - a.pos.y);
-        let dt = wrap_angle(self.theta(b) - self.theta(a));
+        let dt = self.delta_theta(a, b);
         (self.weights.translation * (dx * dx + dy * dy) + self.weights.rotation * dt * dt).sqrt()
     }
 
@@ -92,10 +107,7 @@ impl ConfigSpace for PlanarSpace {
     }
 
     fn interpolate(&self, a: &Se3, b: &Se3, t: f64) -> Se3 {
-        let ta = self.theta(a);
-        let dt = wrap_angle(self.theta(b) - ta);
-        let p = a.pos.lerp(&b.pos, t);
-        self.config(p.x, p.y, wrap_angle(ta + t * dt))
+        self.geodesic(a, b).at(t)
     }
 
     fn sample_uniform(&self, rng: &mut dyn RngCore) -> Se3 {
@@ -126,7 +138,7 @@ impl ConfigSpace for PlanarSpace {
     }
 
     fn delta(&self, from: &Se3, to: &Se3) -> Vector6<f64> {
-        let dt = wrap_angle(self.theta(to) - self.theta(from));
+        let dt = self.delta_theta(from, to);
         Vector6::new(
             to.pos.x - from.pos.x,
             to.pos.y - from.pos.y,
@@ -186,6 +198,15 @@ impl Space {
         match self {
             Space::Se3(s) => &s.bounds,
             Space::Planar(s) => &s.bounds,
+        }
+    }
+
+    /// The geodesic from `a` to `b` ([`ConfigSpace::interpolate`] at any `t`, with the
+    /// per-edge work done once: edge validation samples many points of one edge).
+    pub fn geodesic(&self, a: &Se3, b: &Se3) -> super::Geodesic {
+        match self {
+            Space::Se3(_) => super::Geodesic::se3(a, b),
+            Space::Planar(s) => s.geodesic(a, b),
         }
     }
 
@@ -286,6 +307,53 @@ mod tests {
         let off = Se3::from_rpy(Vector3::new(0.1, 0.1, 0.3), 0.2, 0.0, 0.5);
         let p = s.project(&off);
         assert!(p.pos.z == s.z_m && (s.theta(&p) - 0.5).abs() < 0.05);
+    }
+
+    #[test]
+    fn geodesic_matches_the_theta_formula() {
+        // Reference: the interpolation by θ as first written (two atan2 per call).
+        let s = space();
+        let mut rng = ChaCha8Rng::seed_from_u64(8);
+        let tilted = PlanarSpace::new(
+            s.bounds,
+            Weights::default(),
+            &Se3::from_rpy(Vector3::new(0.0, 0.0, 0.02), 0.3, -0.2, 0.0),
+        );
+        for sp in [&s, &tilted] {
+            for i in 0..500 {
+                let a = sp.sample_uniform(&mut rng);
+                let b = if i % 2 == 0 {
+                    sp.sample_uniform(&mut rng)
+                } else {
+                    sp.config(
+                        a.pos.x + 0.01,
+                        a.pos.y,
+                        wrap_angle(sp.theta(&a) + PI - 1e-6),
+                    )
+                };
+                let (ta, tb) = (sp.theta(&a), sp.theta(&b));
+                let dt = wrap_angle(tb - ta);
+                let ddt = sp.delta_theta(&a, &b);
+                assert!(
+                    (ddt - dt).abs() < 1e-9 || (ddt.abs() - PI).abs() < 1e-9,
+                    "{ddt} {dt}"
+                );
+                let g = sp.geodesic(&a, &b);
+                assert!(sp.distance(&g.at(0.0), &a) < 1e-12);
+                assert!(sp.distance(&g.at(1.0), &b) < 1e-9);
+                for t in [0.1, 0.5, 0.77] {
+                    let p = a.pos.lerp(&b.pos, t);
+                    let want = sp.config(p.x, p.y, wrap_angle(ta + t * dt));
+                    let got = sp.interpolate(&a, &b, t);
+                    assert_eq!(got, g.at(t));
+                    assert!(sp.distance(&got, &want) < 1e-9, "t = {t}");
+                    assert!(got.pos.z == sp.z_m);
+                    // Constant speed: the distance from a is t of the whole.
+                    let d = sp.distance(&a, &b);
+                    assert!((sp.distance(&a, &got) - t * d).abs() < 1e-9);
+                }
+            }
+        }
     }
 
     #[test]
