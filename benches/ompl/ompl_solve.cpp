@@ -2,9 +2,11 @@
 // run.py (see docs/ompl-comparison.md). Our own code; not part of the cargo workspace.
 //
 // Usage: ompl_solve SCENE.txt --seed N --time-limit S --step D --edge-resolution R
-//        [--bench-checks N]
+//        [--metric l2|sum] [--segments uniform|per-component] [--bench-checks N]
+// Defaults: our metric (l2) and edges checked every R of it (uniform); see OursMetric.
 // Prints one JSON object: solved, time_s, collision_checks, checks_per_s, us_per_check.
 #include <fcl/fcl.h>
+#include <ompl/base/PlannerData.h>
 #include <ompl/base/ScopedState.h>
 #include <ompl/base/spaces/SE2StateSpace.h>
 #include <ompl/base/spaces/SE3StateSpace.h>
@@ -15,6 +17,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -27,6 +30,35 @@
 namespace ob = ompl::base;
 namespace og = ompl::geometric;
 using Obj = std::shared_ptr<fcl::CollisionObjectd>;
+
+// The space as ours measures it. `l2` (default): our metric, sqrt(|Δp|² + (0.1 m·θ)²)
+// (θ the rotation angle, rad), instead of OMPL's weighted sum |Δp| + 0.1·θ, so that
+// nearest neighbours, the range and the edge resolution mean the same on both sides.
+// Edges are validated every `resolution` of that metric, as ours are: OMPL's compound
+// spaces count segments per component (translation and rotation apart, unweighted, at
+// fraction × the component's extent) and take the maximum, which checks rotations about
+// 5× more densely than ours (`--segments per-component` restores it).
+template <class Base>
+struct OursMetric : Base {
+    bool l2 = true;
+    double resolution = 0.005;  // weighted m; <= 0: OMPL's per-component count
+    // Rotation angle θ (rad) of component 1: SO2 distance is θ, SO3's acos|q1·q2| is θ/2.
+    double rot_factor = 1.0;
+    double distance(const ob::State *a, const ob::State *b) const override {
+        if (!l2) return Base::distance(a, b);
+        // Like CompoundStateSpace::distance: the components' own (virtual) distances.
+        auto *ca = a->as<ob::CompoundState>();
+        auto *cb = b->as<ob::CompoundState>();
+        double dp = this->components_[0]->distance(ca->components[0], cb->components[0]);
+        double th = rot_factor * this->components_[1]->distance(ca->components[1], cb->components[1]);
+        return std::sqrt(dp * dp + 0.01 * th * th);
+    }
+    unsigned int validSegmentCount(const ob::State *a, const ob::State *b) const override {
+        if (resolution <= 0) return Base::validSegmentCount(a, b);
+        return this->getValidSegmentCountFactor() *
+               static_cast<unsigned int>(std::ceil(this->distance(a, b) / resolution));
+    }
+};
 
 static std::shared_ptr<fcl::CollisionGeometryd> load_obj(const std::string &path, double scale) {
     std::ifstream in(path);
@@ -106,6 +138,8 @@ int main(int argc, char **argv) {
     unsigned long seed = 1;
     double time_limit = 10, step = 0.05, resolution = 0.005;
     long bench_checks = 0;
+    bool per_component = false;  // --segments per-component: OMPL's own segment count
+    bool sum_metric = false;     // --metric sum: OMPL's weighted sum (the weights below)
     for (int i = 2; i + 1 < argc; i += 2) {
         std::string k = argv[i];
         if (k == "--seed") seed = std::stoul(argv[i + 1]);
@@ -113,6 +147,8 @@ int main(int argc, char **argv) {
         else if (k == "--step") step = std::stod(argv[i + 1]);
         else if (k == "--edge-resolution") resolution = std::stod(argv[i + 1]);
         else if (k == "--bench-checks") bench_checks = std::stol(argv[i + 1]);
+        else if (k == "--segments") per_component = std::string(argv[i + 1]) == "per-component";
+        else if (k == "--metric") sum_metric = std::string(argv[i + 1]) == "sum";
         else { std::cerr << "unknown option " << k << "\n"; return 2; }
     }
     ompl::msg::setLogLevel(ompl::msg::LOG_NONE);
@@ -125,7 +161,9 @@ int main(int argc, char **argv) {
 
     ob::StateSpacePtr space;
     if (sc.planar) {
-        auto se2 = std::make_shared<ob::SE2StateSpace>();
+        auto se2 = std::make_shared<OursMetric<ob::SE2StateSpace>>();
+        se2->resolution = per_component ? 0 : resolution;
+        se2->l2 = !sum_metric;
         ob::RealVectorBounds b(2);
         for (int i = 0; i < 2; ++i) { b.setLow(i, sc.lo[i]); b.setHigh(i, sc.hi[i]); }
         se2->setBounds(b);
@@ -133,7 +171,10 @@ int main(int argc, char **argv) {
         se2->setSubspaceWeight(1, 0.1);
         space = se2;
     } else {
-        auto se3 = std::make_shared<ob::SE3StateSpace>();
+        auto se3 = std::make_shared<OursMetric<ob::SE3StateSpace>>();
+        se3->resolution = per_component ? 0 : resolution;
+        se3->l2 = !sum_metric;
+        se3->rot_factor = 2.0;
         ob::RealVectorBounds b(3);
         for (int i = 0; i < 3; ++i) { b.setLow(i, sc.lo[i]); b.setHigh(i, sc.hi[i]); }
         se3->setBounds(b);
@@ -215,8 +256,10 @@ int main(int argc, char **argv) {
     double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     bool solved = st == ob::PlannerStatus::EXACT_SOLUTION;
     long n = checks.load();
-    std::printf("{\"solved\":%s,\"time_s\":%.6f,\"collision_checks\":%ld,\"checks_per_s\":%.1f,\"us_per_check\":%.4f,\"max_extent\":%.6f,\"segment_fraction\":%.8f}\n",
-                solved ? "true" : "false", dt, n, n / dt, n > 0 ? dt * 1e6 / n : 0.0,
+    ob::PlannerData data(ss.getSpaceInformation());
+    planner->getPlannerData(data);
+    std::printf("{\"solved\":%s,\"time_s\":%.6f,\"nodes\":%u,\"collision_checks\":%ld,\"checks_per_s\":%.1f,\"us_per_check\":%.4f,\"max_extent\":%.6f,\"segment_fraction\":%.8f}\n",
+                solved ? "true" : "false", dt, data.numVertices(), n, n / dt, n > 0 ? dt * 1e6 / n : 0.0,
                 space->getMaximumExtent(), resolution / space->getMaximumExtent());
     return 0;
 }

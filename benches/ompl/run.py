@@ -2,7 +2,8 @@
 """Our automatic RRT-Connect (`planner solve`) vs OMPL RRTConnect + FCL (ompl_solve).
 
 Usage: benches/ompl/run.py --planner target/release/planner --seeds 20 --time-limit 10 \
-           --out out/ompl [--scenes wall-hole,tunnels-1axis,silencer]
+           --out out/ompl [--scenes wall-hole,tunnels-1axis,silencer] \
+           [--ours-args '--extend step'] [--ompl-args '--metric sum --segments per-component']
 Writes OUT/runs.csv and OUT/summary.md; see docs/ompl-comparison.md.
 """
 import argparse, csv, json, os, statistics, subprocess, tomllib
@@ -53,7 +54,20 @@ def main():
     ap.add_argument("--edge-resolution", type=float, default=0.005)
     ap.add_argument("--scenes", default="wall-hole,tunnels-1axis,silencer,crossing-planes,maze")
     ap.add_argument("--out", default="out/ompl")
+    ap.add_argument("--ours-args", default="",
+                    help="extra arguments for planner solve, e.g. '--extend step'")
+    ap.add_argument("--ompl-args", default="",
+                    help="extra arguments for ompl_solve, e.g. '--metric sum --segments per-component'")
+    ap.add_argument("--summary-only", action="store_true",
+                    help="rewrite OUT/summary.md from OUT/runs.csv (same options as the run)")
     a = ap.parse_args()
+    if a.summary_only:
+        with open(os.path.join(a.out, "runs.csv")) as f:
+            rows = [dict(r, seed=int(r["seed"]), solved=r["solved"] == "True",
+                         time_s=float(r["time_s"]), checks=int(r["checks"]),
+                         nodes=int(r["nodes"])) for r in csv.DictReader(f)]
+        summarize(a, rows, list(dict.fromkeys(r["scene"] for r in rows)))
+        return
     os.makedirs(a.out, exist_ok=True)
     sdir = os.path.join(a.out, "scenes")
     subprocess.run([a.planner, "scenes", "--write", sdir], check=True, stdout=subprocess.DEVNULL)
@@ -72,38 +86,48 @@ def main():
             subprocess.run([a.planner, "solve", "--scene", os.path.join(sdir, scene + ".toml"),
                             "--seed", str(seed), "--time-limit", str(a.time_limit),
                             "--step", str(a.step), "--edge-resolution", str(a.edge_resolution),
-                            "--shortcut-attempts", "0", "--json", js],
+                            "--shortcut-attempts", "0", "--json", js] + a.ours_args.split(),
                            check=False, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
             r = json.load(open(js))
             rows.append(dict(scene=scene, impl="ours", seed=seed, solved=r["solved"],
-                             time_s=r["time_s"], checks=r["collision_checks"]))
+                             time_s=r["time_s"], checks=r["collision_checks"], nodes=r["nodes"]))
             out = subprocess.run([a.ompl, flat, "--seed", str(seed), "--time-limit",
                                   str(a.time_limit), "--step", str(a.step),
-                                  "--edge-resolution", str(a.edge_resolution)],
+                                  "--edge-resolution", str(a.edge_resolution)] + a.ompl_args.split(),
                                  check=True, capture_output=True, text=True).stdout
             r = json.loads(out)
             rows.append(dict(scene=scene, impl="ompl+fcl", seed=seed, solved=r["solved"],
-                             time_s=r["time_s"], checks=r["collision_checks"]))
+                             time_s=r["time_s"], checks=r["collision_checks"], nodes=r["nodes"]))
             print(scene, seed, rows[-2]["solved"], round(rows[-2]["time_s"], 4),
                   rows[-1]["solved"], round(rows[-1]["time_s"], 4), flush=True)
     with open(os.path.join(a.out, "runs.csv"), "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
-    md = ["| scene | impl | solved | median time (s), solved runs | checks/s | µs per check |",
-          "|---|---|---|---|---|---|"]
+    summarize(a, rows, scenes)
+
+
+def summarize(a, rows, scenes):
+    """OUT/summary.md from the rows (also run alone by --summary-only on OUT/runs.csv)."""
+    md = ["| scene | impl | solved | median time (s), solved runs | median / mean time (s), unsolved at limit | median checks, solved runs | median nodes, solved runs | checks/s | µs per check |",
+          "|---|---|---|---|---|---|---|---|---|"]
     for scene in scenes:
         for impl in ("ours", "ompl+fcl"):
             rs = [r for r in rows if r["scene"] == scene and r["impl"] == impl]
             ok = [r for r in rs if r["solved"]]
             med = f"{statistics.median(r['time_s'] for r in ok):.3f}" if ok else "—"
+            at_limit = [r["time_s"] if r["solved"] else a.time_limit for r in rs]
+            med_checks = f"{statistics.median(r['checks'] for r in ok):,.0f}" if ok else "—"
+            med_nodes = f"{statistics.median(r['nodes'] for r in ok):,.0f}" if ok else "—"
             t = sum(r["time_s"] for r in rs)
             n = sum(r["checks"] for r in rs)
-            md.append(f"| {scene} | {impl} | {len(ok)}/{len(rs)} | {med} | {n / t:,.0f} | "
-                      f"{t * 1e6 / n:.2f} |")
+            md.append(f"| {scene} | {impl} | {len(ok)}/{len(rs)} | {med} | "
+                      f"{statistics.median(at_limit):.3f} / {statistics.mean(at_limit):.3f} | "
+                      f"{med_checks} | {med_nodes} | {n / t:,.0f} | {t * 1e6 / n:.2f} |")
     md.append("")
     md.append(f"{a.seeds} seeds, time limit {a.time_limit} s, step {a.step}, edge resolution "
-              f"{a.edge_resolution} (weighted m). checks/s and µs per check: all runs' time / "
+              f"{a.edge_resolution} (weighted m), ours: `{a.ours_args or '(defaults)'}`, "
+              f"ompl_solve: `{a.ompl_args or '(defaults)'}`. checks/s and µs per check: all runs' time / "
               "all runs' collision checks (includes tree work, so an upper bound per check).")
     with open(os.path.join(a.out, "summary.md"), "w") as f:
         f.write("\n".join(md) + "\n")

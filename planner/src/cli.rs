@@ -208,6 +208,11 @@ pub struct CoreArgs {
     /// Random shortcut attempts on the solution path (0 keeps the raw tree path).
     #[arg(long, default_value_t = 100)]
     pub shortcut_attempts: u32,
+    /// RRT-Connect: how the tree extended towards the sample grows, `greedy` (I-RRT
+    /// Extend: steps until reached or blocked) or `step` (one step, as OMPL's
+    /// RRTConnect); the other tree always connects greedily.
+    #[arg(long, default_value = "greedy", value_parser = ["greedy", "step"])]
+    pub extend: String,
 }
 
 /// Operator-driven sampling options (I-RRT §4.2.2 and §6, H-RRT-C Algorithms 1–2).
@@ -359,6 +364,11 @@ impl CoreArgs {
                 crate::Algorithm::RrtConnect
             },
             shortcut_attempts: self.shortcut_attempts,
+            extend_a: if self.extend == "step" {
+                crate::params::ExtendA::Step
+            } else {
+                crate::params::ExtendA::Greedy
+            },
             ..PlannerParams::default()
         };
         params.validate()?;

@@ -18,7 +18,6 @@ use parry3d_f64::math::{Pose, Rot3, Vector};
 use parry3d_f64::query::{contact, intersection_test};
 use parry3d_f64::shape::{Compound, SharedShape, TriMeshFlags};
 use std::cell::Cell;
-use std::collections::VecDeque;
 
 /// Default edge-validation resolution (weighted m): 5 mm of translation, or 0.05 rad of
 /// rotation with the default weights (no object point moves more than √2·5 ≈ 7 mm between
@@ -110,6 +109,8 @@ pub struct CollisionChecker {
     space: Space,
     resolution: f64,
     checks: Cell<u64>,
+    /// Interval queue of [`Self::edge_free_from`], reused.
+    queue: Cell<Vec<(u64, u64)>>,
 }
 
 impl CollisionChecker {
@@ -132,6 +133,7 @@ impl CollisionChecker {
             space: Space::for_scene(scene, weights),
             resolution,
             checks: Cell::new(0),
+            queue: Cell::new(Vec::new()),
         }
     }
 
@@ -242,21 +244,28 @@ impl CollisionChecker {
             return true;
         }
         let n = n as u64;
-        let mut queue = VecDeque::with_capacity(n as usize / 2 + 1);
-        queue.push_back((0u64, n));
-        while let Some((lo, hi)) = queue.pop_front() {
+        let edge = self.space.geodesic(a, b);
+        // A FIFO of intervals in a buffer kept between calls: no allocation per edge.
+        let mut queue = self.queue.take();
+        queue.clear();
+        queue.push((0u64, n));
+        let mut next = 0;
+        let mut free = true;
+        while let Some(&(lo, hi)) = queue.get(next) {
+            next += 1;
             if hi - lo < 2 {
                 continue;
             }
             let mid = lo + (hi - lo) / 2;
-            let q = self.space.interpolate(a, b, mid as f64 / n as f64);
-            if !self.is_free(&q) {
-                return false;
+            if !self.is_free(&edge.at(mid as f64 / n as f64)) {
+                free = false;
+                break;
             }
-            queue.push_back((lo, mid));
-            queue.push_back((mid, hi));
+            queue.push((lo, mid));
+            queue.push((mid, hi));
         }
-        true
+        self.queue.set(queue);
+        free
     }
 }
 
@@ -342,6 +351,31 @@ mod tests {
         // A pure rotation edge stays free too.
         let r = Se3::new(a2.pos, UnitQuaternion::from_euler_angles(0.0, 3.0, 0.0));
         assert!(c.edge_free(&a2, &r));
+    }
+
+    #[test]
+    fn free_edges_cost_one_check_per_resolution_step() {
+        // Far from the obstacles: every point is free, so an edge of length d costs
+        // ceil(d / resolution) checks (the end and the interior points), once each.
+        for scene in [Scene::wall_with_hole(), Scene::maze()] {
+            let c = CollisionChecker::with_params(&scene, Weights::default(), 0.004);
+            let space = c.space().clone();
+            let a = scene.start;
+            let mut rng = ChaCha8Rng::seed_from_u64(2);
+            let mut tried = 0;
+            for _ in 0..50 {
+                let b = space.steer(&a, &space.sample_near(&a, 0.05, &mut rng), 0.06);
+                if !c.edge_free(&a, &b) {
+                    continue;
+                }
+                let before = c.collision_checks();
+                assert!(c.edge_free_from(&a, &b));
+                let n = (space.distance(&a, &b) / 0.004).ceil().max(1.0) as u64;
+                assert_eq!(c.collision_checks() - before, n, "{}", scene.name);
+                tried += 1;
+            }
+            assert!(tried > 10, "{}: {tried}", scene.name);
+        }
     }
 
     #[test]

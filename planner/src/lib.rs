@@ -40,7 +40,7 @@ pub mod view;
 pub mod wire;
 
 pub use collision::CollisionChecker;
-pub use params::{Algorithm, PlannerError, PlannerParams};
+pub use params::{Algorithm, ExtendA, PlannerError, PlannerParams};
 pub use pose::Se3;
 pub use rrt::{Extend, IterReport, Planner, Source, Stats};
 pub use sampling::{Contact, Sampling, UserInput};

@@ -15,6 +15,18 @@ pub enum Algorithm {
     RrtConnect,
 }
 
+/// How far RRT-Connect's tree A grows towards the sample each iteration (tree B always
+/// connects greedily towards A's newest node).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ExtendA {
+    /// I-RRT's greedy Extend: steps of `step` until the sample is reached or an edge
+    /// collides ("connect–connect", Kuffner & LaValle 2000).
+    Greedy,
+    /// One step of at most `step` ("extend–connect", the RRT-Connect of Kuffner &
+    /// LaValle 2000 and OMPL's `RRTConnect`).
+    Step,
+}
+
 /// Tuning of [`crate::rrt::Planner`]. Distances are weighted distances (weighted m, see
 /// [`crate::space`]); with the default weights 0.01 weighted m is 1 cm or 0.1 rad.
 #[derive(Clone, Debug, PartialEq)]
@@ -34,6 +46,8 @@ pub struct PlannerParams {
     pub lookahead: f64,
     /// Tree algorithm (default RRT-Connect).
     pub algorithm: Algorithm,
+    /// RRT-Connect: how tree A grows towards the sample (default greedy, as in I-RRT).
+    pub extend_a: ExtendA,
     /// Sampling method (default uniform: automatic planning). See [`crate::sampling`].
     pub sampling: Sampling,
     /// σ, per-axis standard deviation of the Gaussians of POS and PATH (weighted m,
@@ -65,6 +79,7 @@ impl Default for PlannerParams {
             label_epsilon: 0.05,
             lookahead: 0.05,
             algorithm: Algorithm::RrtConnect,
+            extend_a: ExtendA::Greedy,
             sampling: Sampling::Uniform,
             user_sigma: 0.03,
             fr_alpha: 0.5,

@@ -6,7 +6,9 @@
 //! B towards A's newest node (the "connect" step); then swap A and B. Extend is I-RRT's:
 //! from the nearest node, steps of `step` until the target is reached or an edge
 //! collides, adding a node per step: [`Extend::Collision`] (nothing added),
-//! [`Extend::Obstacle`] (partial progress), [`Extend::Success`] (reached).
+//! [`Extend::Obstacle`] (partial progress), [`Extend::Success`] (reached). With
+//! [`ExtendA::Step`] tree A takes at most one step ([`Extend::Advanced`] when it did not
+//! reach the sample), as OMPL's `RRTConnect` does; tree B always connects greedily.
 //!
 //! Local trees (I-RRT §4.2.2, Strandberg 2004), when enabled: an operator sample that
 //! tree A cannot reach extends the nearest local tree instead, or roots a new one. Each
@@ -21,7 +23,7 @@
 
 use crate::collision::CollisionChecker;
 use crate::guidance::{PathGuide, barycenter_force};
-use crate::params::{Algorithm, PlannerError, PlannerParams};
+use crate::params::{Algorithm, ExtendA, PlannerError, PlannerParams};
 use crate::pose::Se3;
 use crate::sampling::{Sampling, UserInput, apply_delta, contact_sample};
 use crate::scene::Scene;
@@ -38,6 +40,9 @@ pub enum Extend {
     Collision,
     /// Partial progress: nodes were added, then an edge collided before the target.
     Obstacle,
+    /// The step limit was reached before the target, no edge collided
+    /// ([`crate::params::ExtendA::Step`]).
+    Advanced,
     /// The target was reached (it is the tree's newest node, or already was a node).
     Success,
 }
@@ -292,7 +297,11 @@ impl Planner {
 
     fn connect_step(&mut self, q_rand: &Se3, source: Source, report: &mut IterReport) {
         let (a, b) = (self.a, 1 - self.a);
-        let (ext, last_a, added_a) = self.extend(a, q_rand);
+        let max_a = match self.params.extend_a {
+            ExtendA::Greedy => u32::MAX,
+            ExtendA::Step => 1,
+        };
+        let (ext, last_a, added_a) = self.extend_at_most(a, q_rand, max_a);
         report.extend = Some(ext);
         report.nodes_added = added_a;
         let mut offer: Option<NodeId> = None;
@@ -404,6 +413,12 @@ impl Planner {
     /// reached (the nearest node on Collision) and the number of nodes added. Updates the
     /// nearest node's collision-label counters.
     fn extend(&mut self, t: usize, target: &Se3) -> (Extend, NodeId, u32) {
+        self.extend_at_most(t, target, u32::MAX)
+    }
+
+    /// [`Planner::extend`] adding at most `max_nodes` nodes (≥ 1): stops with
+    /// [`Extend::Advanced`] at the limit.
+    fn extend_at_most(&mut self, t: usize, target: &Se3, max_nodes: u32) -> (Extend, NodeId, u32) {
         let (near, _) = self.trees[t].nearest(&self.space, target);
         let (mut cur, mut added, mut covered) = (near, 0u32, 0.0);
         let outcome = loop {
@@ -431,6 +446,9 @@ impl Planner {
             covered += d.min(self.params.step);
             if reached {
                 break Extend::Success;
+            }
+            if added >= max_nodes {
+                break Extend::Advanced;
             }
         };
         let labels = self.trees[t].labels_mut(near);

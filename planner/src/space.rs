@@ -17,6 +17,7 @@ use crate::scene::Bounds;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3, Vector6};
 use rand::{Rng, RngCore};
 use rand_distr::StandardNormal;
+use std::f64::consts::{PI, TAU};
 
 mod planar;
 pub use planar::{PlanarSpace, Space, wrap_angle};
@@ -75,10 +76,20 @@ pub trait ConfigSpace {
         (d < bound).then_some(d)
     }
 
-    /// `c ≥ 0` with `distance(a, b) ≥ c·|p_a − p_b|` for every pair (1/m·weighted m):
-    /// lets a spatial index over positions prune. 0 (the default) disables pruning.
-    fn translation_factor(&self) -> f64 {
-        0.0
+    /// A point of R^7 for `q` whose Euclidean distances bound the metric from below:
+    /// `distance(a, b) ≥ min(|embed(a) − embed(b)|, |embed(a) − embed_mirror(b)|)` (the
+    /// second term only where `embed_mirror` is `Some`). Nearest-neighbour indexes
+    /// ([`crate::tree`]) prune with it. `None` (the default) disables the index.
+    fn embed(&self, q: &Se3) -> Option<Embedded> {
+        let _ = q;
+        None
+    }
+
+    /// The second image of `q` in an embedding where a configuration has two (SE(3):
+    /// `q` and `−q` are the same rotation); `None` (the default) when it has one.
+    fn embed_mirror(&self, q: &Se3) -> Option<Embedded> {
+        let _ = q;
+        None
     }
 
     /// The configuration of this space nearest to `q` (identity for SE(3); the planar
@@ -99,9 +110,101 @@ pub trait ConfigSpace {
     }
 }
 
+/// Dimension of the embedding of [`ConfigSpace::embed`].
+pub const EMBED_DIM: usize = 7;
+
+/// A point of the embedding of [`ConfigSpace::embed`] (weighted m per coordinate).
+pub type Embedded = [f64; EMBED_DIM];
+
 /// Weighted length (I-RRT eq. 2 metric) of the polyline through `path`.
 pub fn path_length(space: &dyn ConfigSpace, path: &[Se3]) -> f64 {
     path.windows(2).map(|w| space.distance(&w[0], &w[1])).sum()
+}
+
+/// Points along one geodesic, with the per-edge work (relative rotation, angles) done
+/// once: [`Geodesic::at`] costs a lerp and one `sin_cos`. Built by [`Space::geodesic`];
+/// both spaces' `interpolate` go through it, so the two agree exactly.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Geodesic {
+    a: Vector3<f64>,
+    b: Vector3<f64>,
+    rot: GeodesicRot,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum GeodesicRot {
+    /// `a.rot · exp(t·rel)`, `rel` the rotation vector of `a.rot⁻¹·b.rot` (rad).
+    Se3 {
+        base: UnitQuaternion<f64>,
+        rel: Vector3<f64>,
+    },
+    /// `Rz(theta_a + t·dt) · tilt` at height `z` (rad, m).
+    Planar {
+        theta_a: f64,
+        dt: f64,
+        tilt: UnitQuaternion<f64>,
+        z: f64,
+    },
+}
+
+impl Geodesic {
+    /// The SE(3) geodesic: straight position, rotation about the fixed axis of
+    /// `a.rot⁻¹·b.rot`.
+    pub fn se3(a: &Se3, b: &Se3) -> Self {
+        Geodesic {
+            a: a.pos,
+            b: b.pos,
+            rot: GeodesicRot::Se3 {
+                base: a.rot,
+                rel: rotation_vector(&(a.rot.inverse() * b.rot)),
+            },
+        }
+    }
+
+    fn planar(a: &Se3, b: &Se3, theta_a: f64, dt: f64, space: &PlanarSpace) -> Self {
+        Geodesic {
+            a: a.pos,
+            b: b.pos,
+            rot: GeodesicRot::Planar {
+                theta_a,
+                dt,
+                tilt: space.tilt,
+                z: space.z_m,
+            },
+        }
+    }
+
+    /// The configuration at fraction `t ∈ [0, 1]`.
+    pub fn at(&self, t: f64) -> Se3 {
+        let pos = self.a.lerp(&self.b, t);
+        match &self.rot {
+            GeodesicRot::Se3 { base, rel } => Se3 {
+                pos,
+                rot: base * exp_rotation(&(rel * t)),
+            },
+            GeodesicRot::Planar {
+                theta_a,
+                dt,
+                tilt,
+                z,
+            } => {
+                // θ_a and t·dt are in [−π, π]: one turn at most brings the sum back
+                // (as `wrap_angle` would, without its `fmod`).
+                let th = theta_a + t * dt;
+                let th = if th > PI {
+                    th - TAU
+                } else if th <= -PI {
+                    th + TAU
+                } else {
+                    th
+                };
+                let half = 0.5 * th;
+                let (s, c) = half.sin_cos();
+                let rz = UnitQuaternion::new_unchecked(Quaternion::new(c, 0.0, 0.0, s));
+                Se3::new(Vector3::new(pos.x, pos.y, *z), rz * tilt)
+            }
+        }
+    }
 }
 
 /// SE(3) with a box for the reference point. See the module docs for the metric.
@@ -165,19 +268,35 @@ impl ConfigSpace for Se3Space {
         (d < bound).then_some(d)
     }
 
-    fn translation_factor(&self) -> f64 {
-        // True bound: sqrt(w_t). But with rotation weighing up to 0.31 weighted m the
-        // position grid prunes too little in 6-D and cost 30 % of the iterations on the
-        // tunnels (see `tree::grid`): disable it here.
-        0.0
+    fn embed(&self, q: &Se3) -> Option<Embedded> {
+        // (√w_t·p, 2·√w_r·q) with q on the w ≥ 0 hemisphere. For unit quaternions at
+        // angle θ (rad) the nearer of ±q is at chord 2·sin(θ/4) ≤ θ/2, so the rotation
+        // part is at most √w_r·θ; with `embed_mirror` (−q) the query sees both images.
+        let (t, r) = (
+            self.weights.translation.sqrt(),
+            2.0 * self.weights.rotation.sqrt(),
+        );
+        let c = q.rot.coords;
+        let r = if c.w < 0.0 { -r } else { r };
+        Some([
+            t * q.pos.x,
+            t * q.pos.y,
+            t * q.pos.z,
+            r * c.w,
+            r * c.x,
+            r * c.y,
+            r * c.z,
+        ])
+    }
+
+    fn embed_mirror(&self, q: &Se3) -> Option<Embedded> {
+        let mut e = self.embed(q)?;
+        e[3..].iter_mut().for_each(|v| *v = -*v);
+        Some(e)
     }
 
     fn interpolate(&self, a: &Se3, b: &Se3, t: f64) -> Se3 {
-        let rel = rotation_vector(&(a.rot.inverse() * b.rot));
-        Se3 {
-            pos: a.pos.lerp(&b.pos, t),
-            rot: a.rot * exp_rotation(&(rel * t)),
-        }
+        Geodesic::se3(a, b).at(t)
     }
 
     fn sample_uniform(&self, rng: &mut dyn RngCore) -> Se3 {
@@ -221,7 +340,6 @@ mod tests {
     use crate::scene::Scene;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
-    use std::f64::consts::PI;
 
     fn space() -> Se3Space {
         Se3Space::new(Scene::wall_with_hole().bounds, Weights::default())
@@ -299,6 +417,45 @@ mod tests {
             (d - Vector6::new(0.0, 0.2, 0.0, 0.2, 0.0, 0.0)).norm() < 1e-12,
             "{d}"
         );
+    }
+
+    #[test]
+    fn embedding_bounds_the_metric_from_below() {
+        let s = space();
+        let mut rng = ChaCha8Rng::seed_from_u64(6);
+        let d2 = |x: &Embedded, y: &Embedded| {
+            x.iter().zip(y).map(|(u, v)| (u - v) * (u - v)).sum::<f64>()
+        };
+        let mut tight = 0;
+        for i in 0..2000 {
+            let a = s.sample_uniform(&mut rng);
+            let mut b = match i % 3 {
+                0 => s.sample_uniform(&mut rng),
+                1 => s.sample_near(&a, 0.01, &mut rng),
+                // Almost the opposite rotation, a small move away.
+                _ => Se3::new(
+                    a.pos,
+                    a.rot * UnitQuaternion::from_axis_angle(&Vector3::y_axis(), PI - 1e-3),
+                ),
+            };
+            if i % 2 == 0 {
+                // The same rotation given by the other quaternion.
+                b.rot = UnitQuaternion::new_unchecked(-b.rot.into_inner());
+            }
+            let d = s.distance(&a, &b);
+            let ea = s.embed(&a).expect("SE(3) embeds");
+            let lb2 = d2(&ea, &s.embed(&b).unwrap()).min(d2(&ea, &s.embed_mirror(&b).unwrap()));
+            assert!(
+                lb2.sqrt() <= d * (1.0 + 1e-12) + 1e-15,
+                "{} > {d}",
+                lb2.sqrt()
+            );
+            tight += usize::from(lb2.sqrt() > 0.9 * d);
+            // The stored image is canonical: ±q embed alike.
+            let neg = Se3::new(a.pos, UnitQuaternion::new_unchecked(-a.rot.into_inner()));
+            assert_eq!(s.embed(&neg), s.embed(&a));
+        }
+        assert!(tight > 1000, "{tight}");
     }
 
     #[test]

@@ -1,19 +1,21 @@
 //! Tree arena for RRT-style planners: nodes with configuration, parent and I-RRT labels
 //! ("Node labelling"), nearest and k-nearest queries, and paths to the root.
 //!
-//! [`Tree::nearest`] uses a uniform grid over positions ([`grid`]) on trees of more than
-//! [`GRID_MIN_NODES`] nodes when the space allows pruning by translation
-//! ([`ConfigSpace::translation_factor`] > 0: the planar space), and a linear scan
-//! otherwise; both give the same answer.
-//! [`Tree::k_nearest_into`] (F_a's barycenter, once per guidance update) scans linearly.
+//! [`Tree::nearest`] and [`Tree::k_nearest_into`] use a k-d tree over the space's
+//! lower-bounding embedding ([`kd`], [`ConfigSpace::embed`]) on trees of at least
+//! [`INDEX_MIN_NODES`] nodes, and a linear scan otherwise or when the space has no
+//! embedding; both give the same answer. The index is brought up to date lazily by the
+//! queries (nodes are added without a space), so every query on one tree must pass the
+//! same space.
 
-pub mod grid;
+pub mod kd;
 
-/// Below this many nodes the linear scan is cheaper than the grid.
-pub const GRID_MIN_NODES: usize = 256;
+/// Below this many nodes the linear scan is cheaper than the index.
+pub const INDEX_MIN_NODES: usize = 64;
 
 use crate::pose::Se3;
-use crate::space::ConfigSpace;
+use crate::space::{ConfigSpace, Embedded};
+use std::cell::RefCell;
 
 /// Index of a node in its tree.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -73,24 +75,30 @@ pub struct Node {
 }
 
 /// A rooted tree stored as an arena (nodes are never removed).
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default)]
 pub struct Tree {
     nodes: Vec<Node>,
-    grid: grid::Grid,
+    /// Nearest-neighbour index of the first `index.len()` nodes (see the module docs).
+    index: RefCell<kd::KdTree>,
+}
+
+/// Trees are equal when their nodes are (the index is a cache).
+impl PartialEq for Tree {
+    fn eq(&self, other: &Self) -> bool {
+        self.nodes == other.nodes
+    }
 }
 
 impl Tree {
     /// A tree with a single root at `root`, labelled with `distance_to_goal` (weighted m).
     pub fn new(root: Se3, distance_to_goal: f64) -> Self {
-        let mut grid = grid::Grid::new(grid::DEFAULT_CELL_M);
-        grid.insert(0, &root);
         Tree {
             nodes: vec![Node {
                 config: root,
                 parent: None,
                 labels: Labels::new(distance_to_goal),
             }],
-            grid,
+            index: RefCell::default(),
         }
     }
 
@@ -122,7 +130,6 @@ impl Tree {
     /// Adds a child of `parent` at `config`; returns its id.
     pub fn add(&mut self, parent: NodeId, config: Se3, distance_to_goal: f64) -> NodeId {
         let id = NodeId(self.nodes.len() as u32);
-        self.grid.insert(id.0, &config);
         self.nodes.push(Node {
             config,
             parent: Some(parent),
@@ -134,14 +141,33 @@ impl Tree {
     /// The node nearest to `q` under the space's weighted distance, and that distance.
     /// Ties go to the oldest node.
     pub fn nearest(&self, space: &dyn ConfigSpace, q: &Se3) -> (NodeId, f64) {
-        let n = self.nodes.len();
-        if n >= GRID_MIN_NODES {
-            let configs = |id: u32| self.nodes[id as usize].config;
-            if let Some((id, d)) = self.grid.nearest(space, &configs, n, q) {
+        if let Some((images, n)) = self.indexed_query(space, q) {
+            let exact = |id: u32| space.distance(&self.nodes[id as usize].config, q);
+            if let Some((id, d)) = self.index.borrow().nearest(&images[..n], &exact) {
                 return (NodeId(id), d);
             }
         }
         self.nearest_linear(space, q)
+    }
+
+    /// The query's images in the embedding, with the index caught up with the nodes;
+    /// `None` when the tree is small or the space or `q` has no (finite) embedding.
+    fn indexed_query(&self, space: &dyn ConfigSpace, q: &Se3) -> Option<([Embedded; 2], usize)> {
+        if self.nodes.len() < INDEX_MIN_NODES || !q.is_finite() {
+            return None;
+        }
+        let e = space.embed(q)?;
+        let mut index = self.index.borrow_mut();
+        for n in &self.nodes[index.len()..] {
+            index.insert(space.embed(&n.config));
+        }
+        if !index.usable() {
+            return None;
+        }
+        Some(match space.embed_mirror(q) {
+            Some(m) => ([e, m], 2),
+            None => ([e, e], 1),
+        })
     }
 
     /// [`Tree::nearest`] by a linear scan (the reference the grid is tested against).
@@ -168,11 +194,14 @@ impl Tree {
         if k == 0 {
             return;
         }
-        let n = self.nodes.len();
-        if n >= GRID_MIN_NODES {
-            let configs = |id: u32| self.nodes[id as usize].config;
+        if let Some((images, n)) = self.indexed_query(space, q) {
+            let exact = |id: u32| space.distance(&self.nodes[id as usize].config, q);
             let mut ids = Vec::with_capacity(k);
-            if self.grid.k_nearest_into(space, &configs, n, q, k, &mut ids) {
+            if self
+                .index
+                .borrow()
+                .k_nearest_into(&images[..n], &exact, k, &mut ids)
+            {
                 out.extend(ids.into_iter().map(|(id, d)| (NodeId(id), d)));
                 return;
             }
@@ -345,44 +374,106 @@ mod tests {
         assert_eq!(main.node(map[4]).labels.distance_to_goal, 0.1);
     }
 
-    #[test]
-    fn grid_nearest_and_k_nearest_equal_linear_scans() {
-        use rand::SeedableRng;
-        // The planar space enables the grid (translation factor > 0).
-        let maze = Scene::maze();
-        let s = crate::space::PlanarSpace::new(maze.bounds, Weights::default(), &maze.start);
-        assert!(s.translation_factor() > 0.0);
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+    /// Grows a clustered tree in `s` (nodes near earlier nodes, like a grown tree) and
+    /// checks, while it grows, that the indexed queries equal the linear scans.
+    fn index_equals_linear_scan(s: &dyn ConfigSpace, seed: u64, near_sigma: f64, indexed: bool) {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         let mut t = Tree::new(s.sample_uniform(&mut rng), 1.0);
-        for i in 1..1500u32 {
-            // Clustered nodes (near a random earlier node), like a grown tree.
+        let mut checked = 0;
+        for i in 1..2000u32 {
             let base = t.node(NodeId(i / 2)).config;
-            let q = s.sample_near(&base, 0.05, &mut rng);
+            let mut q = s.sample_near(&base, near_sigma, &mut rng);
+            if i % 5 == 0 {
+                // Both quaternion signs of a rotation occur in a tree.
+                q.rot = nalgebra::UnitQuaternion::new_unchecked(-q.rot.into_inner());
+            }
             t.add(NodeId(i / 2), q, 1.0);
-        }
-        // Duplicates exercise the tie rule.
-        let dup = t.node(NodeId(10)).config;
-        t.add(NodeId(0), dup, 1.0);
-        for _ in 0..150 {
-            let q = if rand::Rng::random::<bool>(&mut rng) {
-                s.sample_uniform(&mut rng)
-            } else {
-                let near = t
-                    .node(NodeId(rand::Rng::random_range(&mut rng, 0..1500)))
-                    .config;
-                s.sample_near(&near, 0.01, &mut rng)
-            };
-            assert_eq!(t.nearest(&s, &q), t.nearest_linear(&s, &q), "{q:?}");
-            for k in [1, 5, 40] {
-                let (mut grid, mut linear) = (Vec::new(), Vec::new());
-                t.k_nearest_into(&s, &q, k, &mut grid);
-                t.k_nearest_linear_into(&s, &q, k, &mut linear);
-                assert_eq!(grid, linear, "k = {k}, {q:?}");
+            if i % 10 == 0 {
+                // Duplicates exercise the tie rule.
+                let dup = t.node(NodeId(i / 3)).config;
+                t.add(NodeId(0), dup, 1.0);
+            }
+            if i % 40 != 0 {
+                continue;
+            }
+            for _ in 0..8 {
+                let q = match rng.random_range(0..3) {
+                    0 => s.sample_uniform(&mut rng),
+                    1 => {
+                        let near = t.node(NodeId(rng.random_range(0..t.len() as u32))).config;
+                        s.sample_near(&near, 0.01, &mut rng)
+                    }
+                    _ => t.node(NodeId(rng.random_range(0..t.len() as u32))).config,
+                };
+                assert_eq!(t.nearest(s, &q), t.nearest_linear(s, &q), "{q:?}");
+                for k in [1, 5, 40] {
+                    let (mut indexed, mut linear) = (Vec::new(), Vec::new());
+                    t.k_nearest_into(s, &q, k, &mut indexed);
+                    t.k_nearest_linear_into(s, &q, k, &mut linear);
+                    assert_eq!(indexed, linear, "k = {k}, {q:?}");
+                }
+                checked += 1;
+            }
+            if indexed && t.len() >= INDEX_MIN_NODES {
+                // Not vacuous: the index was used and is up to date.
+                let index = t.index.borrow();
+                assert!(index.usable() && index.len() == t.len());
             }
         }
-        assert_eq!(t.nearest(&s, &dup).0, NodeId(10));
+        assert!(checked > 300);
+        let dup = t.node(NodeId(10)).config;
+        let first = t.nodes().iter().position(|n| n.config == dup).unwrap() as u32;
+        assert_eq!(
+            t.nearest(s, &dup).0,
+            NodeId(first),
+            "ties go to the oldest node"
+        );
         let mut two = Vec::new();
-        t.k_nearest_into(&s, &dup, 2, &mut two);
-        assert_eq!(two[0].0, NodeId(10), "ties go to the oldest node");
+        t.k_nearest_into(s, &dup, 2, &mut two);
+        assert_eq!(two[0].0, NodeId(first));
+    }
+
+    #[test]
+    fn indexed_nearest_and_k_nearest_equal_linear_scans_planar() {
+        let maze = Scene::maze();
+        let s = crate::space::PlanarSpace::new(maze.bounds, Weights::default(), &maze.start);
+        index_equals_linear_scan(&s, 4, 0.05, true);
+    }
+
+    #[test]
+    fn indexed_nearest_and_k_nearest_equal_linear_scans_se3() {
+        index_equals_linear_scan(&space(), 5, 0.05, true);
+        // Rotation-dominated: small moves, large turns (σ 0.05 weighted m = 0.5 rad).
+        let s = Se3Space::new(Scene::tunnels(1, 0).bounds, Weights::default());
+        index_equals_linear_scan(&s, 6, 0.02, true);
+    }
+
+    #[test]
+    fn a_space_without_embedding_scans_linearly() {
+        struct NoEmbed(Se3Space);
+        impl ConfigSpace for NoEmbed {
+            fn distance(&self, a: &Se3, b: &Se3) -> f64 {
+                self.0.distance(a, b)
+            }
+            fn interpolate(&self, a: &Se3, b: &Se3, t: f64) -> Se3 {
+                self.0.interpolate(a, b, t)
+            }
+            fn sample_uniform(&self, rng: &mut dyn rand::RngCore) -> Se3 {
+                self.0.sample_uniform(rng)
+            }
+            fn sample_near(&self, c: &Se3, sigma: f64, rng: &mut dyn rand::RngCore) -> Se3 {
+                self.0.sample_near(c, sigma, rng)
+            }
+            fn contains(&self, q: &Se3) -> bool {
+                self.0.contains(q)
+            }
+            fn delta(&self, from: &Se3, to: &Se3) -> nalgebra::Vector6<f64> {
+                self.0.delta(from, to)
+            }
+        }
+        let s = NoEmbed(space());
+        index_equals_linear_scan(&s, 7, 0.05, false);
+        assert!(s.embed(&Se3::identity()).is_none());
     }
 }

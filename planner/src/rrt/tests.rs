@@ -93,6 +93,64 @@ fn extend_labels_and_reports() {
 }
 
 #[test]
+fn extend_step_grows_tree_a_by_one_node_and_solves() {
+    let scene = easy();
+    let params = PlannerParams {
+        extend_a: ExtendA::Step,
+        ..Default::default()
+    };
+    let mut p = Planner::new(&scene, params.clone(), 3).expect("planner");
+    let (mut advanced, mut solved) = (0, false);
+    for _ in 0..5_000 {
+        let r = p.iterate(None);
+        // Tree A takes one step: it cannot stop part-way after several.
+        match r.extend {
+            Some(Extend::Advanced) => advanced += 1,
+            Some(Extend::Obstacle) => panic!("a one-step Extend cannot be partial"),
+            _ => {}
+        }
+        if r.extend != Some(Extend::Success) {
+            // Without reaching the sample, A grew by at most one node; B connects
+            // greedily (any number).
+            assert!(r.connect.is_some() || r.nodes_added == 0);
+        }
+        if r.solved {
+            solved = true;
+            break;
+        }
+    }
+    assert!(solved && advanced > 0);
+    let raw = p.raw_solution().expect("raw");
+    for w in raw.windows(2) {
+        assert!(p.checker().edge_free(&w[0], &w[1]));
+        assert!(p.space().distance(&w[0], &w[1]) <= p.params().step + 1e-12);
+    }
+    // Deterministic, and not the greedy planner's trees.
+    let grow = |params: PlannerParams| {
+        let mut p = Planner::new(&scene, params, 3).expect("planner");
+        for _ in 0..40 {
+            p.iterate(None);
+        }
+        p
+    };
+    assert_eq!(grow(params.clone()).trees(), grow(params.clone()).trees());
+    assert_ne!(grow(params).trees(), grow(PlannerParams::default()).trees());
+    // One step from the start towards a far free target: one node, Advanced.
+    let mut p = Planner::new(&scene, PlannerParams::default(), 1).expect("planner");
+    let s = scene.start.pos;
+    let far = Se3::from_xyz(s.x, s.y + 0.175, s.z);
+    assert!(p.checker().edge_free(&scene.start, &far));
+    let (e, last, added) = p.extend_at_most(START, &far, 1);
+    assert_eq!((e, added), (Extend::Advanced, 1));
+    let d = p
+        .space()
+        .distance(&scene.start, &p.trees()[START].node(last).config);
+    assert!((d - p.params().step).abs() < 1e-12);
+    let (e, _, added) = p.extend(START, &far);
+    assert_eq!((e, added), (Extend::Success, 3));
+}
+
+#[test]
 fn pos_samples_around_the_user() {
     let scene = easy();
     let params = PlannerParams {

@@ -6,7 +6,7 @@
 //! the start's orientation (usually identity). The distance is I-RRT eq. 2 in its planar
 //! form, `d = sqrt(w_t·(Δx² + Δy²) + w_r·Δθ²)`, with Δθ wrapped into [−π, π].
 
-use super::{ConfigSpace, Se3Space, Weights};
+use super::{ConfigSpace, Embedded, Se3Space, Weights};
 use crate::pose::Se3;
 use crate::scene::{Bounds, Scene, SpaceKind};
 use nalgebra::{UnitQuaternion, Vector3, Vector6};
@@ -46,9 +46,32 @@ impl PlanarSpace {
 
     /// θ of `q` (rad, in [−π, π]): the angle about scene z of `q.rot · tilt⁻¹`.
     pub fn theta(&self, q: &Se3) -> f64 {
+        let (w, k) = self.half_angle(q);
+        wrap_angle(2.0 * k.atan2(w))
+    }
+
+    /// `(w, k)` of `q.rot · tilt⁻¹`: for a rotation by θ about z, `(cos θ/2, sin θ/2)`.
+    fn half_angle(&self, q: &Se3) -> (f64, f64) {
+        if self.tilt == UnitQuaternion::identity() {
+            return (q.rot.w, q.rot.k);
+        }
         let r = q.rot * self.tilt.inverse();
-        // For a rotation about z the quaternion is (cos θ/2, 0, 0, sin θ/2).
-        wrap_angle(2.0 * r.k.atan2(r.w))
+        (r.w, r.k)
+    }
+
+    /// θ(b) − θ(a) wrapped into [−π, π] (rad), with one `atan2`: the angle of the
+    /// relative half-angle rotation `(w_a·w_b + k_a·k_b, w_a·k_b − k_a·w_b)`.
+    pub fn delta_theta(&self, a: &Se3, b: &Se3) -> f64 {
+        let ((wa, ka), (wb, kb)) = (self.half_angle(a), self.half_angle(b));
+        let (w, k) = (wa * wb + ka * kb, wa * kb - ka * wb);
+        // The half angle on the w ≥ 0 side is the short way round, in [−π/2, π/2].
+        let (w, k) = if w < 0.0 { (-w, -k) } else { (w, k) };
+        2.0 * k.atan2(w)
+    }
+
+    /// The planar geodesic from `a` to `b`: straight (x, y), θ the short way round.
+    pub fn geodesic(&self, a: &Se3, b: &Se3) -> super::Geodesic {
+        super::Geodesic::planar(a, b, self.theta(a), self.delta_theta(a, b), self)
     }
 
     /// The configuration at `(x, y)` (m) and `theta` (rad).
@@ -68,7 +91,7 @@ impl PlanarSpace {
 impl ConfigSpace for PlanarSpace {
     fn distance(&self, a: &Se3, b: &Se3) -> f64 {
         let (dx, dy) = (b.pos.x - a.pos.x, b.pos.y - a.pos.y);
-        let dt = wrap_angle(self.theta(b) - self.theta(a));
+        let dt = self.delta_theta(a, b);
         (self.weights.translation * (dx * dx + dy * dy) + self.weights.rotation * dt * dt).sqrt()
     }
 
@@ -84,10 +107,7 @@ impl ConfigSpace for PlanarSpace {
     }
 
     fn interpolate(&self, a: &Se3, b: &Se3, t: f64) -> Se3 {
-        let ta = self.theta(a);
-        let dt = wrap_angle(self.theta(b) - ta);
-        let p = a.pos.lerp(&b.pos, t);
-        self.config(p.x, p.y, wrap_angle(ta + t * dt))
+        self.geodesic(a, b).at(t)
     }
 
     fn sample_uniform(&self, rng: &mut dyn RngCore) -> Se3 {
@@ -118,7 +138,7 @@ impl ConfigSpace for PlanarSpace {
     }
 
     fn delta(&self, from: &Se3, to: &Se3) -> Vector6<f64> {
-        let dt = wrap_angle(self.theta(to) - self.theta(from));
+        let dt = self.delta_theta(from, to);
         Vector6::new(
             to.pos.x - from.pos.x,
             to.pos.y - from.pos.y,
@@ -133,9 +153,23 @@ impl ConfigSpace for PlanarSpace {
         self.config(q.pos.x, q.pos.y, self.theta(q))
     }
 
-    fn translation_factor(&self) -> f64 {
-        // Configurations of this space share z = z_m, so |Δp| is the planar |Δ(x, y)|.
-        self.weights.translation.sqrt()
+    fn embed(&self, q: &Se3) -> Option<Embedded> {
+        // (√w_t·x, √w_t·y, √w_r·cos θ, √w_r·sin θ): the chord 2·sin(|Δθ|/2) of the unit
+        // circle is at most the wrapped |Δθ|, and z is the same for every configuration.
+        // cos θ and sin θ straight from the quaternion (w, k) = (cos θ/2, sin θ/2) of
+        // `theta`, normalised as its atan2 is: no trigonometry.
+        let (t, r) = (
+            self.weights.translation.sqrt(),
+            self.weights.rotation.sqrt(),
+        );
+        let (w, k) = self.half_angle(q);
+        let n = w * w + k * k;
+        let (c, s) = if n > 0.0 {
+            ((w * w - k * k) / n, 2.0 * w * k / n)
+        } else {
+            (1.0, 0.0)
+        };
+        Some([t * q.pos.x, t * q.pos.y, r * c, r * s, 0.0, 0.0, 0.0])
     }
 }
 
@@ -164,6 +198,15 @@ impl Space {
         match self {
             Space::Se3(s) => &s.bounds,
             Space::Planar(s) => &s.bounds,
+        }
+    }
+
+    /// The geodesic from `a` to `b` ([`ConfigSpace::interpolate`] at any `t`, with the
+    /// per-edge work done once: edge validation samples many points of one edge).
+    pub fn geodesic(&self, a: &Se3, b: &Se3) -> super::Geodesic {
+        match self {
+            Space::Se3(_) => super::Geodesic::se3(a, b),
+            Space::Planar(s) => s.geodesic(a, b),
         }
     }
 
@@ -200,8 +243,11 @@ impl ConfigSpace for Space {
     fn project(&self, q: &Se3) -> Se3 {
         self.inner().project(q)
     }
-    fn translation_factor(&self) -> f64 {
-        self.inner().translation_factor()
+    fn embed(&self, q: &Se3) -> Option<Embedded> {
+        self.inner().embed(q)
+    }
+    fn embed_mirror(&self, q: &Se3) -> Option<Embedded> {
+        self.inner().embed_mirror(q)
     }
 }
 
@@ -261,5 +307,84 @@ mod tests {
         let off = Se3::from_rpy(Vector3::new(0.1, 0.1, 0.3), 0.2, 0.0, 0.5);
         let p = s.project(&off);
         assert!(p.pos.z == s.z_m && (s.theta(&p) - 0.5).abs() < 0.05);
+    }
+
+    #[test]
+    fn geodesic_matches_the_theta_formula() {
+        // Reference: the interpolation by θ as first written (two atan2 per call).
+        let s = space();
+        let mut rng = ChaCha8Rng::seed_from_u64(8);
+        let tilted = PlanarSpace::new(
+            s.bounds,
+            Weights::default(),
+            &Se3::from_rpy(Vector3::new(0.0, 0.0, 0.02), 0.3, -0.2, 0.0),
+        );
+        for sp in [&s, &tilted] {
+            for i in 0..500 {
+                let a = sp.sample_uniform(&mut rng);
+                let b = if i % 2 == 0 {
+                    sp.sample_uniform(&mut rng)
+                } else {
+                    sp.config(
+                        a.pos.x + 0.01,
+                        a.pos.y,
+                        wrap_angle(sp.theta(&a) + PI - 1e-6),
+                    )
+                };
+                let (ta, tb) = (sp.theta(&a), sp.theta(&b));
+                let dt = wrap_angle(tb - ta);
+                let ddt = sp.delta_theta(&a, &b);
+                assert!(
+                    (ddt - dt).abs() < 1e-9 || (ddt.abs() - PI).abs() < 1e-9,
+                    "{ddt} {dt}"
+                );
+                let g = sp.geodesic(&a, &b);
+                assert!(sp.distance(&g.at(0.0), &a) < 1e-12);
+                assert!(sp.distance(&g.at(1.0), &b) < 1e-9);
+                for t in [0.1, 0.5, 0.77] {
+                    let p = a.pos.lerp(&b.pos, t);
+                    let want = sp.config(p.x, p.y, wrap_angle(ta + t * dt));
+                    let got = sp.interpolate(&a, &b, t);
+                    assert_eq!(got, g.at(t));
+                    assert!(sp.distance(&got, &want) < 1e-9, "t = {t}");
+                    assert!(got.pos.z == sp.z_m);
+                    // Constant speed: the distance from a is t of the whole.
+                    let d = sp.distance(&a, &b);
+                    assert!((sp.distance(&a, &got) - t * d).abs() < 1e-9);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn embedding_bounds_the_metric_from_below() {
+        let s = space();
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let e = |q: &Se3| s.embed(q).expect("planar embeds");
+        let mut tight = 0;
+        for i in 0..2000 {
+            let a = s.sample_uniform(&mut rng);
+            // Near pairs too, and pairs across θ = ±π.
+            let b = match i % 3 {
+                0 => s.sample_uniform(&mut rng),
+                1 => s.sample_near(&a, 0.01, &mut rng),
+                _ => s.config(a.pos.x, a.pos.y, wrap_angle(s.theta(&a) + PI - 1e-3)),
+            };
+            let d = s.distance(&a, &b);
+            let lb = e(&a)
+                .iter()
+                .zip(e(&b))
+                .map(|(x, y)| (x - y) * (x - y))
+                .sum::<f64>()
+                .sqrt();
+            assert!(lb <= d * (1.0 + 1e-12) + 1e-15, "{lb} > {d}");
+            tight += usize::from(lb > 0.9 * d);
+            let (c, sn) = (e(&a)[2] / 0.1, e(&a)[3] / 0.1);
+            let th = s.theta(&a);
+            assert!((c - th.cos()).abs() < 1e-12 && (sn - th.sin()).abs() < 1e-12);
+        }
+        // Not vacuous: most random pairs are bounded within 10 %.
+        assert!(tight > 1000, "{tight}");
+        assert_eq!(s.embed_mirror(&s.config(0.0, 0.0, 1.0)), None);
     }
 }
