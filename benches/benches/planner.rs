@@ -6,9 +6,9 @@
 //!   search at that size); scenes solved within those 2000 iterations are skipped;
 //! - `solve/<scene>`: automatic RRT-Connect from scratch to a solution, for the scenes it
 //!   solves within seconds (seed 1);
-//! - `nearest/<space>/<nodes>`: one nearest-neighbour query (`Tree::nearest`: a grid in the
-//!   planar space, a linear scan in SE(3)) and the `k_nearest_into` query F_a uses, on trees
-//!   of uniformly sampled configurations;
+//! - `nearest/<space>/<nodes>`: one nearest-neighbour query (`Tree::nearest`: a k-d tree
+//!   over a lower-bounding embedding, planar and SE(3)) and the `k_nearest_into` query F_a
+//!   uses, on trees of uniformly sampled configurations;
 //! - `fa/<scene>`: F_a (`Planner::attractive_force`, I-RRT's barycenter of the p nearest
 //!   labelled nodes) at random operator configurations, on trees grown for 2000 iterations.
 //!
