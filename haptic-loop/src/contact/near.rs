@@ -20,6 +20,19 @@
 
 use super::{Cluster, JtJ, Pointshell, Voxmap};
 
+/// Calls `$m!($args; i: a b, ...)` with the 21 pairs (a, b) of J's rows whose products
+/// JJᵀ's upper triangle sums, at their index i in [`JtJ`]'s layout (see `PAIRS`): the
+/// force passes spell the sums out pair by pair with constant indices, since a loop over
+/// the pairs stays rolled and reads J back from memory.
+macro_rules! jj_pairs {
+    ($m:ident!($($args:tt)*)) => {
+        $m!($($args)*; 0: 0 0, 1: 0 1, 2: 0 2, 3: 1 1, 4: 1 2, 5: 2 2,
+            6: 3 0, 7: 3 1, 8: 3 2, 9: 4 0, 10: 4 1, 11: 4 2,
+            12: 5 0, 13: 5 1, 14: 5 2,
+            15: 3 3, 16: 3 4, 17: 3 5, 18: 4 4, 19: 4 5, 20: 5 5)
+    };
+}
+
 #[cfg(target_arch = "x86_64")]
 mod avx2;
 use nalgebra::{Matrix3, Vector3, Vector6};
@@ -504,25 +517,18 @@ fn force_chunk(
             acc.wrench[a][l] += f[l] * ja[l];
         }
     }
-    // Σ w JJᵀ, spelled out pair by pair (constant indices) so that every product
-    // stays in registers; a loop over `PAIRS` is left rolled and indexes memory.
+    // Σ w JJᵀ, pair by pair (see `jj_pairs`).
     macro_rules! jj {
-        ($sum:expr, $w:expr) => {
-            jj!($sum, $w; 0: 0 0, 1: 0 1, 2: 0 2, 3: 1 1, 4: 1 2, 5: 2 2,
-                6: 3 0, 7: 3 1, 8: 3 2, 9: 4 0, 10: 4 1, 11: 4 2,
-                12: 5 0, 13: 5 1, 14: 5 2,
-                15: 3 3, 16: 3 4, 17: 3 5, 18: 4 4, 19: 4 5, 20: 5 5)
-        };
         ($sum:expr, $w:expr; $($i:literal: $a:literal $b:literal),*) => {$(
             for l in 0..LANES {
                 $sum[$i][l] += $w[l] * (j[$a][l] * j[$b][l]);
             }
         )*};
     }
-    jj!(acc.k, in_contact);
+    jj_pairs!(jj!(acc.k, in_contact));
     // In steady contact most chunks brake nowhere: skip their zero braking sums.
     if brake_w.iter().any(|&b| b > 0.0) {
-        jj!(acc.b, brake_w);
+        jj_pairs!(jj!(acc.b, brake_w));
     }
     for a in 0..3 {
         for l in 0..LANES {

@@ -185,24 +185,17 @@ fn force_chunk(
     for (s, ja) in acc.wrench.iter_mut().zip(&j) {
         *s = add(*s, mul(f, *ja));
     }
-    // Σ w JJᵀ pair by pair with constant indices (a loop over the pairs stays rolled and
-    // reads J back from memory).
+    // Σ w JJᵀ, pair by pair (see `jj_pairs`).
     macro_rules! jj {
-        ($sum:expr, $w:expr) => {
-            jj!($sum, $w; 0: 0 0, 1: 0 1, 2: 0 2, 3: 1 1, 4: 1 2, 5: 2 2,
-                6: 3 0, 7: 3 1, 8: 3 2, 9: 4 0, 10: 4 1, 11: 4 2,
-                12: 5 0, 13: 5 1, 14: 5 2,
-                15: 3 3, 16: 3 4, 17: 3 5, 18: 4 4, 19: 4 5, 20: 5 5)
-        };
         ($sum:expr, $w:expr; $($i:literal: $a:literal $b:literal),*) => {$(
             $sum[$i] = add($sum[$i], mul($w, mul(j[$a], j[$b])));
         )*};
     }
-    jj!(acc.k, in_contact);
+    jj_pairs!(jj!(acc.k, in_contact));
     // In steady contact most chunks brake nowhere: skip their zero braking sums.
     let brakes = _mm256_cmp_ps::<_CMP_GT_OQ>(brake_w, zero);
     if _mm256_movemask_ps(brakes) != 0 {
-        jj!(acc.b, brake_w);
+        jj_pairs!(jj!(acc.b, brake_w));
     }
     for a in 0..3 {
         acc.point[a] = add(acc.point[a], mul(depth, add(r[a], mul(depth, n[a]))));
