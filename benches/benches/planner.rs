@@ -8,7 +8,8 @@
 //!   solves within seconds (seed 1);
 //! - `nearest/<space>/<nodes>`: one nearest-neighbour query (`Tree::nearest`: a k-d tree
 //!   over a lower-bounding embedding, planar and SE(3)) and the `k_nearest_into` query F_a
-//!   uses, on trees of uniformly sampled configurations;
+//!   uses, on trees of uniformly sampled configurations, each beside the linear scan it
+//!   replaces (`.../linear`);
 //! - `fa/<scene>`: F_a (`Planner::attractive_force`, I-RRT's barycenter of the p nearest
 //!   labelled nodes) at random operator configurations, on trees grown for 2000 iterations.
 //!
@@ -115,6 +116,20 @@ fn nearest(c: &mut Criterion) {
                 b.iter(|| {
                     i = (i + 1) % queries.len();
                     tree.k_nearest_into(&space, black_box(&queries[i]), k, &mut out);
+                    black_box(out.len())
+                })
+            });
+            // The linear scans the index replaces, in the same run, for the ratio.
+            g.bench_function(format!("{label}/{n}/linear"), |b| {
+                b.iter(|| {
+                    i = (i + 1) % queries.len();
+                    black_box(tree.nearest_linear(&space, black_box(&queries[i])))
+                })
+            });
+            g.bench_function(format!("{label}/{n}/k{k}/linear"), |b| {
+                b.iter(|| {
+                    i = (i + 1) % queries.len();
+                    tree.k_nearest_linear_into(&space, black_box(&queries[i]), k, &mut out);
                     black_box(out.len())
                 })
             });

@@ -213,6 +213,11 @@ pub struct CoreArgs {
     /// RRTConnect); the other tree always connects greedily.
     #[arg(long, default_value = "greedy", value_parser = ["greedy", "step"])]
     pub extend: String,
+    /// How the distance (used for nearest nodes, steps and edge resolution) combines
+    /// translation and rotation: `euclidean` (I-RRT eq. 2, √(|Δp|² + (0.1 m·θ)²)) or
+    /// `sum` (|Δp| + 0.1 m·θ, as OMPL's SE(2)/SE(3) spaces).
+    #[arg(long, default_value = "euclidean", value_parser = ["euclidean", "sum"])]
+    pub metric: String,
 }
 
 /// Operator-driven sampling options (I-RRT §4.2.2 and §6, H-RRT-C Algorithms 1–2).
@@ -368,6 +373,14 @@ impl CoreArgs {
                 crate::params::ExtendA::Step
             } else {
                 crate::params::ExtendA::Greedy
+            },
+            weights: crate::Weights {
+                combine: if self.metric == "sum" {
+                    crate::Combine::Sum
+                } else {
+                    crate::Combine::Euclidean
+                },
+                ..crate::Weights::default()
             },
             ..PlannerParams::default()
         };

@@ -45,4 +45,4 @@ pub use pose::Se3;
 pub use rrt::{Extend, IterReport, Planner, Source, Stats};
 pub use sampling::{Contact, Sampling, UserInput};
 pub use scene::{Scene, SceneError};
-pub use space::{ConfigSpace, PlanarSpace, Se3Space, Space, Weights};
+pub use space::{Combine, ConfigSpace, PlanarSpace, Se3Space, Space, Weights};

@@ -22,13 +22,29 @@ use std::f64::consts::{PI, TAU};
 mod planar;
 pub use planar::{PlanarSpace, Space, wrap_angle};
 
-/// Weights of the distance (I-RRT eq. 2, generalised to SE(3)).
+/// Weights of the distance (I-RRT eq. 2, generalised to SE(3)), and how its translation
+/// and rotation terms combine.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Weights {
     /// Weight of squared translation (1/m² · weighted m², default 1).
     pub translation: f64,
     /// Weight of squared rotation angle (weighted m² per rad², default 0.01 = (0.1 m)²).
     pub rotation: f64,
+    /// Euclidean (I-RRT eq. 2, default) or sum of the two terms (OMPL's compound spaces).
+    pub combine: Combine,
+}
+
+/// How the weighted translation and rotation terms make one distance.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Combine {
+    /// `sqrt(w_t·|Δp|² + w_r·θ²)`: I-RRT eq. 2.
+    #[default]
+    Euclidean,
+    /// `√w_t·|Δp| + √w_r·θ`: the weighted sum OMPL's SE(2)/SE(3) spaces use. Never
+    /// shorter than the Euclidean combination, so the Euclidean lower bounds of the
+    /// nearest-neighbour index hold for it too; it makes mixed moves (translation and
+    /// rotation together) longer, so steps and nearest nodes favour matching orientation.
+    Sum,
 }
 
 impl Default for Weights {
@@ -36,6 +52,7 @@ impl Default for Weights {
         Weights {
             translation: 1.0,
             rotation: 0.01,
+            combine: Combine::Euclidean,
         }
     }
 }
@@ -44,8 +61,17 @@ impl Weights {
     /// `w_t = 1`, `w_r = radius_m²`: one radian weighs like a point at `radius_m` moves.
     pub fn for_object_radius(radius_m: f64) -> Self {
         Weights {
-            translation: 1.0,
             rotation: radius_m * radius_m,
+            ..Weights::default()
+        }
+    }
+
+    /// The distance (weighted m) from the weighted squared translation `t2` = w_t·|Δp|²
+    /// and the rotation angle `theta_rad`.
+    pub fn combine_terms(&self, t2: f64, theta_rad: f64) -> f64 {
+        match self.combine {
+            Combine::Euclidean => (t2 + self.rotation * theta_rad * theta_rad).sqrt(),
+            Combine::Sum => t2.sqrt() + self.rotation.sqrt() * theta_rad.abs(),
         }
     }
 }
@@ -254,7 +280,8 @@ impl ConfigSpace for Se3Space {
     fn distance(&self, a: &Se3, b: &Se3) -> f64 {
         let dp2 = (b.pos - a.pos).norm_squared();
         let th = angle_between(&a.rot, &b.rot);
-        (self.weights.translation * dp2 + self.weights.rotation * th * th).sqrt()
+        self.weights
+            .combine_terms(self.weights.translation * dp2, th)
     }
 
     fn distance_below(&self, a: &Se3, b: &Se3, bound: f64) -> Option<f64> {
@@ -264,7 +291,7 @@ impl ConfigSpace for Se3Space {
             return None;
         }
         let th = angle_between(&a.rot, &b.rot);
-        let d = (t2 + self.weights.rotation * th * th).sqrt();
+        let d = self.weights.combine_terms(t2, th);
         (d < bound).then_some(d)
     }
 
@@ -456,6 +483,37 @@ mod tests {
             assert_eq!(s.embed(&neg), s.embed(&a));
         }
         assert!(tight > 1000, "{tight}");
+    }
+
+    #[test]
+    fn the_sum_metric_adds_the_weighted_terms() {
+        let euclid = space();
+        let sum = Se3Space::new(
+            euclid.bounds,
+            Weights {
+                combine: Combine::Sum,
+                ..Weights::default()
+            },
+        );
+        let a = Se3::from_xyz(0.0, 0.0, 0.0);
+        // 0.3 m and 0.4 rad: sum 0.3 + 0.1·0.4 = 0.34, Euclidean √(0.09 + 0.0016).
+        let b = Se3::new(
+            Vector3::new(0.3, 0.0, 0.0),
+            UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 0.4),
+        );
+        assert!((sum.distance(&a, &b) - 0.34).abs() < 1e-12);
+        assert!((euclid.distance(&a, &b) - 0.0916f64.sqrt()).abs() < 1e-12);
+        // Pure moves weigh the same in both.
+        let c = Se3::from_xyz(0.0, 0.2, 0.1);
+        assert!((sum.distance(&a, &c) - euclid.distance(&a, &c)).abs() < 1e-15);
+        assert_eq!(sum.distance_below(&a, &b, 0.35), Some(sum.distance(&a, &b)));
+        assert_eq!(sum.distance_below(&a, &b, 0.33), None);
+        // Never shorter than Euclidean, so the embedding still bounds it from below.
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        for _ in 0..500 {
+            let (p, q) = (sum.sample_uniform(&mut rng), sum.sample_uniform(&mut rng));
+            assert!(sum.distance(&p, &q) >= euclid.distance(&p, &q));
+        }
     }
 
     #[test]

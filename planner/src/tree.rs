@@ -170,7 +170,7 @@ impl Tree {
         })
     }
 
-    /// [`Tree::nearest`] by a linear scan (the reference the grid is tested against).
+    /// [`Tree::nearest`] by a linear scan (the reference the k-d tree is tested against).
     pub fn nearest_linear(&self, space: &dyn ConfigSpace, q: &Se3) -> (NodeId, f64) {
         let mut best = (NodeId(0), f64::INFINITY);
         for (i, n) in self.nodes.iter().enumerate() {
@@ -209,7 +209,7 @@ impl Tree {
         self.k_nearest_linear_into(space, q, k, out);
     }
 
-    /// [`Tree::k_nearest_into`] by a linear scan (the reference the grid is tested against).
+    /// [`Tree::k_nearest_into`] by a linear scan (the reference the k-d tree is tested against).
     pub fn k_nearest_linear_into(
         &self,
         space: &dyn ConfigSpace,
@@ -447,6 +447,20 @@ mod tests {
         // Rotation-dominated: small moves, large turns (σ 0.05 weighted m = 0.5 rad).
         let s = Se3Space::new(Scene::tunnels(1, 0).bounds, Weights::default());
         index_equals_linear_scan(&s, 6, 0.02, true);
+    }
+
+    #[test]
+    fn indexed_queries_equal_linear_scans_with_the_sum_metric() {
+        // The index prunes by Euclidean bounds, which the sum metric never undercuts.
+        let w = Weights {
+            combine: crate::space::Combine::Sum,
+            ..Weights::default()
+        };
+        let maze = Scene::maze();
+        let planar = crate::space::PlanarSpace::new(maze.bounds, w, &maze.start);
+        index_equals_linear_scan(&planar, 7, 0.05, true);
+        let se3 = Se3Space::new(Scene::tunnels(1, 0).bounds, w);
+        index_equals_linear_scan(&se3, 8, 0.02, true);
     }
 
     #[test]

@@ -92,7 +92,8 @@ impl ConfigSpace for PlanarSpace {
     fn distance(&self, a: &Se3, b: &Se3) -> f64 {
         let (dx, dy) = (b.pos.x - a.pos.x, b.pos.y - a.pos.y);
         let dt = self.delta_theta(a, b);
-        (self.weights.translation * (dx * dx + dy * dy) + self.weights.rotation * dt * dt).sqrt()
+        self.weights
+            .combine_terms(self.weights.translation * (dx * dx + dy * dy), dt)
     }
 
     fn distance_below(&self, a: &Se3, b: &Se3, bound: f64) -> Option<f64> {
