@@ -118,6 +118,16 @@ pub trait ConfigSpace {
         None
     }
 
+    /// How the embedding's coordinates split into the metric's two terms, for a tighter
+    /// bound: `(split, combine)` says that coordinates `..split` bound the translation
+    /// term and `split..` the rotation term, each by its own Euclidean distance, and that
+    /// the metric combines the terms as `combine` does (for [`Combine::Sum`], the sum of
+    /// the two distances is a lower bound up to √2 above the plain Euclidean one). The
+    /// default, one Euclidean group, is always valid for an embedding as `embed` states.
+    fn embed_terms(&self) -> (usize, Combine) {
+        (EMBED_DIM, Combine::Euclidean)
+    }
+
     /// The configuration of this space nearest to `q` (identity for SE(3); the planar
     /// space drops z and tilts). Used on operator poses, which are full 6-D.
     fn project(&self, q: &Se3) -> Se3 {
@@ -320,6 +330,10 @@ impl ConfigSpace for Se3Space {
         let mut e = self.embed(q)?;
         e[3..].iter_mut().for_each(|v| *v = -*v);
         Some(e)
+    }
+
+    fn embed_terms(&self) -> (usize, Combine) {
+        (3, self.weights.combine)
     }
 
     fn interpolate(&self, a: &Se3, b: &Se3, t: f64) -> Se3 {

@@ -14,8 +14,17 @@ pub mod kd;
 pub const INDEX_MIN_NODES: usize = 64;
 
 use crate::pose::Se3;
-use crate::space::{ConfigSpace, Embedded};
+use crate::space::{Combine, ConfigSpace, Embedded};
 use std::cell::RefCell;
+
+/// The k-d tree's bound for `space`'s metric.
+fn index_terms(space: &dyn ConfigSpace) -> kd::Terms {
+    let (split, combine) = space.embed_terms();
+    kd::Terms {
+        split,
+        sum: combine == Combine::Sum,
+    }
+}
 
 /// Index of a node in its tree.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -143,7 +152,8 @@ impl Tree {
     pub fn nearest(&self, space: &dyn ConfigSpace, q: &Se3) -> (NodeId, f64) {
         if let Some((images, n)) = self.indexed_query(space, q) {
             let exact = |id: u32| space.distance(&self.nodes[id as usize].config, q);
-            if let Some((id, d)) = self.index.borrow().nearest(&images[..n], &exact) {
+            let terms = index_terms(space);
+            if let Some((id, d)) = self.index.borrow().nearest(&images[..n], &exact, terms) {
                 return (NodeId(id), d);
             }
         }
@@ -197,11 +207,13 @@ impl Tree {
         if let Some((images, n)) = self.indexed_query(space, q) {
             let exact = |id: u32| space.distance(&self.nodes[id as usize].config, q);
             let mut ids = Vec::with_capacity(k);
-            if self
-                .index
-                .borrow()
-                .k_nearest_into(&images[..n], &exact, k, &mut ids)
-            {
+            if self.index.borrow().k_nearest_into(
+                &images[..n],
+                &exact,
+                index_terms(space),
+                k,
+                &mut ids,
+            ) {
                 out.extend(ids.into_iter().map(|(id, d)| (NodeId(id), d)));
                 return;
             }

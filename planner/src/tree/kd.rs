@@ -61,22 +61,56 @@ fn grow(lo: &mut Embedded, hi: &mut Embedded, p: &Embedded) {
     }
 }
 
-fn dist2(dims: usize, a: &Embedded, b: &Embedded) -> f64 {
-    let mut s = 0.0;
-    for i in 0..dims {
-        let e = a[i] - b[i];
-        s += e * e;
-    }
-    s
+/// How a query turns per-coordinate gaps into a squared lower bound of the metric
+/// ([`ConfigSpace::embed_terms`](crate::space::ConfigSpace::embed_terms)).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Terms {
+    /// Coordinates `..split` bound the translation term, `split..dims` the rotation term.
+    pub split: usize,
+    /// The metric adds the two terms' distances (else: Euclidean over all coordinates).
+    pub sum: bool,
 }
 
-fn box_dist2(dims: usize, lo: &Embedded, hi: &Embedded, q: &Embedded) -> f64 {
-    let mut s = 0.0;
-    for i in 0..dims {
-        let e = (lo[i] - q[i]).max(q[i] - hi[i]).max(0.0);
-        s += e * e;
+impl Terms {
+    /// One Euclidean group over every coordinate.
+    pub const EUCLIDEAN: Terms = Terms {
+        split: EMBED_DIM,
+        sum: false,
+    };
+
+    /// The squared bound from the gap `gap(i)` of each coordinate `i < dims`.
+    #[inline]
+    fn lb2(self, dims: usize, gap: impl Fn(usize) -> f64) -> f64 {
+        if !self.sum {
+            // One sum over all coordinates (the hot path: one loop, no split).
+            let mut s = 0.0;
+            for i in 0..dims {
+                let e = gap(i);
+                s += e * e;
+            }
+            return s;
+        }
+        let split = self.split.min(dims);
+        let (mut t, mut r) = (0.0, 0.0);
+        for i in 0..split {
+            let e = gap(i);
+            t += e * e;
+        }
+        for i in split..dims {
+            let e = gap(i);
+            r += e * e;
+        }
+        let s = t.sqrt() + r.sqrt();
+        s * s
     }
-    s
+}
+
+fn dist2(terms: Terms, dims: usize, a: &Embedded, b: &Embedded) -> f64 {
+    terms.lb2(dims, |i| a[i] - b[i])
+}
+
+fn box_dist2(terms: Terms, dims: usize, lo: &Embedded, hi: &Embedded, q: &Embedded) -> f64 {
+    terms.lb2(dims, |i| (lo[i] - q[i]).max(q[i] - hi[i]).max(0.0))
 }
 
 /// Squared lower bound beyond which nothing can beat `best` (weighted m), with slack
@@ -91,21 +125,22 @@ struct Query<'a> {
     images: &'a [Embedded],
     exact: &'a dyn Fn(u32) -> f64,
     dims: usize,
+    terms: Terms,
 }
 
 impl Query<'_> {
     fn lb2_box(&self, n: &KdNode) -> f64 {
-        let mut b = box_dist2(self.dims, &n.lo, &n.hi, &self.images[0]);
+        let mut b = box_dist2(self.terms, self.dims, &n.lo, &n.hi, &self.images[0]);
         for q in &self.images[1..] {
-            b = b.min(box_dist2(self.dims, &n.lo, &n.hi, q));
+            b = b.min(box_dist2(self.terms, self.dims, &n.lo, &n.hi, q));
         }
         b
     }
 
     fn lb2_point(&self, p: &Embedded) -> f64 {
-        let mut b = dist2(self.dims, p, &self.images[0]);
+        let mut b = dist2(self.terms, self.dims, p, &self.images[0]);
         for q in &self.images[1..] {
-            b = b.min(dist2(self.dims, p, q));
+            b = b.min(dist2(self.terms, self.dims, p, q));
         }
         b
     }
@@ -221,9 +256,14 @@ impl KdTree {
 
     /// The id nearest to the query and its exact distance (weighted m), ties to the
     /// smallest id. `images` are the query's embedded points (one or two, see the module
-    /// docs); `exact(id)` is the space's distance from stored id to the query. `None`
-    /// when the index is empty or unusable.
-    pub fn nearest(&self, images: &[Embedded], exact: &dyn Fn(u32) -> f64) -> Option<(u32, f64)> {
+    /// docs); `exact(id)` is the space's distance from stored id to the query; `terms`
+    /// how gaps bound it. `None` when the index is empty or unusable.
+    pub fn nearest(
+        &self,
+        images: &[Embedded],
+        exact: &dyn Fn(u32) -> f64,
+        terms: Terms,
+    ) -> Option<(u32, f64)> {
         if self.nodes.is_empty() || self.unusable || images.is_empty() {
             return None;
         }
@@ -231,6 +271,7 @@ impl KdTree {
             images,
             exact,
             dims: self.dims,
+            terms,
         };
         let mut best = (u32::MAX, f64::INFINITY);
         self.search(0, &q, &mut best);
@@ -273,6 +314,7 @@ impl KdTree {
         &self,
         images: &[Embedded],
         exact: &dyn Fn(u32) -> f64,
+        terms: Terms,
         k: usize,
         out: &mut Vec<(u32, f64)>,
     ) -> bool {
@@ -285,6 +327,7 @@ impl KdTree {
                 images,
                 exact,
                 dims: self.dims,
+                terms,
             };
             self.k_search(0, &q, k, out);
         }
@@ -338,12 +381,35 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    fn euclid(points: &[Embedded], q: Embedded) -> impl Fn(u32) -> f64 + '_ {
-        move |id| dist2(EMBED_DIM, &points[id as usize], &q).sqrt()
+    fn euclid(p: &Embedded, q: &Embedded) -> f64 {
+        dist2(Terms::EUCLIDEAN, EMBED_DIM, p, q).sqrt()
+    }
+
+    /// The sum of the Euclidean distances over coordinates `..2` and `2..`: the metric
+    /// that `Terms { split: 2, sum: true }` bounds exactly.
+    fn sum_of_groups(p: &Embedded, q: &Embedded) -> f64 {
+        let g = |r: std::ops::Range<usize>| r.map(|i| (p[i] - q[i]).powi(2)).sum::<f64>();
+        g(0..2).sqrt() + g(2..EMBED_DIM).sqrt()
     }
 
     #[test]
     fn euclidean_nearest_and_k_nearest_equal_brute_force() {
+        nearest_and_k_nearest_equal_brute_force(Terms::EUCLIDEAN, euclid);
+    }
+
+    #[test]
+    fn sum_of_terms_nearest_and_k_nearest_equal_brute_force() {
+        let terms = Terms {
+            split: 2,
+            sum: true,
+        };
+        nearest_and_k_nearest_equal_brute_force(terms, sum_of_groups);
+    }
+
+    fn nearest_and_k_nearest_equal_brute_force(
+        terms: Terms,
+        metric: fn(&Embedded, &Embedded) -> f64,
+    ) {
         // With the embedding itself as the metric, the bound is exact: every answer must
         // match sorting by (distance, id).
         let mut rng = ChaCha8Rng::seed_from_u64(9);
@@ -366,14 +432,14 @@ mod tests {
             for v in q.iter_mut().take(4) {
                 *v = rng.random_range(-0.2..1.2);
             }
-            let exact = euclid(&points, q);
+            let exact = |id: u32| metric(&points[id as usize], &q);
             let mut all: Vec<(u32, f64)> =
                 (0..points.len() as u32).map(|i| (i, exact(i))).collect();
             all.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
-            assert_eq!(kd.nearest(&[q], &exact), Some(all[0]));
+            assert_eq!(kd.nearest(&[q], &exact, terms), Some(all[0]));
             let mut out = Vec::new();
             for k in [1, 3, 40] {
-                assert!(kd.k_nearest_into(&[q], &exact, k, &mut out));
+                assert!(kd.k_nearest_into(&[q], &exact, terms, k, &mut out));
                 assert_eq!(out, all[..k].to_vec(), "k = {k}");
             }
         }
@@ -386,10 +452,16 @@ mod tests {
             kd.insert(Some([0.5; EMBED_DIM]));
         }
         let exact = |_: u32| 0.0;
-        assert_eq!(kd.nearest(&[[0.0; EMBED_DIM]], &exact), Some((0, 0.0)));
+        assert_eq!(
+            kd.nearest(&[[0.0; EMBED_DIM]], &exact, Terms::EUCLIDEAN),
+            Some((0, 0.0))
+        );
         kd.insert(Some([f64::NAN; EMBED_DIM]));
         assert!(!kd.usable());
-        assert_eq!(kd.nearest(&[[0.0; EMBED_DIM]], &exact), None);
+        assert_eq!(
+            kd.nearest(&[[0.0; EMBED_DIM]], &exact, Terms::EUCLIDEAN),
+            None
+        );
         assert_eq!(kd.len(), 101);
     }
 }
