@@ -88,9 +88,17 @@ static std::shared_ptr<fcl::CollisionGeometryd> load_obj(const std::string &path
     return m;
 }
 
+// Scene convention: Rz(yaw)·Ry(pitch)·Rx(roll), fixed axes.
+static Eigen::Quaterniond rpy_quat(double roll, double pitch, double yaw) {
+    return Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
+                              Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+                              Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()));
+}
+
 struct Scene {
     bool planar = false;
     double lo[3], hi[3], start[3], goal[3];
+    double start_rpy[3] = {0, 0, 0}, goal_rpy[3] = {0, 0, 0};  // rad, as the parts'
     std::vector<Obj> obstacles, moving;
     std::vector<fcl::Transform3d> moving_offset;  // part pose in the object frame
 };
@@ -106,8 +114,8 @@ static Scene load_scene(const std::string &path) {
         ls >> tag;
         if (tag == "space") { std::string sp; ls >> sp; s.planar = sp == "planar"; }
         else if (tag == "bounds") ls >> s.lo[0] >> s.lo[1] >> s.lo[2] >> s.hi[0] >> s.hi[1] >> s.hi[2];
-        else if (tag == "start") ls >> s.start[0] >> s.start[1] >> s.start[2];
-        else if (tag == "goal") ls >> s.goal[0] >> s.goal[1] >> s.goal[2];
+        else if (tag == "start") ls >> s.start[0] >> s.start[1] >> s.start[2] >> s.start_rpy[0] >> s.start_rpy[1] >> s.start_rpy[2];
+        else if (tag == "goal") ls >> s.goal[0] >> s.goal[1] >> s.goal[2] >> s.goal_rpy[0] >> s.goal_rpy[1] >> s.goal_rpy[2];
         else if (tag == "obs" || tag == "mov") {
             std::string shape;
             ls >> shape;
@@ -120,16 +128,20 @@ static Scene load_scene(const std::string &path) {
             ls >> x >> y >> z >> roll >> pitch >> yaw;
             fcl::Transform3d tf = fcl::Transform3d::Identity();
             tf.translation() = fcl::Vector3d(x, y, z);
-            // Scene convention: Rz(yaw)·Ry(pitch)·Rx(roll), fixed axes.
-            tf.linear() = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
-                           Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
-                           Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX())).toRotationMatrix();
+            tf.linear() = rpy_quat(roll, pitch, yaw).toRotationMatrix();
             auto o = std::make_shared<fcl::CollisionObjectd>(g, tf);
             if (tag == "obs") s.obstacles.push_back(o);
             else { s.moving.push_back(o); s.moving_offset.push_back(tf); }
         }
     }
     return s;
+}
+
+static void set_rotation(ob::SO3StateSpace::StateType &r, const Eigen::Quaterniond &q) {
+    r.w = q.w();
+    r.x = q.x();
+    r.y = q.y();
+    r.z = q.z();
 }
 
 int main(int argc, char **argv) {
@@ -218,16 +230,16 @@ int main(int argc, char **argv) {
     ob::ScopedState<> start(space), goal(space);
     if (sc.planar) {
         start->as<ob::SE2StateSpace::StateType>()->setXY(sc.start[0], sc.start[1]);
-        start->as<ob::SE2StateSpace::StateType>()->setYaw(0);
+        start->as<ob::SE2StateSpace::StateType>()->setYaw(sc.start_rpy[2]);
         goal->as<ob::SE2StateSpace::StateType>()->setXY(sc.goal[0], sc.goal[1]);
-        goal->as<ob::SE2StateSpace::StateType>()->setYaw(0);
+        goal->as<ob::SE2StateSpace::StateType>()->setYaw(sc.goal_rpy[2]);
     } else {
         auto *a = start->as<ob::SE3StateSpace::StateType>();
         a->setXYZ(sc.start[0], sc.start[1], sc.start[2]);
-        a->rotation().setIdentity();
+        set_rotation(a->rotation(), rpy_quat(sc.start_rpy[0], sc.start_rpy[1], sc.start_rpy[2]));
         auto *g = goal->as<ob::SE3StateSpace::StateType>();
         g->setXYZ(sc.goal[0], sc.goal[1], sc.goal[2]);
-        g->rotation().setIdentity();
+        set_rotation(g->rotation(), rpy_quat(sc.goal_rpy[0], sc.goal_rpy[1], sc.goal_rpy[2]));
     }
     ss.setStartAndGoalStates(start, goal);
     auto planner = std::make_shared<og::RRTConnect>(ss.getSpaceInformation());

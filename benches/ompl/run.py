@@ -18,10 +18,10 @@ def flatten(toml_path, out_path):
     base = os.path.dirname(os.path.abspath(toml_path))
     lines = [f"space {s.get('space', 'se3')}",
              "bounds " + " ".join(map(str, s["bounds"]["min_m"] + s["bounds"]["max_m"])),
-             "start " + " ".join(map(str, s["start"]["position_m"])),
-             "goal " + " ".join(map(str, s["goal"]["position_m"]))]
-    for key, tag in (("start", None), ("goal", None)):
-        extra = set(s[key]) - {"position_m"}
+             "start " + " ".join(map(str, s["start"]["position_m"] + s["start"].get("rpy_rad", [0, 0, 0]))),
+             "goal " + " ".join(map(str, s["goal"]["position_m"] + s["goal"].get("rpy_rad", [0, 0, 0])))]
+    for key in ("start", "goal"):
+        extra = set(s[key]) - {"position_m", "rpy_rad"}
         if extra:
             raise SystemExit(f"{toml_path}: [{key}] {sorted(extra)} not supported by ompl_solve")
     for key, tag in (("obstacles", "obs"), ("moving_object", "mov")):
