@@ -181,8 +181,19 @@ type PlotResult = Result<(), Box<dyn std::error::Error>>;
 
 const COLOURS: [RGBColor; 6] = [BLUE, GREEN, RED, MAGENTA, CYAN, BLACK];
 
-/// I-RRT Fig. 15 layout: one panel per method, median time against ε_v (log scale), one
-/// line per σ.
+/// The time axis of the plots (s, log scale): from below the shortest positive median to
+/// above the limit, where unsolved medians sit. Medians span milliseconds to the limit.
+fn time_axis(summaries: &[Summary], limit_s: f64) -> std::ops::Range<f64> {
+    let shortest = summaries
+        .iter()
+        .map(|s| s.median_time_s)
+        .filter(|t| *t > 0.0)
+        .fold(limit_s, f64::min);
+    (shortest * 0.5).max(1e-5)..limit_s * 1.5
+}
+
+/// I-RRT Fig. 15 layout: one panel per method, median time (log scale) against ε_v (log
+/// scale), one line per σ.
 pub fn plot_irrt(summaries: &[Summary], limit_s: f64, path: &Path) -> PlotResult {
     let root = BitMapBackend::new(path, (1200, 900)).into_drawing_area();
     root.fill(&WHITE)?;
@@ -202,11 +213,16 @@ pub fn plot_irrt(summaries: &[Summary], limit_s: f64, path: &Path) -> PlotResult
             .margin(10)
             .x_label_area_size(40)
             .y_label_area_size(50)
-            .build_cartesian_2d((lo * 0.8..hi * 1.25).log_scale(), 0.0..limit_s * 1.05)?;
+            .build_cartesian_2d(
+                (lo * 0.8..hi * 1.25).log_scale(),
+                time_axis(summaries, limit_s).log_scale(),
+            )?;
         chart
             .configure_mesh()
             .x_desc("ε_v (weighted m / iteration)")
-            .y_desc("time (s)")
+            .y_desc("median time (s), log")
+            .x_label_formatter(&|v| format!("{v:.1e}"))
+            .y_label_formatter(&|v| format!("{v:.0e}"))
             .draw()?;
         let sigmas: Vec<f64> =
             dedup_f(summaries.iter().filter(|s| &s.method == m).map(|s| s.sigma));
@@ -243,11 +259,12 @@ pub fn plot_hrrtc(summaries: &[Summary], limit_s: f64, path: &Path) -> PlotResul
             .margin(10)
             .x_label_area_size(40)
             .y_label_area_size(50)
-            .build_cartesian_2d(-0.02..1.02, 0.0..limit_s * 1.05)?;
+            .build_cartesian_2d(-0.02..1.02, time_axis(summaries, limit_s).log_scale())?;
         chart
             .configure_mesh()
             .x_desc("α")
-            .y_desc("time (s)")
+            .y_desc("median time (s), log")
+            .y_label_formatter(&|v| format!("{v:.0e}"))
             .draw()?;
         let mut pts: Vec<(f64, f64)> = summaries
             .iter()
