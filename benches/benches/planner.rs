@@ -62,7 +62,7 @@ fn grown(scene: &Scene, seed: u64) -> Planner {
     p
 }
 
-/// Iterations grown before `iterate/` measures.
+/// Iterations grown before `iterate/` and `fa/` measure.
 const GROWN: usize = 2000;
 
 fn iterate(c: &mut Criterion) {
@@ -175,10 +175,7 @@ fn fa(c: &mut Criterion) {
         .measurement_time(Duration::from_secs(2));
     for name in ["maze", "wall-hole"] {
         let scene = Scene::builtin(name).expect("built-in");
-        let mut p = Planner::new(&scene, PlannerParams::default(), 1).expect("planner");
-        for _ in 0..2000 {
-            p.iterate(None);
-        }
+        let p = grown(&scene, 1);
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         let queries: Vec<_> = (0..256)
             .map(|_| p.space().sample_uniform(&mut rng))

@@ -119,13 +119,10 @@ pub trait ConfigSpace {
     }
 
     /// How the embedding's coordinates split into the metric's two terms, for a tighter
-    /// bound: `(split, combine)` says that coordinates `..split` bound the translation
-    /// term and `split..` the rotation term, each by its own Euclidean distance, and that
-    /// the metric combines the terms as `combine` does (for [`Combine::Sum`], the sum of
-    /// the two distances is a lower bound up to √2 above the plain Euclidean one). The
-    /// default, one Euclidean group, is always valid for an embedding as `embed` states.
-    fn embed_terms(&self) -> (usize, Combine) {
-        (EMBED_DIM, Combine::Euclidean)
+    /// bound (see [`EmbedTerms`]). The default, one Euclidean group, is always valid for
+    /// an embedding as `embed` states.
+    fn embed_terms(&self) -> EmbedTerms {
+        EmbedTerms::EUCLIDEAN
     }
 
     /// The configuration of this space nearest to `q` (identity for SE(3); the planar
@@ -148,6 +145,27 @@ pub trait ConfigSpace {
 
 /// Dimension of the embedding of [`ConfigSpace::embed`].
 pub const EMBED_DIM: usize = 7;
+
+/// How the coordinates of [`ConfigSpace::embed`] bound the metric's two terms:
+/// coordinates `..split` bound the translation term and `split..` the rotation term, each
+/// by its own Euclidean distance, and the metric combines the terms as `combine` does.
+/// For [`Combine::Sum`] the sum of the two distances is a lower bound up to √2 above the
+/// plain Euclidean one, which is what lets the k-d tree prune as well as for Euclidean.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct EmbedTerms {
+    /// First coordinate of the rotation term.
+    pub split: usize,
+    /// How the metric combines the two terms.
+    pub combine: Combine,
+}
+
+impl EmbedTerms {
+    /// One Euclidean group over every coordinate.
+    pub const EUCLIDEAN: EmbedTerms = EmbedTerms {
+        split: EMBED_DIM,
+        combine: Combine::Euclidean,
+    };
+}
 
 /// A point of the embedding of [`ConfigSpace::embed`] (weighted m per coordinate).
 pub type Embedded = [f64; EMBED_DIM];
@@ -332,8 +350,11 @@ impl ConfigSpace for Se3Space {
         Some(e)
     }
 
-    fn embed_terms(&self) -> (usize, Combine) {
-        (3, self.weights.combine)
+    fn embed_terms(&self) -> EmbedTerms {
+        EmbedTerms {
+            split: 3,
+            combine: self.weights.combine,
+        }
     }
 
     fn interpolate(&self, a: &Se3, b: &Se3, t: f64) -> Se3 {

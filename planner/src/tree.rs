@@ -14,17 +14,8 @@ pub mod kd;
 pub const INDEX_MIN_NODES: usize = 64;
 
 use crate::pose::Se3;
-use crate::space::{Combine, ConfigSpace, Embedded};
+use crate::space::{ConfigSpace, Embedded};
 use std::cell::RefCell;
-
-/// The k-d tree's bound for `space`'s metric.
-fn index_terms(space: &dyn ConfigSpace) -> kd::Terms {
-    let (split, combine) = space.embed_terms();
-    kd::Terms {
-        split,
-        sum: combine == Combine::Sum,
-    }
-}
 
 /// Index of a node in its tree.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -152,7 +143,7 @@ impl Tree {
     pub fn nearest(&self, space: &dyn ConfigSpace, q: &Se3) -> (NodeId, f64) {
         if let Some((images, n)) = self.indexed_query(space, q) {
             let exact = |id: u32| space.distance(&self.nodes[id as usize].config, q);
-            let terms = index_terms(space);
+            let terms = space.embed_terms();
             if let Some((id, d)) = self.index.borrow().nearest(&images[..n], &exact, terms) {
                 return (NodeId(id), d);
             }
@@ -210,7 +201,7 @@ impl Tree {
             if self.index.borrow().k_nearest_into(
                 &images[..n],
                 &exact,
-                index_terms(space),
+                space.embed_terms(),
                 k,
                 &mut ids,
             ) {
@@ -463,7 +454,7 @@ mod tests {
 
     #[test]
     fn indexed_queries_equal_linear_scans_with_the_sum_metric() {
-        // The index prunes by Euclidean bounds, which the sum metric never undercuts.
+        // The index prunes by the sum of the two terms' bounds (`EmbedTerms`).
         let w = Weights {
             combine: crate::space::Combine::Sum,
             ..Weights::default()

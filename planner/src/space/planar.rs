@@ -6,7 +6,7 @@
 //! the start's orientation (usually identity). The distance is I-RRT eq. 2 in its planar
 //! form, `d = sqrt(w_t·(Δx² + Δy²) + w_r·Δθ²)`, with Δθ wrapped into [−π, π].
 
-use super::{Combine, ConfigSpace, Embedded, Se3Space, Weights};
+use super::{ConfigSpace, EmbedTerms, Embedded, Se3Space, Weights};
 use crate::pose::Se3;
 use crate::scene::{Bounds, Scene, SpaceKind};
 use nalgebra::{UnitQuaternion, Vector3, Vector6};
@@ -173,8 +173,11 @@ impl ConfigSpace for PlanarSpace {
         Some([t * q.pos.x, t * q.pos.y, r * c, r * s, 0.0, 0.0, 0.0])
     }
 
-    fn embed_terms(&self) -> (usize, Combine) {
-        (2, self.weights.combine)
+    fn embed_terms(&self) -> EmbedTerms {
+        EmbedTerms {
+            split: 2,
+            combine: self.weights.combine,
+        }
     }
 }
 
@@ -254,7 +257,7 @@ impl ConfigSpace for Space {
     fn embed_mirror(&self, q: &Se3) -> Option<Embedded> {
         self.inner().embed_mirror(q)
     }
-    fn embed_terms(&self) -> (usize, Combine) {
+    fn embed_terms(&self) -> EmbedTerms {
         self.inner().embed_terms()
     }
 }

@@ -16,7 +16,7 @@
 //! Replaces a uniform grid over positions (pruning by translation only), which the
 //! rotation term defeated in SE(3) and whose far queries fell back to linear scans.
 
-use crate::space::{EMBED_DIM, Embedded};
+use crate::space::{Combine, EMBED_DIM, EmbedTerms, Embedded};
 
 /// Largest number of ids in a leaf before it is split.
 pub const LEAF_MAX: usize = 16;
@@ -61,56 +61,39 @@ fn grow(lo: &mut Embedded, hi: &mut Embedded, p: &Embedded) {
     }
 }
 
-/// How a query turns per-coordinate gaps into a squared lower bound of the metric
-/// ([`ConfigSpace::embed_terms`](crate::space::ConfigSpace::embed_terms)).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Terms {
-    /// Coordinates `..split` bound the translation term, `split..dims` the rotation term.
-    pub split: usize,
-    /// The metric adds the two terms' distances (else: Euclidean over all coordinates).
-    pub sum: bool,
-}
-
-impl Terms {
-    /// One Euclidean group over every coordinate.
-    pub const EUCLIDEAN: Terms = Terms {
-        split: EMBED_DIM,
-        sum: false,
-    };
-
-    /// The squared bound from the gap `gap(i)` of each coordinate `i < dims`.
-    #[inline]
-    fn lb2(self, dims: usize, gap: impl Fn(usize) -> f64) -> f64 {
-        if !self.sum {
-            // One sum over all coordinates (the hot path: one loop, no split).
-            let mut s = 0.0;
-            for i in 0..dims {
-                let e = gap(i);
-                s += e * e;
-            }
-            return s;
-        }
-        let split = self.split.min(dims);
-        let (mut t, mut r) = (0.0, 0.0);
-        for i in 0..split {
+/// The squared lower bound of the metric from the gap `gap(i)` of each embedded
+/// coordinate `i < dims`, grouped as `terms` says.
+#[inline]
+fn lb2(terms: EmbedTerms, dims: usize, gap: impl Fn(usize) -> f64) -> f64 {
+    if terms.combine == Combine::Euclidean {
+        // One sum over all coordinates (the hot path: one loop, no split).
+        let mut s = 0.0;
+        for i in 0..dims {
             let e = gap(i);
-            t += e * e;
+            s += e * e;
         }
-        for i in split..dims {
-            let e = gap(i);
-            r += e * e;
-        }
-        let s = t.sqrt() + r.sqrt();
-        s * s
+        return s;
     }
+    let split = terms.split.min(dims);
+    let (mut t, mut r) = (0.0, 0.0);
+    for i in 0..split {
+        let e = gap(i);
+        t += e * e;
+    }
+    for i in split..dims {
+        let e = gap(i);
+        r += e * e;
+    }
+    let s = t.sqrt() + r.sqrt();
+    s * s
 }
 
-fn dist2(terms: Terms, dims: usize, a: &Embedded, b: &Embedded) -> f64 {
-    terms.lb2(dims, |i| a[i] - b[i])
+fn dist2(terms: EmbedTerms, dims: usize, a: &Embedded, b: &Embedded) -> f64 {
+    lb2(terms, dims, |i| a[i] - b[i])
 }
 
-fn box_dist2(terms: Terms, dims: usize, lo: &Embedded, hi: &Embedded, q: &Embedded) -> f64 {
-    terms.lb2(dims, |i| (lo[i] - q[i]).max(q[i] - hi[i]).max(0.0))
+fn box_dist2(terms: EmbedTerms, dims: usize, lo: &Embedded, hi: &Embedded, q: &Embedded) -> f64 {
+    lb2(terms, dims, |i| (lo[i] - q[i]).max(q[i] - hi[i]).max(0.0))
 }
 
 /// Squared lower bound beyond which nothing can beat `best` (weighted m), with slack
@@ -125,7 +108,7 @@ struct Query<'a> {
     images: &'a [Embedded],
     exact: &'a dyn Fn(u32) -> f64,
     dims: usize,
-    terms: Terms,
+    terms: EmbedTerms,
 }
 
 impl Query<'_> {
@@ -262,7 +245,7 @@ impl KdTree {
         &self,
         images: &[Embedded],
         exact: &dyn Fn(u32) -> f64,
-        terms: Terms,
+        terms: EmbedTerms,
     ) -> Option<(u32, f64)> {
         if self.nodes.is_empty() || self.unusable || images.is_empty() {
             return None;
@@ -314,7 +297,7 @@ impl KdTree {
         &self,
         images: &[Embedded],
         exact: &dyn Fn(u32) -> f64,
-        terms: Terms,
+        terms: EmbedTerms,
         k: usize,
         out: &mut Vec<(u32, f64)>,
     ) -> bool {
@@ -382,11 +365,11 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
 
     fn euclid(p: &Embedded, q: &Embedded) -> f64 {
-        dist2(Terms::EUCLIDEAN, EMBED_DIM, p, q).sqrt()
+        dist2(EmbedTerms::EUCLIDEAN, EMBED_DIM, p, q).sqrt()
     }
 
     /// The sum of the Euclidean distances over coordinates `..2` and `2..`: the metric
-    /// that `Terms { split: 2, sum: true }` bounds exactly.
+    /// that `EmbedTerms { split: 2, combine: Combine::Sum }` bounds exactly.
     fn sum_of_groups(p: &Embedded, q: &Embedded) -> f64 {
         let g = |r: std::ops::Range<usize>| r.map(|i| (p[i] - q[i]).powi(2)).sum::<f64>();
         g(0..2).sqrt() + g(2..EMBED_DIM).sqrt()
@@ -394,20 +377,20 @@ mod tests {
 
     #[test]
     fn euclidean_nearest_and_k_nearest_equal_brute_force() {
-        nearest_and_k_nearest_equal_brute_force(Terms::EUCLIDEAN, euclid);
+        nearest_and_k_nearest_equal_brute_force(EmbedTerms::EUCLIDEAN, euclid);
     }
 
     #[test]
     fn sum_of_terms_nearest_and_k_nearest_equal_brute_force() {
-        let terms = Terms {
+        let terms = EmbedTerms {
             split: 2,
-            sum: true,
+            combine: Combine::Sum,
         };
         nearest_and_k_nearest_equal_brute_force(terms, sum_of_groups);
     }
 
     fn nearest_and_k_nearest_equal_brute_force(
-        terms: Terms,
+        terms: EmbedTerms,
         metric: fn(&Embedded, &Embedded) -> f64,
     ) {
         // With the embedding itself as the metric, the bound is exact: every answer must
@@ -453,13 +436,13 @@ mod tests {
         }
         let exact = |_: u32| 0.0;
         assert_eq!(
-            kd.nearest(&[[0.0; EMBED_DIM]], &exact, Terms::EUCLIDEAN),
+            kd.nearest(&[[0.0; EMBED_DIM]], &exact, EmbedTerms::EUCLIDEAN),
             Some((0, 0.0))
         );
         kd.insert(Some([f64::NAN; EMBED_DIM]));
         assert!(!kd.usable());
         assert_eq!(
-            kd.nearest(&[[0.0; EMBED_DIM]], &exact, Terms::EUCLIDEAN),
+            kd.nearest(&[[0.0; EMBED_DIM]], &exact, EmbedTerms::EUCLIDEAN),
             None
         );
         assert_eq!(kd.len(), 101);
