@@ -8,7 +8,7 @@ use haptic_loop::contact::{
 use nalgebra::{Isometry3, Translation3, Vector3};
 use parry3d_f64::math::Pose;
 use parry3d_f64::shape::SharedShape;
-use planner::Scene;
+use scene::Scene;
 
 /// Where the object is relative to the scene.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -89,8 +89,8 @@ impl Fixture {
     /// orientation), sliding along the wall at 5 cm/s.
     pub fn s_on_wall(voxel_m: f64) -> Self {
         let scene = Scene::wall_with_hole();
-        let obstacles = planner::collision::part_shapes(&scene.obstacles);
-        let object = planner::collision::part_shapes(&scene.moving_object);
+        let obstacles = scene::shapes::part_shapes(&scene.obstacles);
+        let object = scene::shapes::part_shapes(&scene.moving_object);
         let rotation = scene.start.rot;
         // The S's reference point 60 mm in front of the wall: part of it touches, the
         // coupling anchor 3 mm further in pushes.
@@ -111,7 +111,7 @@ impl Fixture {
     /// The wall-hole voxmap at `voxel_m`.
     pub fn wall_hole_voxmap(voxel_m: f64) -> VoxmapReport {
         let scene = Scene::wall_with_hole();
-        let obstacles = planner::collision::part_shapes(&scene.obstacles);
+        let obstacles = scene::shapes::part_shapes(&scene.obstacles);
         let config = VoxmapConfig {
             voxel_m,
             ..VoxmapConfig::default()

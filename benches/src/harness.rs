@@ -16,7 +16,7 @@ use ipc_types::services::{self, StateWriter};
 use nalgebra::{Isometry3, Translation3};
 use parry3d_f64::math::Pose;
 use parry3d_f64::shape::SharedShape;
-use planner::Scene;
+use scene::Scene;
 use std::process::{Child, Command, Stdio};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -132,8 +132,7 @@ pub fn wall_setup(
     let contact = match voxel_m {
         Some(voxel_m) => {
             let contact = ContactConfig::with_voxel_m(voxel_m);
-            let model =
-                ContactModel::from_scene(&scene, &contact.voxmap).map_err(anyhow::Error::msg)?;
+            let model = ContactModel::from_scene(&scene, &contact.voxmap)?;
             eprintln!("{}", model.describe());
             let coupling = Coupling::from_spec(&spec, 1.0, contact.coupling_fraction);
             Some(ContactStage::new(Arc::new(model), contact, coupling))

@@ -30,6 +30,10 @@ struct Args {
 
 fn main() -> std::process::ExitCode {
     let args = Args::parse();
+    if let Err(e) = ipc_types::services::validate_namespace(&args.namespace) {
+        eprintln!("bridge_driver: --namespace: {e}");
+        return std::process::ExitCode::from(2);
+    }
     let stop = Arc::new(AtomicBool::new(false));
     let s = stop.clone();
     if let Err(e) = ctrlc::set_handler(move || s.store(true, Ordering::Release)) {
@@ -61,7 +65,7 @@ fn main() -> std::process::ExitCode {
             std::process::ExitCode::SUCCESS
         }
         Err(e) => {
-            eprintln!("bridge_driver: error: {e:#}");
+            eprintln!("bridge_driver: error: {e}");
             std::process::ExitCode::from(2)
         }
     }

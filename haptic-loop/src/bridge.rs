@@ -17,10 +17,10 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use devices::{Capabilities, DeviceError, DeviceSpec, DeviceState, HapticDevice, Wrench};
+use ipc_types::convert as wire;
 use ipc_types::services;
 use ipc_types::{DriverCommand, DriverState, DriverStatus, Header, OutputCode};
 use nalgebra::Vector3;
-use planner::wire;
 
 /// Bridge settings.
 #[derive(Debug, Clone, PartialEq)]

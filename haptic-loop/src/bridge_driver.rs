@@ -9,13 +9,14 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
-use anyhow::Context;
 use devices::sim::{SimulatedArm, SimulatedArmConfig};
 use devices::{HapticDevice, Wrench};
 use ipc_types::services;
 use ipc_types::{DriverState, DriverStatus, Header, OutputCode, monotonic_ns};
 use nalgebra::Vector3;
-use planner::wire;
+
+use crate::Error;
+use ipc_types::convert as wire;
 
 /// What the driver did, for its caller.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -30,25 +31,32 @@ pub struct DriverReport {
     pub last_force_n: [f64; 3],
 }
 
-/// Serves a simulated arm on `namespace` at `rate_hz` until `stop` is set. Commands older
-/// than `command_timeout` are replaced by zero force.
+/// Serves a simulated arm on `namespace` at `rate_hz` (10–10000 Hz) until `stop` is set.
+/// Commands older than `command_timeout` are replaced by zero force. The namespace is
+/// checked when the services are opened.
 pub fn run(
     namespace: &str,
     rate_hz: f64,
     command_timeout: Duration,
     stop: &AtomicBool,
-) -> anyhow::Result<DriverReport> {
-    services::validate_namespace(namespace).map_err(|e| anyhow::anyhow!("--namespace: {e}"))?;
-    anyhow::ensure!(
-        rate_hz.is_finite() && (10.0..=10_000.0).contains(&rate_hz),
-        "--rate-hz must be within 10–10000, got {rate_hz}"
-    );
+) -> Result<DriverReport, Error> {
+    if !(rate_hz.is_finite() && (10.0..=10_000.0).contains(&rate_hz)) {
+        return Err(Error::Invalid {
+            what: "the driver's rate (Hz)",
+            need: "within 10–10000",
+            value: rate_hz,
+        });
+    }
     let (node, _) = services::create_node(&format!("example_driver_{}", std::process::id()))?;
     let publ = services::driver_state_publisher(&node, namespace)?;
     let sub = services::driver_command_subscriber(&node, namespace)?;
-    let mut arm = SimulatedArm::new(SimulatedArmConfig::default())
-        .map_err(|e| anyhow::anyhow!("simulated arm: {e}"))?;
-    arm.open().context("open the simulated arm")?;
+    let arm_error = |source| Error::Device {
+        device: "the simulated arm".into(),
+        source,
+        hint: "",
+    };
+    let mut arm = SimulatedArm::new(SimulatedArmConfig::default()).map_err(arm_error)?;
+    arm.open().map_err(arm_error)?;
     let spec = arm.spec().clone();
     let period = Duration::from_secs_f64(1.0 / rate_hz);
     let timeout_ns = command_timeout.as_nanos() as u64;
@@ -74,9 +82,9 @@ pub fn run(
         }
         let fresh = command_ns != 0 && now.saturating_sub(command_ns) <= timeout_ns;
         let out = if fresh { command } else { Wrench::ZERO };
-        arm.write(&out).context("simulated arm write")?;
+        arm.write(&out).map_err(arm_error)?;
         report.last_force_n = out.force.into();
-        let s = arm.read(now).context("simulated arm read")?;
+        let s = arm.read(now).map_err(arm_error)?;
         report.states += 1;
         let mut msg = DriverState {
             header: Header {

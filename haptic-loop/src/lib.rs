@@ -3,8 +3,10 @@
 //! device and publishes [`ipc_types::HapticState`].
 //!
 //! Entry points: [`tick::Tick`] (one tick, pure, driven in lockstep by tests and benches),
-//! [`runner::spawn`] (the RT thread and its stats thread), [`app`] (what the binary runs:
-//! `run` and `demo`).
+//! [`runner::spawn`] (the RT thread and its stats thread), [`session`] (a whole session as
+//! the binary's `run` and `demo` commands drive it). The binary (`src/bin/haptic-loop`)
+//! parses arguments, validates them into a [`session::LoopSetup`], starts the planner
+//! process for `demo`, and prints; this library holds no command-line code.
 //!
 //! Architecture invariant: after [`runner::spawn`] has set the thread up, the RT thread
 //! never allocates, locks, logs or blocks; [`alloc_count`] measures the first on every run.
@@ -12,16 +14,19 @@
 #![warn(missing_docs)]
 
 pub mod alloc_count;
-pub mod app;
 pub mod bridge;
 pub mod bridge_driver;
 pub mod contact;
-pub mod device_select;
+pub mod device_choice;
+pub mod error;
 pub mod guidance;
 pub mod mapping;
 pub mod relay;
 pub mod rt;
 pub mod runner;
 pub mod safety;
+pub mod session;
 pub mod stats;
 pub mod tick;
+
+pub use error::Error;

@@ -10,6 +10,7 @@
 //! next tick; it also wakes every `poll` (default 1 ms) on its own, so a planner that does
 //! not notify, or a lost notification, costs at most that.
 
+use crate::Error;
 use crate::tick::GuidanceSource;
 use ipc_types::Guidance;
 use ipc_types::services;
@@ -40,7 +41,7 @@ pub struct Relay {
 impl Relay {
     /// Starts the relay thread on `namespace`. Fails if the iceoryx2 subscriber cannot be
     /// created (the error names the service).
-    pub fn spawn(namespace: &str, poll: Duration) -> anyhow::Result<(Relay, RelayOutput)> {
+    pub fn spawn(namespace: &str, poll: Duration) -> Result<(Relay, RelayOutput), Error> {
         let (mut input, output) = triple_buffer::triple_buffer(&Guidance::default());
         let stop = Arc::new(AtomicBool::new(false));
         let newest = Arc::new(Mutex::new(Guidance::default()));
@@ -92,11 +93,16 @@ impl Relay {
                             std::thread::sleep(poll);
                         }
                     }
+                })
+                .map_err(|e| Error::Thread {
+                    thread: "guidance relay",
+                    reason: e.to_string(),
                 })?
         };
-        ready_rx
-            .recv()
-            .map_err(|_| anyhow::anyhow!("guidance relay thread died during set-up"))??;
+        ready_rx.recv().map_err(|_| Error::Thread {
+            thread: "guidance relay",
+            reason: "it died during set-up".into(),
+        })??;
         Ok((
             Relay {
                 stop,

@@ -22,7 +22,7 @@ pub struct TickSample {
     pub missed: u64,
 }
 
-pub use planner::latency::{NsHistogram, Percentiles};
+pub use ipc_types::latency::{NsHistogram, Percentiles};
 
 /// The histograms of one run or one window.
 #[derive(Debug, Clone, Default)]

@@ -9,9 +9,9 @@ use crate::guidance::{GuidanceConfig, GuidanceFilter, RenderedGuidance};
 use crate::mapping::{Mapping, MappingConfig};
 use crate::safety::{Safety, SafetyConfig};
 use devices::{DeviceError, DeviceSpec, DeviceState, HapticDevice, Wrench};
+use ipc_types::convert as wire;
 use ipc_types::{ContactCode, FaultCode, Guidance, HapticState, Header};
 use nalgebra::{Isometry3, Vector3};
-use planner::wire;
 
 /// Where the newest [`Guidance`] comes from. Must not allocate or block.
 pub trait GuidanceSource {

@@ -23,8 +23,10 @@
 #![warn(missing_docs)]
 
 mod codes;
+pub mod convert;
 mod driver;
 mod guidance;
+pub mod latency;
 mod path;
 mod roadmap;
 pub mod services;

@@ -153,6 +153,26 @@ pub fn service_name(namespace: &str, leaf: &str) -> String {
     format!("hrrtc/{namespace}/{leaf}")
 }
 
+/// iceoryx2's configuration: its config file when one exists (iceoryx2 looks in the project,
+/// the user's and the system's config folders), else its defaults.
+///
+/// iceoryx2 warns on its own console logger, in colour, every time a process starts without
+/// a config file, though defaults are what these processes are meant to run with. The
+/// first look-up therefore runs with iceoryx2's log level at `Error` (unless the user set
+/// `IOX2_LOG_LEVEL`), and the level goes back to the user's or iceoryx2's default after it.
+pub fn iceoryx_config() -> &'static Config {
+    static LOADED: std::sync::Once = std::sync::Once::new();
+    LOADED.call_once(|| {
+        let user_level = std::env::var_os("IOX2_LOG_LEVEL").is_some();
+        if !user_level {
+            iceoryx2::prelude::set_log_level(iceoryx2::prelude::LogLevel::Error);
+        }
+        let _ = Config::global_config();
+        iceoryx2::prelude::set_log_level_from_env_or_default();
+    });
+    Config::global_config()
+}
+
 /// Creates a node named `name` with iceoryx2's own signal handling disabled (the processes
 /// install their own), after removing the resources of dead nodes so that a crashed
 /// predecessor cannot block a service. Returns the node and how many dead nodes were cleaned.
@@ -162,6 +182,7 @@ pub fn create_node(name: &str) -> Result<(Node<Ipc>, usize), ServiceError> {
         .try_into()
         .map_err(|e| err(name, format!("invalid node name: {e:?}")))?;
     let node = NodeBuilder::new()
+        .config(iceoryx_config())
         .name(&node_name)
         .signal_handling_mode(SignalHandlingMode::Disabled)
         .create::<Ipc>()
@@ -172,7 +193,7 @@ pub fn create_node(name: &str) -> Result<(Node<Ipc>, usize), ServiceError> {
 /// Removes the resources of every dead node on this host; returns how many were removed.
 pub fn cleanup_dead_nodes() -> usize {
     let mut cleaned = 0;
-    let _ = Node::<Ipc>::list(Config::global_config(), |state| {
+    let _ = Node::<Ipc>::list(iceoryx_config(), |state| {
         if let NodeState::Dead(view) = state
             && view.try_remove_stale_resources().is_ok()
         {

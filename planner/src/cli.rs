@@ -636,7 +636,7 @@ where
             Ok(0)
         }
         Command::Scenes(a) => {
-            for name in crate::scene::BUILTIN_NAMES {
+            for name in scene::BUILTIN_NAMES {
                 if name == "default" {
                     continue;
                 }
@@ -691,7 +691,7 @@ pub fn experiment(a: &ExperimentArgs) -> anyhow::Result<()> {
     };
     for s in &specs {
         s.params.validate()?;
-        if crate::scene::Scene::builtin(&s.scene).is_none() {
+        if scene::Scene::builtin(&s.scene).is_none() {
             bail!("`{}` is not a built-in scene", s.scene);
         }
     }

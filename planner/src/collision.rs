@@ -11,60 +11,19 @@
 //! parry's composite-vs-composite test walks the *first* shape's leaves against the
 //! second shape's BVH, so the (small) moving object is passed first.
 
-use crate::pose::Se3;
-use crate::scene::{Bounds, Part, Primitive, Scene};
 use crate::space::{ConfigSpace, Space, Weights};
-use parry3d_f64::math::{Pose, Rot3, Vector};
+use parry3d_f64::math::{Pose, Vector};
 use parry3d_f64::query::{contact, intersection_test};
-use parry3d_f64::shape::{Compound, SharedShape, TriMeshFlags};
+use parry3d_f64::shape::{Compound, SharedShape};
+use scene::pose::Se3;
+use scene::shapes::{part_shapes, to_parry};
+use scene::{Bounds, Part, Primitive, Scene};
 use std::cell::Cell;
 
 /// Default edge-validation resolution (weighted m): 5 mm of translation, or 0.05 rad of
 /// rotation with the default weights (no object point moves more than √2·5 ≈ 7 mm between
 /// two checked configurations when the object fits in a 0.1 m sphere).
 pub const DEFAULT_EDGE_RESOLUTION: f64 = 0.005;
-
-/// Converts a pose to parry's glam-based `Pose`.
-pub fn to_parry(q: &Se3) -> Pose {
-    let r = &q.rot;
-    Pose::from_parts(
-        Vector::new(q.pos.x, q.pos.y, q.pos.z),
-        Rot3::from_xyzw(r.i, r.j, r.k, r.w),
-    )
-}
-
-/// The parry shape of one part, in the part's local frame. Meshes become `TriMesh`es
-/// with [`TriMeshFlags::ORIENTED`] (pseudo-normals, so point containment and signed
-/// distances with `solid = false` work on closed, outward-wound meshes) and merged
-/// duplicate vertices (STL repeats them per triangle).
-pub fn part_shape(part: &Part) -> SharedShape {
-    match &part.primitive {
-        Primitive::Box { half_extents_m: h } => SharedShape::cuboid(h.x, h.y, h.z),
-        Primitive::Sphere { radius_m } => SharedShape::ball(*radius_m),
-        Primitive::Mesh { mesh } => {
-            let vertices = mesh
-                .vertices_m
-                .iter()
-                .map(|v| Vector::new(v.x, v.y, v.z))
-                .collect();
-            let flags = TriMeshFlags::ORIENTED | TriMeshFlags::MERGE_DUPLICATE_VERTICES;
-            // The only builder error is an empty index list, which `MeshData` and
-            // `Scene::validate` rule out; should one get here anyway, a bounding ball
-            // keeps the conversion total.
-            SharedShape::trimesh_with_flags(vertices, mesh.triangles.clone(), flags)
-                .unwrap_or_else(|_| SharedShape::ball(mesh.reach_m(|v| *v).max(1e-6)))
-        }
-    }
-}
-
-/// Every part as (pose in the parent frame, shape): the one conversion from scene parts to
-/// parry, shared by the collision checker and the haptic loop's voxmap and pointshell.
-pub fn part_shapes(parts: &[Part]) -> Vec<(Pose, SharedShape)> {
-    parts
-        .iter()
-        .map(|p| (to_parry(&p.pose), part_shape(p)))
-        .collect()
-}
 
 /// The parts of one side (object or obstacles) as parry sees them.
 struct Side {
@@ -389,7 +348,7 @@ mod tests {
 
     #[test]
     fn mesh_parts_collide_like_the_boxes_they_replace() {
-        use crate::scene::MeshData;
+        use scene::MeshData;
         use std::sync::Arc;
         let boxes = Scene::wall_with_hole();
         let mut meshes = boxes.clone();
@@ -434,7 +393,7 @@ mod tests {
 
     #[test]
     fn builtin_scenes_have_free_start_and_goal_and_blocked_shortcuts() {
-        for name in crate::scene::BUILTIN_NAMES {
+        for name in scene::BUILTIN_NAMES {
             let s = Scene::builtin(name).expect("builtin");
             s.validate(name).expect("valid");
             let c = CollisionChecker::new(&s);

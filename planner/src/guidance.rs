@@ -13,10 +13,10 @@
 //! The barycenter is taken in the tangent space at `q_user`:
 //! `F_a = Σ w_i·delta(q_user, q_i) / Σ w_i = delta(q_user, B)`.
 
-use crate::pose::Se3;
 use crate::space::ConfigSpace;
 use crate::tree::{NodeId, Tree};
 use nalgebra::Vector6;
+use scene::pose::Se3;
 
 /// F_a from the `p` nodes of `tree` nearest to `q_user` (see the module docs).
 /// `scratch` is reused for the neighbour list. Zero when the weights vanish.
@@ -111,9 +111,9 @@ impl PathGuide {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Scene;
     use crate::space::{Se3Space, Weights};
     use nalgebra::{UnitQuaternion, Vector3};
+    use scene::Scene;
 
     fn space() -> Se3Space {
         Se3Space::new(Scene::wall_with_hole().bounds, Weights::default())

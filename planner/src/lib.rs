@@ -7,8 +7,6 @@
 //! (IPC, timing) lives outside these modules.
 //!
 //! Code map:
-//! - [`pose`]: the `Se3` pose type and rotation-vector helpers (shared with [`scene`]).
-//! - [`scene`]: scene description, the embedded I-RRT wall-with-hole scene, TOML files.
 //! - [`space`]: weighted SE(3) distance (I-RRT eq. 2), interpolation, sampling, `delta`.
 //! - [`collision`]: parry compounds, `is_free`, `edge_free` at a stated resolution.
 //! - [`tree`]: tree arena, node labels, nearest / k-nearest, paths.
@@ -24,25 +22,21 @@ pub mod cli;
 pub mod collision;
 pub mod experiment;
 pub mod guidance;
-pub mod latency;
 pub mod pacing;
 pub mod params;
 pub mod path;
 pub mod picture;
-pub mod pose;
 pub mod rrt;
 pub mod sampling;
-pub mod scene;
 pub mod shell;
 pub mod space;
 pub mod tree;
 pub mod view;
-pub mod wire;
 
 pub use collision::CollisionChecker;
 pub use params::{Algorithm, ExtendA, PlannerError, PlannerParams};
-pub use pose::Se3;
 pub use rrt::{Extend, IterReport, Planner, Source, Stats};
 pub use sampling::{Contact, Sampling, UserInput};
+pub use scene::pose::Se3;
 pub use scene::{Scene, SceneError};
 pub use space::{Combine, ConfigSpace, PlanarSpace, Se3Space, Space, Weights};

@@ -1,8 +1,8 @@
 //! Planner parameters and errors.
 
 use crate::sampling::{ContactParams, Sampling};
-use crate::scene::SceneError;
 use crate::space::Weights;
+use scene::SceneError;
 
 /// Tree-growing algorithm.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

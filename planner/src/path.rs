@@ -7,9 +7,9 @@
 //! exactly as safe as the raw one.
 
 use crate::collision::CollisionChecker;
-use crate::pose::Se3;
 use crate::space::ConfigSpace;
 use rand::{Rng, RngCore};
+use scene::pose::Se3;
 use serde::Serialize;
 use std::fmt::Write as _;
 
@@ -85,10 +85,10 @@ pub fn to_json(space: &dyn ConfigSpace, path: &[Se3]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Scene;
     use crate::space::{Se3Space, Weights};
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
+    use scene::Scene;
 
     #[test]
     fn shortcut_removes_detours_but_not_through_walls() {

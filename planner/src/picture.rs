@@ -9,10 +9,10 @@
 //! they collided); the solution path is thick black, the operator's travelled path cyan.
 
 use crate::Se3;
-use crate::scene::{Part, Primitive, Scene};
 use crate::tree::Tree;
 use nalgebra::Vector3;
 use plotters::prelude::*;
+use scene::{Part, Primitive, Scene};
 use std::path::Path;
 
 /// Which label colours the nodes.

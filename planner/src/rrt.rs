@@ -24,14 +24,14 @@
 use crate::collision::CollisionChecker;
 use crate::guidance::{PathGuide, barycenter_force};
 use crate::params::{Algorithm, ExtendA, PlannerError, PlannerParams};
-use crate::pose::Se3;
 use crate::sampling::{Sampling, UserInput, apply_delta, contact_sample};
-use crate::scene::Scene;
 use crate::space::{ConfigSpace, Space};
 use crate::tree::{NodeId, Tree};
 use nalgebra::Vector6;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use scene::Scene;
+use scene::pose::Se3;
 
 /// Result of I-RRT's Extend method.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -14,11 +14,11 @@
 //!   else `q_device` itself ("human mode").
 //! - H-RRT-C contact mode, while the haptic loop reports contact: [`haptic_ellipse`].
 
-use crate::pose::{Se3, exp_rotation};
 use crate::space::ConfigSpace;
 use nalgebra::{Vector3, Vector6};
 use rand::{Rng, RngCore};
 use rand_distr::StandardNormal;
+use scene::pose::{Se3, exp_rotation};
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// How operator input turns into samples. See the module docs.
@@ -270,10 +270,10 @@ pub fn apply_delta(space: &dyn ConfigSpace, q: &Se3, v: &Vector6<f64>) -> Se3 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Scene;
     use crate::space::{Se3Space, Weights};
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
+    use scene::Scene;
 
     fn contact(force: [f64; 3], disp: [f64; 3]) -> Contact {
         Contact {

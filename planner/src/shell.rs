@@ -94,11 +94,11 @@ pub struct ShellReport {
     /// Publish → receive of each new haptic state: the loop's stamp just before its
     /// blackboard write (`published_ns`) → the receiver thread's read that first saw it, µs.
     /// Includes the receiver's own wake-up latency.
-    pub state_latency_us: crate::latency::Percentiles,
+    pub state_latency_us: ipc_types::latency::Percentiles,
     /// Age of each new haptic state when the receiver first saw it: its header stamp (the
     /// loop's tick wake-up) → that read, µs: [`Self::state_latency_us`] plus the tick's
     /// compute before publishing.
-    pub state_age_us: crate::latency::Percentiles,
+    pub state_age_us: ipc_types::latency::Percentiles,
     /// Roadmap increments published.
     pub roadmap_published: u64,
     /// Roadmap increments skipped because no sample could be loaned.
@@ -300,8 +300,8 @@ fn lock(m: &Mutex<Operator>) -> std::sync::MutexGuard<'_, Operator> {
 /// What the state receiver measured (see [`ShellReport`]'s `state_latency_us` and
 /// `state_age_us`).
 struct StateLatency {
-    transport: crate::latency::NsHistogram,
-    age: crate::latency::NsHistogram,
+    transport: ipc_types::latency::NsHistogram,
+    age: ipc_types::latency::NsHistogram,
 }
 
 fn receive_states(
@@ -312,8 +312,8 @@ fn receive_states(
     spin_ns: u64,
 ) -> StateLatency {
     let mut latency = StateLatency {
-        transport: crate::latency::NsHistogram::new(),
-        age: crate::latency::NsHistogram::new(),
+        transport: ipc_types::latency::NsHistogram::new(),
+        age: ipc_types::latency::NsHistogram::new(),
     };
     let mut last_seq = 0u64;
     let mut last_pid = 0u32;
@@ -507,12 +507,12 @@ pub fn user_input(s: &HapticState) -> Option<crate::UserInput> {
 
 /// The planner's pose type from a wire pose; `None` if invalid.
 pub fn se3(p: &Pose) -> Option<Se3> {
-    crate::wire::isometry(p).map(|iso| Se3::from_isometry(&iso))
+    ipc_types::convert::isometry(p).map(|iso| Se3::from_isometry(&iso))
 }
 
 /// The wire pose of a planner pose.
 pub fn pose(q: &Se3) -> Pose {
-    crate::wire::pose(&q.to_isometry())
+    ipc_types::convert::pose(&q.to_isometry())
 }
 
 /// The solution as a wire [`Path`], resampled to at most [`PATH_CAPACITY`] waypoints by

@@ -12,11 +12,11 @@
 //! The planar (x, y, θ) space is [`PlanarSpace`], whose configurations are `Se3` with
 //! fixed z and rotations about z; [`Space`] is whichever of the two a scene asks for.
 
-use crate::pose::{Se3, angle_between, exp_rotation, rotation_vector};
-use crate::scene::Bounds;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3, Vector6};
 use rand::{Rng, RngCore};
 use rand_distr::StandardNormal;
+use scene::Bounds;
+use scene::pose::{Se3, angle_between, exp_rotation, rotation_vector};
 use std::f64::consts::{PI, TAU};
 
 mod planar;
@@ -399,9 +399,9 @@ impl ConfigSpace for Se3Space {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Scene;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
+    use scene::Scene;
 
     fn space() -> Se3Space {
         Se3Space::new(Scene::wall_with_hole().bounds, Weights::default())

@@ -13,8 +13,8 @@ pub mod kd;
 /// Below this many nodes the linear scan is cheaper than the index.
 pub const INDEX_MIN_NODES: usize = 64;
 
-use crate::pose::Se3;
 use crate::space::{ConfigSpace, Embedded};
+use scene::pose::Se3;
 use std::cell::RefCell;
 
 /// Index of a node in its tree.
@@ -298,8 +298,8 @@ impl Tree {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Scene;
     use crate::space::{Se3Space, Weights};
+    use scene::Scene;
 
     fn space() -> Se3Space {
         Se3Space::new(Scene::wall_with_hole().bounds, Weights::default())

@@ -75,7 +75,7 @@ fn main() -> anyhow::Result<()> {
         bail!("--planner-seconds must be > 0");
     }
     for s in &args.scenes {
-        if planner::Scene::builtin(s).is_none() {
+        if scene::Scene::builtin(s).is_none() {
             bail!("--scenes: no built-in scene '{s}'");
         }
     }

@@ -37,12 +37,14 @@
 //! mass (the volume centroid of the object's parts, uniform density). The coupling joins the
 //! centre of mass of the device-mapped object to the proxy's.
 
+mod error;
 mod near;
 mod pointshell;
 #[cfg(test)]
 mod tests;
 mod voxmap;
 
+pub use error::ContactError;
 pub use pointshell::{Cluster, Pointshell};
 pub use voxmap::{Sample, Voxmap, VoxmapConfig, VoxmapError, VoxmapReport};
 
@@ -54,7 +56,7 @@ use nalgebra::{
 use near::{ClusterBudget, Found, PassParams, Scratch, SearchParams, ShellColumns};
 use parry3d_f64::math::Pose;
 use parry3d_f64::shape::{Compound, Shape, SharedShape};
-use planner::Scene;
+use scene::Scene;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -109,8 +111,8 @@ impl ContactConfig {
         }
     }
 
-    /// Checks every field; the message names the field.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Checks every field; the error names the field.
+    pub fn validate(&self) -> Result<(), ContactError> {
         let positive = [
             (self.point_stiffness_n_per_m, "point stiffness (N/m)"),
             (self.proxy_mass_kg, "proxy mass (kg)"),
@@ -118,7 +120,11 @@ impl ContactConfig {
         ];
         for (v, name) in positive {
             if !(v.is_finite() && v > 0.0) {
-                return Err(format!("contact: {name} must be positive, got {v}"));
+                return Err(ContactError::Parameter {
+                    name,
+                    need: "> 0",
+                    value: v,
+                });
             }
         }
         let non_negative = [
@@ -129,21 +135,27 @@ impl ContactConfig {
         ];
         for (v, name) in non_negative {
             if !(v.is_finite() && v >= 0.0) {
-                return Err(format!("contact: {name} must be ≥ 0, got {v}"));
+                return Err(ContactError::Parameter {
+                    name,
+                    need: "≥ 0",
+                    value: v,
+                });
             }
         }
         if self.coupling_fraction > 1.0 {
-            return Err(format!(
-                "contact: coupling fraction must be ≤ 1, got {}",
-                self.coupling_fraction
-            ));
+            return Err(ContactError::Parameter {
+                name: "coupling fraction",
+                need: "≤ 1",
+                value: self.coupling_fraction,
+            });
         }
         let layer = f64::from(self.voxmap.layers_out) - 1.0;
         if self.proximity_voxels > layer || self.release_voxels > layer {
-            return Err(format!(
-                "contact: proximity ({}) and release ({}) must fit in the stored layers outside minus one ({layer} voxels)",
-                self.proximity_voxels, self.release_voxels
-            ));
+            return Err(ContactError::Layers {
+                proximity_voxels: self.proximity_voxels,
+                release_voxels: self.release_voxels,
+                layer_voxels: layer,
+            });
         }
         Ok(())
     }
@@ -196,9 +208,9 @@ pub struct ContactModel {
 
 impl ContactModel {
     /// Builds the voxmap of `scene.obstacles` and the pointshell of `scene.moving_object`.
-    pub fn from_scene(scene: &Scene, voxmap: &VoxmapConfig) -> Result<Self, String> {
-        let obstacles = planner::collision::part_shapes(&scene.obstacles);
-        let object = planner::collision::part_shapes(&scene.moving_object);
+    pub fn from_scene(scene: &Scene, voxmap: &VoxmapConfig) -> Result<Self, ContactError> {
+        let obstacles = scene::shapes::part_shapes(&scene.obstacles);
+        let object = scene::shapes::part_shapes(&scene.moving_object);
         Self::build(&obstacles, &object, voxmap)
     }
 
@@ -208,15 +220,15 @@ impl ContactModel {
         obstacles: &[(Pose, SharedShape)],
         object: &[(Pose, SharedShape)],
         voxmap: &VoxmapConfig,
-    ) -> Result<Self, String> {
-        let voxmap = Voxmap::build(obstacles, voxmap).map_err(|e| e.to_string())?;
+    ) -> Result<Self, ContactError> {
+        let voxmap = Voxmap::build(obstacles, voxmap)?;
         let started = Instant::now();
         let shell = Pointshell::build(object, voxmap.voxel_m())?;
         let shell_build_s = started.elapsed().as_secs_f64();
         let mp = Compound::new(object.to_vec()).mass_properties(1.0);
         let volume = mp.mass();
         if !(volume.is_finite() && volume > 0.0) {
-            return Err("contact: the moving object has no volume".into());
+            return Err(ContactError::NoVolume);
         }
         let c = mp.local_com;
         let com_local = Vector3::new(c.x, c.y, c.z);
@@ -460,7 +472,7 @@ impl ContactStage {
         config: ContactConfig,
         spec: &DeviceSpec,
         position_scale: f64,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, ContactError> {
         let model = ContactModel::build(obstacles, object, &config.voxmap)?;
         let coupling = Coupling::from_spec(spec, position_scale, config.coupling_fraction);
         Ok(Self::new(Arc::new(model), config, coupling))

@@ -17,6 +17,8 @@ use parry3d_f64::math::{Pose, Vector as PVec};
 use parry3d_f64::shape::SharedShape;
 use std::collections::BTreeMap;
 
+use super::ContactError;
+
 /// A surface point and its inward normal.
 type PointNormal = (Vector3<f64>, Vector3<f64>);
 
@@ -63,11 +65,9 @@ fn signed_distance(pose: &Pose, shape: &SharedShape, p: &Vector3<f64>) -> f64 {
 impl Pointshell {
     /// Samples the surface of the union of `parts` (poses in the object frame) at about
     /// `spacing_m`. Fails on a non-positive spacing or an object without surface.
-    pub fn build(parts: &[(Pose, SharedShape)], spacing_m: f64) -> Result<Self, String> {
+    pub fn build(parts: &[(Pose, SharedShape)], spacing_m: f64) -> Result<Self, ContactError> {
         if !(spacing_m.is_finite() && spacing_m > 0.0) {
-            return Err(format!(
-                "pointshell spacing must be positive, got {spacing_m}"
-            ));
+            return Err(ContactError::Spacing(spacing_m));
         }
         let h = spacing_m;
         let key = |p: &Vector3<f64>| [p.x, p.y, p.z].map(|c| (c / h).floor() as i64);
@@ -79,10 +79,11 @@ impl Pointshell {
             let hi = key(&nvec(aabb.maxs));
             let cells_needed = (0..3).map(|a| (hi[a] - lo[a] + 1) as f64).product::<f64>();
             if cells_needed > 5e8 {
-                return Err(format!(
-                    "part {i} spans {cells_needed:.0} cells at {} mm spacing; use a larger spacing",
-                    h * 1e3
-                ));
+                return Err(ContactError::PartTooLarge {
+                    part: i,
+                    cells: cells_needed,
+                    spacing_mm: h * 1e3,
+                });
             }
             for z in lo[2]..=hi[2] {
                 for y in lo[1]..=hi[1] {
@@ -137,7 +138,7 @@ impl Pointshell {
             }
         }
         if cells.is_empty() {
-            return Err("the moving object has no surface to sample".into());
+            return Err(ContactError::NoSurface);
         }
 
         // Group by cluster cell; points of a cluster are stored contiguously.

@@ -5,10 +5,10 @@ use devices::sim::{ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmC
 use nalgebra::{Translation3, UnitQuaternion, Vector3};
 use parry3d_f64::query::{contact, intersection_test};
 use parry3d_f64::shape::{Compound, SharedShape};
-use planner::collision::to_parry;
-use planner::pose::Se3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use scene::Se3;
+use scene::shapes::to_parry;
 
 const MM: f64 = 1e-3;
 
@@ -18,7 +18,7 @@ fn iso(p: Vector3<f64>, r: UnitQuaternion<f64>) -> Isometry3<f64> {
 
 /// The wall-hole scene's moving object: three 20 × 20 × 100 mm sticks (I-RRT §5.3).
 fn s_object() -> Vec<(Pose, SharedShape)> {
-    planner::collision::part_shapes(&planner::Scene::wall_with_hole().moving_object)
+    scene::shapes::part_shapes(&scene::Scene::wall_with_hole().moving_object)
 }
 
 fn bar() -> Vec<(Pose, SharedShape)> {
@@ -213,7 +213,7 @@ fn force_follows_the_normal_on_the_faces_of_a_box() {
 
 #[test]
 fn force_follows_the_normal_on_the_wall_with_a_hole() {
-    let wall = planner::collision::part_shapes(&planner::Scene::wall_with_hole().obstacles);
+    let wall = scene::shapes::part_shapes(&scene::Scene::wall_with_hole().obstacles);
     // The wall's face beside the hole, and the hole's side faces from inside the hole.
     let n = check_direction_and_monotonicity(
         &wall,

@@ -16,11 +16,11 @@ pub mod user;
 
 use crate::params::PlannerParams;
 use crate::sampling::Sampling;
-use crate::scene::Scene;
 use crate::space::path_length;
 use crate::{Planner, PlannerError};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use scene::Scene;
 use serde::Serialize;
 use std::time::Instant;
 use user::SimUser;

@@ -20,12 +20,12 @@
 //!   mouse; without it a simulated hand with a fixed error never enters a tight slot).
 
 use crate::collision::CollisionChecker;
-use crate::pose::{Se3, exp_rotation};
 use crate::sampling::{Contact, UserInput};
 use crate::space::ConfigSpace;
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::{Rng, RngCore};
 use rand_distr::StandardNormal;
+use scene::pose::{Se3, exp_rotation};
 
 /// Coupling stiffness of the contact-seeking user (N/m, default 200: 1 cm of push is 2 N).
 pub const COUPLING_N_PER_M: f64 = 200.0;
@@ -257,10 +257,10 @@ pub fn keyframes(scene: &str) -> Option<Vec<Se3>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Scene;
     use crate::space::{Space, Weights};
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
+    use scene::Scene;
 
     #[test]
     fn operator_paths_are_free_densely_and_run_start_to_goal() {

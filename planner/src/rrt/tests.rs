@@ -227,17 +227,17 @@ fn rejects_colliding_start_and_bad_params() {
 #[test]
 #[ignore = "timing report, run in release"]
 fn collision_check_cost() {
-    use crate::collision::to_parry;
     use parry3d_f64::math::Pose;
     use parry3d_f64::query::intersection_test;
     use parry3d_f64::shape::{Compound, SharedShape};
     use rand::SeedableRng;
+    use scene::shapes::to_parry;
     let scene = Scene::wall_with_hole();
     let checker = CollisionChecker::new(&scene);
     let mut rng = ChaCha8Rng::seed_from_u64(9);
     // Configurations near the wall (|x| < 0.1) are the expensive ones.
     let space = crate::space::Se3Space::new(
-        crate::scene::Bounds {
+        scene::Bounds {
             min_m: nalgebra::Vector3::new(-0.1, -0.25, -0.25),
             max_m: nalgebra::Vector3::new(0.1, 0.25, 0.25),
         },
@@ -254,8 +254,8 @@ fn collision_check_cost() {
         per * 1e6,
         qs.len()
     );
-    let part = |p: &crate::scene::Part| {
-        let crate::scene::Primitive::Box { half_extents_m: h } = p.primitive else {
+    let part = |p: &scene::Part| {
+        let scene::Primitive::Box { half_extents_m: h } = p.primitive else {
             unreachable!()
         };
         (to_parry(&p.pose), SharedShape::cuboid(h.x, h.y, h.z))

@@ -7,11 +7,11 @@
 //! form, `d = sqrt(w_t·(Δx² + Δy²) + w_r·Δθ²)`, with Δθ wrapped into [−π, π].
 
 use super::{ConfigSpace, EmbedTerms, Embedded, Se3Space, Weights};
-use crate::pose::Se3;
-use crate::scene::{Bounds, Scene, SpaceKind};
 use nalgebra::{UnitQuaternion, Vector3, Vector6};
 use rand::{Rng, RngCore};
 use rand_distr::StandardNormal;
+use scene::pose::Se3;
+use scene::{Bounds, Scene, SpaceKind};
 use std::f64::consts::PI;
 
 /// (x, y, θ) over the bounds' x–y rectangle.

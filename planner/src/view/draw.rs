@@ -7,7 +7,6 @@
 
 use super::model::{CHUNK_NODES, RoadmapModel};
 use crate::Se3;
-use crate::scene::{Part, Primitive, Scene};
 use foxglove::messages::{
     ArrowPrimitive, Color, CubePrimitive, FrameTransform, FrameTransforms, LinePrimitive,
     PackedElementField, Point3, PointCloud, Pose, Quaternion, SceneEntity, SceneEntityDeletion,
@@ -16,6 +15,7 @@ use foxglove::messages::{
 };
 use ipc_types::{HapticState, TreeKind};
 use nalgebra::{UnitQuaternion, Vector3 as V3};
+use scene::{Part, Primitive, Scene};
 
 /// The scene frame's name.
 pub const SCENE_FRAME: &str = "scene";

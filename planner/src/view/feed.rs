@@ -162,7 +162,7 @@ fn kind_of(position: usize) -> TreeKind {
 fn wire_node(tree: &Tree, tree_id: u32, index: u32) -> RoadmapNode {
     let n = tree.node(crate::tree::NodeId(index));
     RoadmapNode {
-        pose: crate::wire::pose(&n.config.to_isometry()),
+        pose: ipc_types::convert::pose(&n.config.to_isometry()),
         distance_to_goal: n.labels.distance_to_goal,
         tree_id,
         index,

@@ -78,8 +78,8 @@ fn rt_thread_allocates_nothing_over_6000_ticks_with_ipc_and_contact() {
         period_s: 1.0 / 2000.0,
     };
     let contact_config = ContactConfig::with_voxel_m(0.002);
-    let model = ContactModel::from_scene(&planner::Scene::wall_with_hole(), &contact_config.voxmap)
-        .unwrap();
+    let model =
+        ContactModel::from_scene(&scene::Scene::wall_with_hole(), &contact_config.voxmap).unwrap();
     let coupling = Coupling::from_spec(&SimulatedArmConfig::default().spec(), 1.0, 0.75);
     let stage = ContactStage::new(Arc::new(model), contact_config, coupling);
     let tick = Tick::new(arm, &config, guidance_source, state_writer)

@@ -8,5 +8,6 @@ static ALLOCATOR: CountingAllocator = CountingAllocator;
 
 mod alloc;
 mod devices;
+mod rt_deps;
 mod two_process;
 mod view;

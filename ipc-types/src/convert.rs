@@ -1,8 +1,8 @@
 //! Conversions between nalgebra values and the wire types of `ipc-types`
 //! (quaternions on the wire are `[x, y, z, w]`, nalgebra's storage order). The one place
-//! both processes convert; it lives here because both depend on this crate.
+//! both processes convert.
 
-use ipc_types::{Pose, Twist, Wrench};
+use crate::{Pose, Twist, Wrench};
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
 
 /// Wire pose of `iso`.

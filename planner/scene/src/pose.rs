@@ -1,10 +1,8 @@
 //! Rigid-body pose `Se3`: the configuration of the moving object and the placement of
 //! primitives.
 //!
-//! This module is plain data plus exact group operations. It knows nothing about
-//! metrics, sampling or collision (those live in [`crate::space`] and
-//! [`crate::collision`]), so that [`crate::scene`] and this file can move together into a
-//! crate shared with the haptic loop.
+//! This module is plain data plus exact group operations: metrics, sampling and collision
+//! are the planner's.
 //!
 //! Conventions: positions in metres; rotations are unit quaternions (nalgebra order
 //! `w, i, j, k` internally; files use roll–pitch–yaw, see [`Se3::from_rpy`]). A pose maps

@@ -1,6 +1,7 @@
 //! Timing histograms (HDR, nanosecond values from 1 ns to 100 s, 3 significant digits),
-//! summarised in µs for JSON reports: the planner's state latency and, through
-//! `haptic_loop::stats`, the haptic loop's timing. One implementation for both processes.
+//! summarised in µs for JSON reports: the planner's state latency and the haptic loop's
+//! timing. Here so that both processes share one implementation without depending on
+//! each other.
 
 use hdrhistogram::Histogram;
 use serde::Serialize;

@@ -1,25 +1,36 @@
-//! Scene description: static obstacles, the moving object, the bounds of its reference
-//! point, and the start and goal configurations.
+//! Planning scenes, shared by the haptic loop and the planner: static obstacles, the moving
+//! object, the bounds of its reference point, and the start and goal configurations.
 //!
 //! Frames and units: the scene frame is right-handed with Z up, lengths in metres, angles
 //! in radians. Obstacle poses are in the scene frame; moving-object part poses are in the
 //! object frame, whose origin is the object's *reference point* (the point that
 //! configurations and the bounds talk about).
 //!
-//! This module depends only on [`crate::pose`] (no planner internals) so that the haptic
-//! loop can share it. Validation here covers numbers, sizes and bounds; whether start and
-//! goal are collision free is checked by the caller that owns a collision checker
-//! (`Planner::new` does it).
+//! Code map:
+//! - this file: the model ([`Scene`], [`Part`], [`Primitive`], [`Bounds`]), validation,
+//!   [`SceneError`];
+//! - [`pose`]: the [`Se3`] pose type and rotation-vector helpers;
+//! - `file` / `mesh`: the TOML format (`planner/scenes/README.md`) and OBJ / STL meshes;
+//! - `builtin`: the papers' scenes, built in code ([`BUILTIN_NAMES`]); `export` writes
+//!   them as TOML + OBJ;
+//! - [`shapes`]: parry shapes of parts, the one conversion both processes use.
+//!
+//! Validation here covers numbers, sizes and bounds; whether start and goal are collision
+//! free is checked by the caller that owns a collision checker (`Planner::new` does it).
+#![warn(missing_docs)]
+#![deny(unsafe_code)]
 
 mod builtin;
 mod export;
 mod file;
 mod mesh;
+pub mod pose;
+pub mod shapes;
 
 pub use builtin::BUILTIN_NAMES;
 pub use mesh::{MeshData, MeshError};
+pub use pose::Se3;
 
-use crate::pose::Se3;
 use nalgebra::Vector3;
 use std::path::Path;
 use std::sync::Arc;

@@ -171,7 +171,7 @@ mod tests {
 
     #[test]
     fn shipped_scene_files_equal_the_embedded_scenes() {
-        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
         for name in BUILTIN_NAMES.iter().filter(|n| **n != "default") {
             let s = Scene::builtin(name).expect("builtin");
             let f = Scene::load(&dir.join(format!("{name}.toml")))

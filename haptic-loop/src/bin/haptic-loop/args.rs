@@ -1,0 +1,279 @@
+//! The command line of `haptic-loop`, and its validation into a [`LoopSetup`]. The only
+//! place that knows the flags.
+
+use anyhow::{Context, bail};
+use clap::Args;
+use devices::sim::{ScriptedUserConfig, SimulatedArmConfig};
+use haptic_loop::contact::ContactConfig;
+use haptic_loop::device_choice::{DeviceChoice, DeviceOptions};
+use haptic_loop::guidance::GuidanceConfig;
+use haptic_loop::rt::RtOptions;
+use haptic_loop::runner::RunnerConfig;
+use haptic_loop::safety::SafetyConfig;
+use haptic_loop::session::LoopSetup;
+use haptic_loop::session::scenario::{self, DEFAULT_SCALE, WORKSPACE_SHARE};
+use haptic_loop::tick::TickConfig;
+use ipc_types::services;
+use scene::Scene;
+use std::path::PathBuf;
+use std::str::FromStr;
+use std::time::Duration;
+
+/// Options of `haptic-loop run` and `haptic-loop demo`.
+#[derive(Debug, Args, Clone)]
+pub struct LoopArgs {
+    /// IPC namespace (service names `hrrtc/<namespace>/...`); the planner must use the same.
+    #[arg(long, default_value = services::DEFAULT_NAMESPACE)]
+    pub namespace: String,
+    /// Scene: a built-in name (`wall-hole` alias `default`, `maze`, `tunnels`,
+    /// `crossing-planes`, `silencer`, ...) or a TOML scene file.
+    #[arg(long, default_value = "wall-hole")]
+    pub scene: String,
+    /// Tick rate, Hz (500–4000).
+    #[arg(long, default_value_t = 1000.0)]
+    pub rate_hz: f64,
+    /// SCHED_FIFO priority of the RT thread, 1–99; 0 keeps the normal scheduler.
+    #[arg(long, default_value_t = 80)]
+    pub priority: u8,
+    /// Pin the RT thread to this CPU.
+    #[arg(long)]
+    pub cpu: Option<usize>,
+    /// Do not lock memory (mlockall).
+    #[arg(long)]
+    pub no_mlock: bool,
+    /// Spin this many µs before each deadline instead of sleeping (trades CPU for jitter).
+    #[arg(long, default_value_t = 0)]
+    pub spin_us: u64,
+    /// Scene metres per device metre [default: 3, or the smallest scale (to 0.1) that
+    /// fits the scene's start and goal into the arm's workspace].
+    #[arg(long)]
+    pub scale: Option<f64>,
+    /// Guidance fade after its time-to-live, ms.
+    #[arg(long, default_value_t = 200.0)]
+    pub fade_ms: f64,
+    /// Speed of the simulated operator's hand, m/s at the device.
+    #[arg(long, default_value_t = 0.02)]
+    pub user_speed: f64,
+    /// RMS amplitude of the simulated operator's tremor, m (0 = none).
+    #[arg(long, default_value_t = 0.0)]
+    pub tremor_m: f64,
+    /// Voxel size of the contact voxmap and pointshell spacing, mm (0.25–20).
+    #[arg(long, default_value_t = 1.0)]
+    pub voxel_mm: f64,
+    /// Render no contact: the object follows the hand through obstacles.
+    #[arg(long)]
+    pub no_contact: bool,
+    /// Write the summary as JSON here.
+    #[arg(long)]
+    pub summary_json: Option<PathBuf>,
+}
+
+/// Device options of `haptic-loop run`.
+#[derive(Debug, Args, Clone)]
+pub struct DeviceArgs {
+    /// Device: sim, spacemouse, dhd, openhaptics, bridge or replay:FILE.
+    #[arg(long, default_value = "sim", value_parser = DeviceChoice::from_str)]
+    pub device: DeviceChoice,
+    /// Vendor library for dhd / openhaptics (default: $HRRTC_DHD_LIB / $HRRTC_HD_LIB, else
+    /// libdhd.so / libHD.so on the loader path).
+    #[arg(long)]
+    pub device_lib: Option<PathBuf>,
+    /// Record device states and commanded wrenches to this MCAP file.
+    #[arg(long)]
+    pub record: Option<PathBuf>,
+}
+
+impl DeviceArgs {
+    /// The library's device options.
+    pub fn options(&self) -> DeviceOptions {
+        DeviceOptions {
+            device: self.device.clone(),
+            device_lib: self.device_lib.clone(),
+            record: self.record.clone(),
+        }
+    }
+}
+
+/// Options of `haptic-loop run`.
+#[derive(Debug, Args, Clone)]
+pub struct RunArgs {
+    /// Loop options.
+    #[command(flatten)]
+    pub common: LoopArgs,
+    /// Stop after this many seconds (default: until Ctrl-C / SIGTERM).
+    #[arg(long)]
+    pub duration_s: Option<f64>,
+    /// Device selection and recording.
+    #[command(flatten)]
+    pub device: DeviceArgs,
+}
+
+/// Options of `haptic-loop demo`.
+#[derive(Debug, Args, Clone)]
+pub struct DemoArgs {
+    /// Loop options.
+    #[command(flatten)]
+    pub common: LoopArgs,
+    /// Give up (exit code 1) when the planner has not solved within this many seconds.
+    #[arg(long, default_value_t = 120.0)]
+    pub time_limit_s: f64,
+    /// Keep running this long after the solution, so its guidance can be felt.
+    #[arg(long, default_value_t = 3.0)]
+    pub after_solve_s: f64,
+    /// Run at least this long, so the scripted operator reaches the wall.
+    #[arg(long, default_value_t = 8.0)]
+    pub min_run_s: f64,
+    /// Planner RNG seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// The planner's sampling method (`planner serve --sampling`). The default is I-RRT's
+    /// POS+CS: the scripted operator is no person and keeps pushing where its route says,
+    /// so H-RRT-C's contact mode (`hrrtc`, only samples on the contact plane while in
+    /// contact) would wait for it forever.
+    #[arg(long, default_value = "pos+cs",
+          value_parser = ["cs", "pos", "path", "pos+cs", "path+cs", "hrrtc"])]
+    pub sampling: String,
+    /// The planner executable [default: `planner` beside this executable].
+    #[arg(long)]
+    pub planner_exe: Option<PathBuf>,
+}
+
+/// Options of `haptic-loop devices`.
+#[derive(Debug, Args, Clone)]
+pub struct DevicesArgs {
+    /// Namespace in which to look for a bridged driver.
+    #[arg(long, default_value = services::DEFAULT_NAMESPACE)]
+    pub namespace: String,
+    /// Vendor library to probe for dhd / openhaptics (as for `run --device-lib`).
+    #[arg(long)]
+    pub device_lib: Option<PathBuf>,
+}
+
+/// `--namespace`, checked.
+pub fn namespace(ns: &str) -> anyhow::Result<()> {
+    services::validate_namespace(ns).map_err(|e| anyhow::anyhow!("--namespace: {e}"))
+}
+
+fn positive(name: &str, v: f64) -> anyhow::Result<f64> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        bail!("--{name} must be a finite number > 0, got {v}")
+    }
+}
+
+fn non_negative(name: &str, v: f64) -> anyhow::Result<f64> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        bail!("--{name} must be a finite number >= 0, got {v}")
+    }
+}
+
+/// A duration in seconds from `--name`, which must be finite and > 0.
+pub fn seconds(name: &str, v: f64) -> anyhow::Result<Duration> {
+    positive(name, v).map(Duration::from_secs_f64)
+}
+
+/// A duration in seconds from `--name`, which must be finite and >= 0.
+pub fn seconds_or_zero(name: &str, v: f64) -> anyhow::Result<Duration> {
+    non_negative(name, v).map(Duration::from_secs_f64)
+}
+
+impl LoopArgs {
+    /// Validates the arguments into a [`LoopSetup`].
+    pub fn to_setup(&self) -> anyhow::Result<LoopSetup> {
+        let scene = Scene::by_name_or_path(&self.scene)?;
+        if !(self.rate_hz.is_finite() && (500.0..=4000.0).contains(&self.rate_hz)) {
+            bail!("--rate-hz must be within 500–4000, got {}", self.rate_hz);
+        }
+        if self.priority > 99 {
+            bail!(
+                "--priority must be 0 (normal scheduler) or 1–99, got {}",
+                self.priority
+            );
+        }
+        let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
+        if let Some(cpu) = self.cpu
+            && cpu >= cpus
+        {
+            bail!(
+                "--cpu {cpu} does not exist: this machine has CPUs 0–{}",
+                cpus - 1
+            );
+        }
+        positive("fade-ms", self.fade_ms)?;
+        positive("user-speed", self.user_speed)?;
+        non_negative("tremor-m", self.tremor_m)?;
+        if self.spin_us * 1000 >= (1e9 / self.rate_hz) as u64 {
+            bail!("--spin-us {} is not shorter than the period", self.spin_us);
+        }
+        namespace(&self.namespace)?;
+        if !(self.voxel_mm.is_finite() && (0.25..=20.0).contains(&self.voxel_mm)) {
+            bail!("--voxel-mm must be within 0.25–20, got {}", self.voxel_mm);
+        }
+        let contact =
+            (!self.no_contact).then(|| ContactConfig::with_voxel_m(self.voxel_mm / 1000.0));
+        let arm = SimulatedArmConfig::default();
+        let radius = arm.workspace_radius_m;
+        let scale = match self.scale {
+            None => scenario::fitting_scale(&scene, radius),
+            Some(s) => {
+                positive("scale", s)?;
+                let reach = scenario::device_reach_m(&scene, s);
+                if reach > radius * WORKSPACE_SHARE {
+                    bail!(
+                        "--scale {s}: start and goal are {reach:.3} m from the device centre, \
+                         beyond the arm's {radius:.3} m workspace; use --scale {:.1} or more \
+                         (or leave --scale out to get the smallest that fits)",
+                        (scenario::smallest_fitting_scale(&scene, radius) * 10.0).ceil() / 10.0
+                    );
+                }
+                s
+            }
+        };
+        if scale != DEFAULT_SCALE && self.scale.is_none() {
+            tracing::info!(
+                "scale {scale}: the smallest (to 0.1) that fits scene '{}' into the arm's workspace",
+                scene.name
+            );
+        }
+        Ok(LoopSetup {
+            namespace: self.namespace.clone(),
+            scene_arg: self.scene.clone(),
+            runner: RunnerConfig {
+                rate_hz: self.rate_hz,
+                rt: RtOptions {
+                    fifo_priority: (self.priority > 0).then_some(self.priority),
+                    cpu: self.cpu,
+                    lock_memory: !self.no_mlock,
+                },
+                spin_ns: self.spin_us * 1000,
+                max_ticks: None,
+            },
+            tick: TickConfig {
+                mapping: scenario::mapping_config(&scene, scale),
+                guidance: GuidanceConfig {
+                    fade_s: self.fade_ms / 1000.0,
+                    ..GuidanceConfig::default()
+                },
+                safety: SafetyConfig::default(),
+                period_s: 1.0 / self.rate_hz,
+            },
+            scene,
+            arm,
+            user: ScriptedUserConfig {
+                linear_speed_m_per_s: self.user_speed,
+                tremor_amplitude_m: self.tremor_m,
+                ..ScriptedUserConfig::default()
+            },
+            contact,
+        })
+    }
+}
+
+/// Writes `value` as pretty JSON to `path`.
+pub fn write_json(path: &std::path::Path, value: &impl serde::Serialize) -> anyhow::Result<()> {
+    let text = serde_json::to_string_pretty(value)?;
+    std::fs::write(path, text + "\n").with_context(|| format!("cannot write {}", path.display()))
+}

@@ -1,0 +1,109 @@
+//! `haptic-loop demo`: the loop on the simulated arm with a scripted operator, the planner
+//! as a child process (the `planner` executable), progress each second and a summary. Exit
+//! code 0 when solved within the time limit, 1 when not, 130 when interrupted unsolved.
+
+use crate::args::{self, DemoArgs};
+use anyhow::Context;
+use haptic_loop::device_choice::DeviceChoice;
+use haptic_loop::session::{self, scenario};
+use std::path::PathBuf;
+use std::process::{Child, Command};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// The planner executable: `--planner-exe`, else `planner` in this executable's folder
+/// (where cargo builds both).
+fn planner_exe(given: Option<&PathBuf>) -> anyhow::Result<PathBuf> {
+    if let Some(p) = given {
+        anyhow::ensure!(
+            p.is_file(),
+            "--planner-exe {}: no such file; build it with `cargo build --release -p planner`",
+            p.display()
+        );
+        return Ok(p.clone());
+    }
+    let me = std::env::current_exe().context("cannot find the haptic-loop executable")?;
+    let dir = me
+        .parent()
+        .context("the haptic-loop executable has no folder")?;
+    let exe = dir.join("planner");
+    anyhow::ensure!(
+        exe.is_file(),
+        "the planner executable is not beside haptic-loop ({} is missing): build it with \
+         `cargo build --release -p planner` (or the same profile as haptic-loop), or give \
+         its path with --planner-exe",
+        exe.display()
+    );
+    Ok(exe)
+}
+
+/// Asks the planner to stop (SIGTERM), waits up to 5 s, then kills it.
+fn stop_planner(child: &mut Child) {
+    // SAFETY: kill(2) with a pid we spawned and still own (not yet reaped).
+    unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGTERM) };
+    let deadline = Instant::now() + Duration::from_secs(5);
+    while Instant::now() < deadline && matches!(child.try_wait(), Ok(None)) {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    if matches!(child.try_wait(), Ok(None)) {
+        let _ = child.kill();
+    }
+    let _ = child.wait();
+}
+
+/// Runs the command; see the module docs for the exit code.
+pub fn run(args: &DemoArgs, stop: &AtomicBool) -> anyhow::Result<i32> {
+    let setup = args.common.to_setup()?;
+    let limit = args::seconds("time-limit-s", args.time_limit_s)?;
+    let after = args::seconds_or_zero("after-solve-s", args.after_solve_s)?;
+    let min_run = args::seconds_or_zero("min-run-s", args.min_run_s)?;
+    let exe = planner_exe(args.planner_exe.as_ref())?;
+    // Build the voxmap before anything starts: it takes seconds at fine voxel sizes.
+    let contact = setup.contact_stage(&setup.arm.spec())?;
+    let arm = scenario::simulated_arm(&setup, &scenario::demo_route(&setup.scene))?;
+
+    let mut child = Command::new(&exe)
+        .args(["serve", "--namespace", &setup.namespace])
+        .args(["--scene", &setup.scene_arg])
+        .args(["--seed", &args.seed.to_string()])
+        .args(["--sampling", &args.sampling])
+        .spawn()
+        .with_context(|| format!("cannot start the planner process ({})", exe.display()))?;
+    tracing::info!(
+        "demo: haptic loop at {} Hz on the simulated arm, planner pid {}, scene '{}', time limit {} s",
+        setup.runner.rate_hz,
+        child.id(),
+        setup.scene.name,
+        args.time_limit_s
+    );
+
+    let mut planner_exited = false;
+    let end = session::run(
+        &setup,
+        Box::new(arm),
+        |e| DeviceChoice::Sim.open_error(e),
+        contact,
+        stop,
+        |watch, elapsed| {
+            if !planner_exited && let Ok(Some(status)) = child.try_wait() {
+                tracing::warn!(
+                    "demo: planner process exited ({status}); the loop goes on without guidance"
+                );
+                planner_exited = true;
+            }
+            match watch.solved_at() {
+                Some(t) => elapsed >= (t + after).max(min_run),
+                None => elapsed >= limit,
+            }
+        },
+    );
+    if !planner_exited {
+        stop_planner(&mut child);
+    }
+    let summary = end?.summary();
+    crate::finish(&summary, args.common.summary_json.as_deref())?;
+    if stop.load(Ordering::Acquire) && !summary.solved {
+        return Ok(130);
+    }
+    Ok(if summary.solved { 0 } else { 1 })
+}

@@ -1,0 +1,90 @@
+//! `haptic-loop`: the 1 kHz haptic loop's command line. Parses the arguments (`args`),
+//! validates them into a `LoopSetup`, and runs a command (`run`, `demo`, `devices`); the
+//! work is in the `haptic_loop` library.
+
+mod args;
+mod demo;
+mod devices;
+mod run;
+
+use anyhow::Context;
+use args::{DemoArgs, DevicesArgs, RunArgs};
+use clap::{Parser, Subcommand};
+use haptic_loop::alloc_count::CountingAllocator;
+use haptic_loop::session::Summary;
+use std::io::IsTerminal;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+// Counts the RT thread's allocations so every run reports them (one relaxed atomic add per
+// allocation on marked threads, one thread-local read otherwise).
+#[global_allocator]
+static ALLOCATOR: CountingAllocator = CountingAllocator;
+
+/// Hard-real-time haptic loop paired with an interactive motion planner.
+#[derive(Debug, Parser)]
+#[command(name = "haptic-loop", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Loop + planner process (the `planner` executable) + a simulated operator heading
+    /// for the hole; prints progress each second and a summary. Exit code 0 when solved
+    /// within the time limit.
+    Demo(DemoArgs),
+    /// Only the loop, on the simulated arm or a real device (--device); start a planner
+    /// yourself with `planner serve`. Runs until Ctrl-C / SIGTERM or --duration-s.
+    Run(RunArgs),
+    /// List attached devices (SpaceMouse, Force Dimension, OpenHaptics, bridged driver)
+    /// with their limits. Exit code 0, also when none is found.
+    Devices(DevicesArgs),
+}
+
+/// Logs to stderr (`RUST_LOG` overrides `info`), in colour only on a terminal.
+fn init_logging() {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_ansi(std::io::stderr().is_terminal())
+        .with_writer(std::io::stderr)
+        .try_init();
+}
+
+/// A flag set by SIGINT / SIGTERM.
+fn stop_on_signal() -> anyhow::Result<Arc<AtomicBool>> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let s = stop.clone();
+    ctrlc::set_handler(move || s.store(true, Ordering::Release))
+        .context("cannot install the SIGINT/SIGTERM handler")?;
+    Ok(stop)
+}
+
+/// Prints the summary and writes it as JSON when asked.
+fn finish(summary: &Summary, json: Option<&std::path::Path>) -> anyhow::Result<()> {
+    println!("{summary}");
+    match json {
+        Some(p) => args::write_json(p, summary),
+        None => Ok(()),
+    }
+}
+
+fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    init_logging();
+    let result = match cli.command {
+        Command::Demo(a) => stop_on_signal().and_then(|stop| demo::run(&a, &stop)),
+        Command::Run(a) => stop_on_signal().and_then(|stop| run::run(&a, &stop)),
+        Command::Devices(a) => devices::run(&a),
+    };
+    match result {
+        Ok(code) => std::process::ExitCode::from(code.clamp(0, 255) as u8),
+        Err(e) => {
+            eprintln!("haptic-loop: error: {e:#}");
+            std::process::ExitCode::from(2)
+        }
+    }
+}

@@ -1,0 +1,43 @@
+//! `haptic-loop run`: the loop on the simulated arm or a real device, with no planner of
+//! its own (start one with `planner serve`). Runs until Ctrl-C / SIGTERM or --duration-s.
+
+use crate::args::{self, RunArgs};
+use haptic_loop::device_choice;
+use haptic_loop::session::{self, scenario};
+use std::sync::atomic::AtomicBool;
+
+/// Runs the command; the exit code is 0.
+pub fn run(args: &RunArgs, stop: &AtomicBool) -> anyhow::Result<i32> {
+    let setup = args.common.to_setup()?;
+    let duration = args
+        .duration_s
+        .map(|d| args::seconds("duration-s", d))
+        .transpose()?;
+    let choice = &args.device.device;
+    let mut device = device_choice::build(&args.device.options(), &setup.namespace, || {
+        let route = scenario::demo_route(&setup.scene);
+        Ok(Box::new(scenario::simulated_arm(&setup, &route)?))
+    })?;
+    // Open now: a backend's limits are final only once open, and the contact coupling is
+    // sized from them. `Tick::new` opens it again, which the device trait allows.
+    device.open().map_err(|e| choice.open_error(e))?;
+    // Build the voxmap before anything starts: it takes seconds at fine voxel sizes.
+    let contact = setup.contact_stage(device.spec())?;
+    tracing::info!(
+        "haptic loop at {} Hz on {}, namespace '{}', scene '{}'",
+        setup.runner.rate_hz,
+        choice.name(),
+        setup.namespace,
+        setup.scene.name
+    );
+    let end = session::run(
+        &setup,
+        device,
+        |e| choice.open_error(e),
+        contact,
+        stop,
+        |_, elapsed| duration.is_some_and(|d| elapsed >= d),
+    )?;
+    crate::finish(&end.summary(), args.common.summary_json.as_deref())?;
+    Ok(0)
+}

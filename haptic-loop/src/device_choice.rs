@@ -1,0 +1,269 @@
+//! Which device the loop drives (`sim`, `spacemouse`, `dhd`, `openhaptics`, `bridge`,
+//! `replay:FILE`), building it with an optional recorder around it, and describing a
+//! device's limits. Errors name the device and what to check (permissions, library path,
+//! driver).
+
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+use devices::record::{Recorder, ReplayDevice};
+use devices::sdk::{dhd, hd, library_path};
+use devices::spacemouse::{SpaceMouse, SpaceMouseConfig};
+use devices::{DeviceError, DeviceSpec, HapticDevice};
+
+use crate::Error;
+use crate::bridge::{BridgeConfig, BridgeDevice};
+
+/// Which device the loop drives.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum DeviceChoice {
+    /// The simulated arm with the scripted operator.
+    Sim,
+    /// A 3Dconnexion SpaceMouse (rate control of an avatar).
+    SpaceMouse,
+    /// A Force Dimension device (or Novint Falcon) through libdhd.
+    Dhd,
+    /// A 3D Systems device through OpenHaptics libHD.
+    OpenHaptics,
+    /// A device served by an external driver over the bridge services.
+    Bridge,
+    /// A recorded session played back.
+    Replay(PathBuf),
+}
+
+/// A device name that is none of the choices.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown device {0:?}: expected sim, spacemouse, dhd, openhaptics, bridge or replay:FILE")]
+pub struct UnknownDevice(pub String);
+
+impl FromStr for DeviceChoice {
+    type Err = UnknownDevice;
+    fn from_str(s: &str) -> Result<Self, UnknownDevice> {
+        Ok(match s {
+            "sim" => DeviceChoice::Sim,
+            "spacemouse" => DeviceChoice::SpaceMouse,
+            "dhd" => DeviceChoice::Dhd,
+            "openhaptics" => DeviceChoice::OpenHaptics,
+            "bridge" => DeviceChoice::Bridge,
+            _ => match s.strip_prefix("replay:") {
+                Some(f) if !f.is_empty() => DeviceChoice::Replay(PathBuf::from(f)),
+                _ => return Err(UnknownDevice(s.to_owned())),
+            },
+        })
+    }
+}
+
+impl DeviceChoice {
+    /// A short name for messages.
+    pub fn name(&self) -> String {
+        match self {
+            DeviceChoice::Sim => "the simulated arm".into(),
+            DeviceChoice::SpaceMouse => "the SpaceMouse".into(),
+            DeviceChoice::Dhd => "the Force Dimension device (libdhd)".into(),
+            DeviceChoice::OpenHaptics => "the OpenHaptics device (libHD)".into(),
+            DeviceChoice::Bridge => "the bridged driver".into(),
+            DeviceChoice::Replay(p) => format!("the replay of {}", p.display()),
+        }
+    }
+
+    /// What to check when this device does not open.
+    fn hint(&self) -> &'static str {
+        match self {
+            DeviceChoice::Sim => "",
+            DeviceChoice::SpaceMouse => {
+                "check that it is plugged in (`haptic-loop devices`) and that you may open /dev/hidraw* (install devices/udev/70-hrrtc-devices.rules, re-plug)"
+            }
+            DeviceChoice::Dhd => {
+                "check USB and power, the udev rule (devices/udev/70-hrrtc-devices.rules), and that libdhd.so is on LD_LIBRARY_PATH or given with --device-lib / HRRTC_DHD_LIB"
+            }
+            DeviceChoice::OpenHaptics => {
+                "check that the Touch driver is installed and configured (Touch_Setup), and that libHD.so is on LD_LIBRARY_PATH or given with --device-lib / HRRTC_HD_LIB"
+            }
+            DeviceChoice::Bridge => {
+                "start the driver with the same --namespace, e.g. `cargo run -p haptic-loop --example bridge_driver -- --namespace NAME`"
+            }
+            DeviceChoice::Replay(_) => "check that the file is a recording made with --record",
+        }
+    }
+
+    /// The error for a device that failed to open, naming it and what to check.
+    pub fn open_error(&self, source: DeviceError) -> Error {
+        Error::Device {
+            device: self.name(),
+            source,
+            hint: self.hint(),
+        }
+    }
+
+    fn sdk_error(&self, source: devices::sdk::SdkError) -> Error {
+        Error::Sdk {
+            device: self.name(),
+            source,
+        }
+    }
+}
+
+/// The device, its vendor library and an optional recording.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DeviceOptions {
+    /// Which device.
+    pub device: DeviceChoice,
+    /// Vendor library for dhd / openhaptics (`None`: `$HRRTC_DHD_LIB` / `$HRRTC_HD_LIB`,
+    /// else `libdhd.so` / `libHD.so` on the loader path).
+    pub device_lib: Option<PathBuf>,
+    /// Record device states and commanded wrenches to this MCAP file.
+    pub record: Option<PathBuf>,
+}
+
+/// Builds the chosen device (not yet opened; `Tick::new` opens it). `sim` comes from the
+/// caller, which owns the simulated operator's set-up; `namespace` is the bridge's.
+pub fn build(
+    args: &DeviceOptions,
+    namespace: &str,
+    sim: impl FnOnce() -> Result<Box<dyn HapticDevice>, Error>,
+) -> Result<Box<dyn HapticDevice>, Error> {
+    let choice = &args.device;
+    let device: Box<dyn HapticDevice> = match choice {
+        DeviceChoice::Sim => sim()?,
+        DeviceChoice::SpaceMouse => Box::new(
+            SpaceMouse::new(SpaceMouseConfig::default()).map_err(|e| choice.open_error(e))?,
+        ),
+        DeviceChoice::Dhd => Box::new(
+            dhd::Dhd::load(dhd::DhdConfig {
+                library: vendor_library(args.device_lib.as_deref(), Sdk::Dhd),
+                ..dhd::DhdConfig::default()
+            })
+            .map_err(|e| choice.sdk_error(e))?,
+        ),
+        DeviceChoice::OpenHaptics => Box::new(
+            hd::Hd::load(hd::HdConfig {
+                library: vendor_library(args.device_lib.as_deref(), Sdk::Hd),
+                ..hd::HdConfig::default()
+            })
+            .map_err(|e| choice.sdk_error(e))?,
+        ),
+        DeviceChoice::Bridge => Box::new(
+            BridgeDevice::new(BridgeConfig::new(namespace)).map_err(|e| choice.open_error(e))?,
+        ),
+        DeviceChoice::Replay(p) => {
+            Box::new(ReplayDevice::from_file(p).map_err(|source| Error::Record {
+                what: format!("cannot use {}", choice.name()),
+                source,
+            })?)
+        }
+    };
+    match &args.record {
+        Some(p) => Ok(Box::new(Recorder::create(device, p).map_err(|source| {
+            Error::Record {
+                what: format!("cannot record to {}", p.display()),
+                source,
+            }
+        })?)),
+        None => Ok(device),
+    }
+}
+
+/// The vendor library of `sdk` to load: `explicit`, else the SDK's environment variable
+/// (`HRRTC_DHD_LIB`, `HRRTC_HD_LIB`), else the loader's default name.
+pub fn vendor_library(explicit: Option<&Path>, sdk: Sdk) -> PathBuf {
+    let (env, default) = match sdk {
+        Sdk::Dhd => (dhd::LIBRARY_ENV, dhd::LIBRARY_DEFAULT),
+        Sdk::Hd => (hd::LIBRARY_ENV, hd::LIBRARY_DEFAULT),
+    };
+    library_path(explicit.map(Path::to_path_buf), env, default)
+}
+
+/// A vendor SDK.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sdk {
+    /// Force Dimension's libdhd.
+    Dhd,
+    /// 3D Systems' OpenHaptics libHD.
+    Hd,
+}
+
+/// One line per limit of `spec`.
+pub fn describe(spec: &DeviceSpec) -> String {
+    let c = &spec.capabilities;
+    format!(
+        "    max force {:.2} N, max torque {:.2} N·m, stiffness ≤ {:.0} N/m, damping ≤ {:.1} N·s/m, workspace radius {:.3} m\n    outputs: {}{}; orientation input: {}; buttons: {}",
+        spec.max_force_n,
+        spec.max_torque_nm,
+        spec.max_stiffness_n_per_m,
+        spec.max_damping_n_s_per_m,
+        spec.workspace_radius_m,
+        if c.force_output {
+            "force"
+        } else {
+            "none (input only: the guidance force moves the avatar)"
+        },
+        if c.torque_output { " + torque" } else { "" },
+        if c.orientation_input { "yes" } else { "no" },
+        c.buttons
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn device_choices_parse_and_bad_ones_are_explained() {
+        assert_eq!("sim".parse::<DeviceChoice>(), Ok(DeviceChoice::Sim));
+        assert_eq!(
+            "openhaptics".parse::<DeviceChoice>(),
+            Ok(DeviceChoice::OpenHaptics)
+        );
+        assert_eq!(
+            "replay:/tmp/a.mcap".parse::<DeviceChoice>(),
+            Ok(DeviceChoice::Replay("/tmp/a.mcap".into()))
+        );
+        let e = "replay:".parse::<DeviceChoice>().unwrap_err().to_string();
+        assert!(e.contains("replay:FILE"));
+        let e = "phantom".parse::<DeviceChoice>().unwrap_err().to_string();
+        assert!(e.contains("\"phantom\"") && e.contains("spacemouse"));
+    }
+
+    #[test]
+    fn absent_devices_give_errors_naming_what_to_check() {
+        let args = |device, lib: Option<&str>| DeviceOptions {
+            device,
+            device_lib: lib.map(PathBuf::from),
+            record: None,
+        };
+        let no_sim = || -> Result<Box<dyn HapticDevice>, Error> { unreachable!("not sim") };
+        let e = build(
+            &args(DeviceChoice::Dhd, Some("/nonexistent/libdhd.so")),
+            "default",
+            no_sim,
+        )
+        .err()
+        .expect("no SDK here");
+        let text = e.to_string();
+        assert!(
+            text.contains("Force Dimension")
+                && text.contains("/nonexistent/libdhd.so")
+                && text.contains("LD_LIBRARY_PATH"),
+            "{text}"
+        );
+        let e = build(
+            &args(DeviceChoice::OpenHaptics, Some("/nonexistent/libHD.so")),
+            "default",
+            no_sim,
+        )
+        .err()
+        .expect("no SDK here");
+        assert!(e.to_string().contains("HRRTC_HD_LIB"));
+        let e = build(
+            &args(DeviceChoice::Replay("/nonexistent/r.mcap".into()), None),
+            "default",
+            no_sim,
+        )
+        .err()
+        .expect("no file");
+        assert!(e.to_string().contains("/nonexistent/r.mcap"));
+        let e = DeviceChoice::SpaceMouse
+            .open_error(DeviceError::OpenFailed("no 3Dconnexion SpaceMouse found"));
+        assert!(e.to_string().contains("hidraw"));
+    }
+}

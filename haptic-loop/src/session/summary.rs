@@ -1,0 +1,177 @@
+//! What a session reports at its end: printed as a table and written as JSON by
+//! `--summary-json`.
+
+use crate::runner::LoopReport;
+use crate::stats::Percentiles;
+use crate::tick::{GuidanceSource, StateSink, Tick};
+use devices::HapticDevice;
+use ipc_types::Guidance;
+use serde::Serialize;
+use std::fmt;
+
+use super::Watch;
+
+/// The summary of one session.
+#[derive(Debug, Clone, Serialize)]
+pub struct Summary {
+    /// The planner published a solution while the loop ran.
+    pub solved: bool,
+    /// Seconds from the loop's start to the first guidance sample that reported a solution.
+    pub time_to_solve_s: Option<f64>,
+    /// Waypoints of the received solution path.
+    pub path_waypoints: u64,
+    /// Weighted length of the received path.
+    pub path_length: Option<f64>,
+    /// Seconds the loop ran.
+    pub run_s: f64,
+    /// Ticks done.
+    pub ticks: u64,
+    /// Deadlines missed.
+    pub deadline_misses: u64,
+    /// Heap allocations per tick on the RT thread (`null` if not measured).
+    pub allocations_per_tick: Option<f64>,
+    /// Wake-up latency, µs.
+    pub wake_latency_us: Percentiles,
+    /// The loop's full report.
+    pub loop_report: LoopReport,
+    /// Planner iterations at the end (from its last guidance sample).
+    pub planner_iterations: u64,
+    /// Planner nodes at the end.
+    pub planner_nodes: u64,
+    /// Contact rendering figures; `null` when contact was off.
+    pub contact: Option<ContactSummary>,
+}
+
+/// What contact rendering did during a session.
+#[derive(Debug, Clone, Serialize)]
+pub struct ContactSummary {
+    /// Time spent in contact, s.
+    pub contact_s: f64,
+    /// Deepest penetration of the proxy into the scene, mm.
+    pub max_penetration_mm: f64,
+    /// Voxel size, mm.
+    pub voxel_mm: f64,
+    /// Pointshell points.
+    pub points: usize,
+    /// Voxmap memory, MB.
+    pub voxmap_mb: f64,
+    /// Voxmap build time, s.
+    pub voxmap_build_s: f64,
+}
+
+impl ContactSummary {
+    /// The contact figures of a finished `tick` (`None` without contact); `period_s` is the
+    /// tick period, s.
+    pub fn of<D: HapticDevice, G: GuidanceSource, S: StateSink>(
+        tick: &Tick<D, G, S>,
+        period_s: f64,
+    ) -> Option<Self> {
+        let model = tick.contact()?.model();
+        let report = model.voxmap().report();
+        Some(Self {
+            contact_s: tick.contact_ticks() as f64 * period_s,
+            max_penetration_mm: tick.max_penetration_m() * 1e3,
+            voxel_mm: report.voxel_m * 1e3,
+            points: model.pointshell().len(),
+            voxmap_mb: report.memory_bytes as f64 / 1e6,
+            voxmap_build_s: report.build_time.as_secs_f64(),
+        })
+    }
+}
+
+impl Summary {
+    /// The summary of a session: the loop's `report` over `run_s` seconds, what `watch` saw
+    /// of the planner, and the contact figures.
+    pub fn new(
+        report: LoopReport,
+        run_s: f64,
+        watch: &Watch,
+        contact: Option<ContactSummary>,
+    ) -> Self {
+        let guidance: Guidance = watch.newest_guidance();
+        let path = watch.path();
+        Self {
+            solved: watch.solved_at().is_some(),
+            time_to_solve_s: watch.solved_at().map(|d| d.as_secs_f64()),
+            path_waypoints: path.map_or(0, |p| p.0),
+            path_length: path.map(|p| p.1),
+            run_s,
+            ticks: report.ticks,
+            deadline_misses: report.deadline_misses,
+            allocations_per_tick: report.allocations_per_tick,
+            wake_latency_us: report.wake_latency_us,
+            planner_iterations: guidance.iterations,
+            planner_nodes: guidance.nodes,
+            loop_report: report,
+            contact,
+        }
+    }
+}
+
+impl fmt::Display for Summary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let w = &self.wake_latency_us;
+        let c = &self.loop_report.compute_us;
+        writeln!(
+            f,
+            "── summary ─────────────────────────────────────────────"
+        )?;
+        match (self.solved, self.time_to_solve_s) {
+            (true, Some(t)) => {
+                write!(f, "solved:            yes, after {t:.2} s")?;
+                match self.path_length {
+                    Some(len) => {
+                        writeln!(f, " ({} waypoints, length {len:.3})", self.path_waypoints)?
+                    }
+                    None => writeln!(f, " (no path received)")?,
+                }
+            }
+            _ => writeln!(f, "solved:            no")?,
+        }
+        writeln!(
+            f,
+            "planner:           {} iterations, {} nodes",
+            self.planner_iterations, self.planner_nodes
+        )?;
+        writeln!(
+            f,
+            "ticks:             {} in {:.1} s",
+            self.ticks, self.run_s
+        )?;
+        writeln!(
+            f,
+            "wake latency µs:   p50 {:.1}  p99 {:.1}  p99.9 {:.1}  max {:.1}",
+            w.p50, w.p99, w.p999, w.max
+        )?;
+        writeln!(
+            f,
+            "compute µs:        p50 {:.1}  p99 {:.1}  p99.9 {:.1}  max {:.1}",
+            c.p50, c.p99, c.p999, c.max
+        )?;
+        writeln!(f, "deadline misses:   {}", self.deadline_misses)?;
+        match &self.contact {
+            Some(c) => writeln!(
+                f,
+                "contact:           {:.2} s in contact, max penetration {:.3} mm ({} points, {} mm voxels)",
+                c.contact_s, c.max_penetration_mm, c.points, c.voxel_mm
+            )?,
+            None => writeln!(f, "contact:           off")?,
+        }
+        match self.allocations_per_tick {
+            Some(a) => writeln!(
+                f,
+                "allocations/tick:  {a} ({} on the RT thread)",
+                self.loop_report.rt_allocations.unwrap_or(0)
+            )?,
+            None => writeln!(
+                f,
+                "allocations/tick:  not measured (counting allocator not installed)"
+            )?,
+        }
+        write!(
+            f,
+            "real-time:         SCHED_FIFO {}, pinned {}, memory locked {}",
+            self.loop_report.fifo, self.loop_report.pinned, self.loop_report.memory_locked
+        )
+    }
+}
