@@ -41,8 +41,8 @@ fn state(c: &mut Criterion) {
 fn guidance(c: &mut Criterion) {
     let (node, _) = services::create_node("bench_ipc_guidance").expect("node");
     let ns = ns("guidance");
-    let publisher = services::guidance_publisher(&node, &ns).expect("publisher");
-    let subscriber = services::guidance_subscriber(&node, &ns).expect("subscriber");
+    let publisher = services::publisher::<ipc_types::Guidance>(&node, &ns).expect("publisher");
+    let subscriber = services::subscriber::<ipc_types::Guidance>(&node, &ns).expect("subscriber");
     let mut g = c.benchmark_group("ipc/guidance");
     g.warm_up_time(Duration::from_millis(500))
         .measurement_time(Duration::from_secs(2));

@@ -158,8 +158,12 @@ impl BridgeDevice {
                     let ports =
                         services::create_node(&format!("haptic_bridge_{}", std::process::id()))
                             .and_then(|(node, _)| {
-                                let sub = services::driver_state_subscriber(&node, &namespace)?;
-                                let publ = services::driver_command_publisher(&node, &namespace)?;
+                                let sub = services::subscriber::<ipc_types::DriverState>(
+                                    &node, &namespace,
+                                )?;
+                                let publ = services::publisher::<ipc_types::DriverCommand>(
+                                    &node, &namespace,
+                                )?;
                                 Ok((node, sub, publ))
                             });
                     let (_node, sub, publ) = match ports {

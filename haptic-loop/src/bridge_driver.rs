@@ -48,8 +48,8 @@ pub fn run(
         });
     }
     let (node, _) = services::create_node(&format!("example_driver_{}", std::process::id()))?;
-    let publ = services::driver_state_publisher(&node, namespace)?;
-    let sub = services::driver_command_subscriber(&node, namespace)?;
+    let publ = services::publisher::<ipc_types::DriverState>(&node, namespace)?;
+    let sub = services::subscriber::<ipc_types::DriverCommand>(&node, namespace)?;
     let arm_error = |source| Error::Device {
         device: "the simulated arm".into(),
         source,

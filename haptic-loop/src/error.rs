@@ -15,7 +15,7 @@ pub enum Error {
     #[error(transparent)]
     Ipc(#[from] ServiceError),
     /// The namespace's state blackboard already has a live writer.
-    #[error("{source}; is another haptic loop running on namespace '{namespace}'?")]
+    #[error("{source}; is another haptic loop running on this namespace ('{namespace}')?")]
     StateTaken {
         /// The IPC namespace.
         namespace: String,

@@ -57,7 +57,8 @@ impl Relay {
                     let sub =
                         services::create_node(&format!("haptic_relay_{}", std::process::id()))
                             .and_then(|(node, _)| {
-                                let sub = services::guidance_subscriber(&node, &namespace)?;
+                                let sub =
+                                    services::subscriber::<ipc_types::Guidance>(&node, &namespace)?;
                                 let listener = services::guidance_listener(&node, &namespace)?;
                                 Ok((sub, listener, node))
                             });
@@ -144,7 +145,7 @@ mod tests {
         // A poll period far longer than the wait below: only the event can deliver in time.
         let (relay, mut output) = Relay::spawn(&ns, Duration::from_secs(30)).unwrap();
         let (node, _) = services::create_node("relay_wake_planner").unwrap();
-        let publisher = services::guidance_publisher(&node, &ns).unwrap();
+        let publisher = services::publisher::<ipc_types::Guidance>(&node, &ns).unwrap();
         let event = services::guidance_notifier(&node, &ns).unwrap();
         // Let the relay enter its wait (it received nothing yet: no publisher existed).
         std::thread::sleep(Duration::from_millis(200));

@@ -108,6 +108,22 @@ fn pin_to_cpu(cpu: usize) -> std::io::Result<()> {
     }
 }
 
+/// The CPUs this thread may run on (its affinity mask), in increasing order.
+pub fn allowed_cpus() -> std::io::Result<Vec<usize>> {
+    // SAFETY: cpu_set_t is plain data; zeroed is its empty set.
+    let mut set: libc::cpu_set_t = unsafe { std::mem::zeroed() };
+    // SAFETY: `set` is a valid, writable cpu_set_t of the size passed; pid 0 is this thread.
+    let rc =
+        unsafe { libc::sched_getaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &mut set) };
+    if rc != 0 {
+        return Err(std::io::Error::last_os_error());
+    }
+    Ok((0..libc::CPU_SETSIZE as usize)
+        // SAFETY: every index is below CPU_SETSIZE.
+        .filter(|&cpu| unsafe { libc::CPU_ISSET(cpu, &set) })
+        .collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -130,9 +146,11 @@ mod tests {
 
     #[test]
     fn setup_reports_instead_of_failing() {
+        // A CPU of this process's set: CPU 0 need not be in it (taskset, cgroups).
+        let cpu = allowed_cpus().expect("affinity")[0];
         let opts = RtOptions {
             fifo_priority: Some(10),
-            cpu: Some(0),
+            cpu: Some(cpu),
             lock_memory: false,
         };
         let r = setup_current_thread(&opts);
@@ -140,7 +158,19 @@ mod tests {
         assert!(r.fifo || r.warnings.iter().any(|w| w.contains("SCHED_FIFO")));
         assert!(
             r.pinned,
-            "pinning to CPU 0 is always permitted: {:?}",
+            "pinning to allowed CPU {cpu} is permitted: {:?}",
+            r.warnings
+        );
+        // A CPU outside the set is reported, not fatal.
+        let r = setup_current_thread(&RtOptions {
+            fifo_priority: None,
+            cpu: Some(libc::CPU_SETSIZE as usize + 1),
+            lock_memory: false,
+        });
+        assert!(!r.pinned);
+        assert!(
+            r.warnings.iter().any(|w| w.contains("cannot pin")),
+            "{:?}",
             r.warnings
         );
     }

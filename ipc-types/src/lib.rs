@@ -171,21 +171,47 @@ pub fn sleep_until_ns(deadline_ns: u64) {
     }
 }
 
-/// Puts the calling thread under SCHED_FIFO at `priority` (1–99). Fails (with the reason)
-/// without `CAP_SYS_NICE` or an `rtprio` limit; the thread then keeps its scheduler.
-pub fn set_thread_fifo_priority(priority: u8) -> Result<(), String> {
+/// Why the calling thread could not get a SCHED_FIFO priority; it keeps its scheduler.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum PriorityError {
+    /// Not a SCHED_FIFO priority (1–99).
+    #[error("invalid SCHED_FIFO priority {priority}: {reason}")]
+    Invalid {
+        /// The priority asked for.
+        priority: u8,
+        /// Why it is invalid.
+        reason: String,
+    },
+    /// The kernel refused it: no `CAP_SYS_NICE` and no `rtprio` limit that allows it.
+    #[error("SCHED_FIFO priority {priority} not permitted ({reason})")]
+    NotPermitted {
+        /// The priority asked for.
+        priority: u8,
+        /// What the kernel said.
+        reason: String,
+    },
+}
+
+/// Puts the calling thread under SCHED_FIFO at `priority` (1–99). Fails without
+/// `CAP_SYS_NICE` or an `rtprio` limit; the thread then keeps its scheduler.
+pub fn set_thread_fifo_priority(priority: u8) -> Result<(), PriorityError> {
     use thread_priority::{
         RealtimeThreadSchedulePolicy, ThreadPriority, ThreadPriorityValue, ThreadSchedulePolicy,
         set_thread_priority_and_policy, thread_native_id,
     };
-    let value = ThreadPriorityValue::try_from(priority)
-        .map_err(|e| format!("invalid SCHED_FIFO priority {priority}: {e}"))?;
+    let value = ThreadPriorityValue::try_from(priority).map_err(|e| PriorityError::Invalid {
+        priority,
+        reason: e.to_string(),
+    })?;
     set_thread_priority_and_policy(
         thread_native_id(),
         ThreadPriority::Crossplatform(value),
         ThreadSchedulePolicy::Realtime(RealtimeThreadSchedulePolicy::Fifo),
     )
-    .map_err(|e| format!("SCHED_FIFO priority {priority} not permitted ({e:?})"))
+    .map_err(|e| PriorityError::NotPermitted {
+        priority,
+        reason: format!("{e:?}"),
+    })
 }
 
 /// Sets the calling thread's timer slack (how late the kernel may end its sleeps to batch

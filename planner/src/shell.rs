@@ -16,7 +16,7 @@
 
 use crate::view::feed::{FeedInfo, RoadmapFeed};
 use crate::{Planner, PlannerParams, Scene, Se3};
-use ipc_types::services::{self, GuidanceNotifier, GuidancePublisher, RoadmapPublisher};
+use ipc_types::services::{self, GuidanceNotifier, Publisher};
 use ipc_types::{Guidance, GuidanceMode, HapticState, Header, PATH_CAPACITY, Path, Pose};
 use serde::Serialize;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -132,11 +132,14 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
     if cleaned > 0 {
         tracing::info!("removed resources of {cleaned} dead iceoryx2 node(s)");
     }
-    let guidance = services::guidance_publisher(&node, &config.namespace)?;
+    let guidance = services::publisher::<ipc_types::Guidance>(&node, &config.namespace)?;
     let guidance_event = services::guidance_notifier(&node, &config.namespace)?;
-    let path_pub = services::path_publisher(&node, &config.namespace)?;
+    let path_pub = services::publisher::<ipc_types::Path>(&node, &config.namespace)?;
     let roadmap_pub = if config.roadmap_rate_hz > 0.0 {
-        Some(services::roadmap_publisher(&node, &config.namespace)?)
+        Some(services::publisher::<ipc_types::Roadmap>(
+            &node,
+            &config.namespace,
+        )?)
     } else {
         None
     };
@@ -428,7 +431,7 @@ fn make_guidance(
 /// Fills a loaned sample in place and sends it; false (and a debug log) when no sample
 /// could be loaned or sent: skipped, never waited for.
 fn publish_roadmap(
-    publisher: &RoadmapPublisher,
+    publisher: &Publisher<ipc_types::Roadmap>,
     feed: &mut RoadmapFeed,
     planner: &Planner,
     pid: u32,
@@ -462,7 +465,7 @@ fn publish_roadmap(
 }
 
 /// Sends `g` and wakes the loop's relay thread, which then hands it to the next tick.
-fn publish_guidance(publisher: &GuidancePublisher, event: &GuidanceNotifier, g: Guidance) {
+fn publish_guidance(publisher: &Publisher<Guidance>, event: &GuidanceNotifier, g: Guidance) {
     if let Err(e) = publisher.send_copy(g) {
         tracing::warn!("cannot publish guidance: {e:?}");
         return;

@@ -17,7 +17,7 @@ use crate::tick::{Tick, TickConfig};
 use devices::sim::{ScriptedUserConfig, SimulatedArmConfig};
 use devices::{DeviceSpec, HapticDevice};
 use ipc_types::Guidance;
-use ipc_types::services::{self, PathSubscriber, StateReader};
+use ipc_types::services::{self, ServiceError, StateReader, Subscriber};
 use scene::Scene;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -74,7 +74,7 @@ impl LoopSetup {
 /// the relay), the newest path, and when a solution was first reported.
 pub struct Watch {
     relay: Relay,
-    path_subscriber: PathSubscriber,
+    path_subscriber: Subscriber<ipc_types::Path>,
     path: Option<(u64, f64)>,
     solved_at: Option<Duration>,
     /// Keeps this process's iceoryx2 node alive as long as its ports.
@@ -183,9 +183,12 @@ pub fn run(
         tracing::info!("removed resources of {cleaned} dead iceoryx2 node(s)");
     }
     let state_writer =
-        services::state_writer(&node, &setup.namespace).map_err(|source| Error::StateTaken {
-            namespace: setup.namespace.clone(),
-            source,
+        services::state_writer(&node, &setup.namespace).map_err(|source| match source {
+            ServiceError::WriterTaken { .. } => Error::StateTaken {
+                namespace: setup.namespace.clone(),
+                source,
+            },
+            other => Error::Ipc(other),
         })?;
     let (relay, guidance_source) = Relay::spawn(&setup.namespace, Duration::from_millis(1))?;
     let progress = Progress {
@@ -194,7 +197,7 @@ pub fn run(
     };
     let mut watch = Watch {
         relay,
-        path_subscriber: services::path_subscriber(&node, &setup.namespace)?,
+        path_subscriber: services::subscriber::<ipc_types::Path>(&node, &setup.namespace)?,
         path: None,
         solved_at: None,
         _node: node,

@@ -8,9 +8,7 @@ use anyhow::Context as _;
 use foxglove::messages::{FrameTransforms, PointCloud, SceneEntityDeletion, SceneUpdate};
 use foxglove::websocket::{ChannelView, Client, ServerListener};
 use foxglove::{Channel, Context, McapWriterHandle, WebSocketServerHandle};
-use ipc_types::services::{
-    self, GuidanceSubscriber, Ipc, PathSubscriber, RoadmapSubscriber, StateFollower,
-};
+use ipc_types::services::{self, Ipc, StateFollower, Subscriber};
 use ipc_types::{ContactCode, Guidance, HapticState, monotonic_ns};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -134,9 +132,9 @@ pub struct Viewer {
     config: ViewConfig,
     _node: iceoryx2::node::Node<Ipc>,
     state: StateFollower,
-    guidance: GuidanceSubscriber,
-    path_sub: PathSubscriber,
-    roadmap: RoadmapSubscriber,
+    guidance: Subscriber<Guidance>,
+    path_sub: Subscriber<ipc_types::Path>,
+    roadmap: Subscriber<ipc_types::Roadmap>,
     ctx: Arc<Context>,
     channels: Channels,
     server: Option<WebSocketServerHandle>,
@@ -185,9 +183,9 @@ impl Viewer {
         }
         let ns = &config.namespace;
         let state = StateFollower::open(&node, ns)?;
-        let guidance = services::guidance_subscriber(&node, ns)?;
-        let path_sub = services::path_subscriber(&node, ns)?;
-        let roadmap = services::roadmap_subscriber(&node, ns)?;
+        let guidance = services::subscriber::<ipc_types::Guidance>(&node, ns)?;
+        let path_sub = services::subscriber::<ipc_types::Path>(&node, ns)?;
+        let roadmap = services::subscriber::<ipc_types::Roadmap>(&node, ns)?;
 
         let ctx = Context::new();
         let ch = |topic: &str| ctx.channel_builder(topic);

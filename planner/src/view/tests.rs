@@ -55,9 +55,11 @@ fn live_view_and_recording_match_the_planner() {
 
     let (node, _) = services::create_node("view_test").expect("node");
     let state_w = services::state_writer(&node, &ns).expect("state writer");
-    let roadmap_p = services::roadmap_publisher(&node, &ns).expect("roadmap publisher");
-    let path_p = services::path_publisher(&node, &ns).expect("path publisher");
-    let guidance_p = services::guidance_publisher(&node, &ns).expect("guidance publisher");
+    let roadmap_p =
+        services::publisher::<ipc_types::Roadmap>(&node, &ns).expect("roadmap publisher");
+    let path_p = services::publisher::<ipc_types::Path>(&node, &ns).expect("path publisher");
+    let guidance_p =
+        services::publisher::<ipc_types::Guidance>(&node, &ns).expect("guidance publisher");
 
     let config = ViewConfig {
         namespace: ns.clone(),

@@ -36,7 +36,7 @@ fn rt_thread_allocates_nothing_over_6000_ticks_with_ipc_and_contact() {
         std::thread::spawn(move || {
             let (node, _) = services::create_node("it_alloc_peer").unwrap();
             let reader = services::state_reader(&node, &ns).unwrap();
-            let publisher = services::guidance_publisher(&node, &ns).unwrap();
+            let publisher = services::publisher::<ipc_types::Guidance>(&node, &ns).unwrap();
             let mut seen = 0u64;
             let mut seq = 0u64;
             while !stop.load(Ordering::Acquire) {

@@ -193,14 +193,12 @@ impl LoopArgs {
                 self.priority
             );
         }
-        let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
-        if let Some(cpu) = self.cpu
-            && cpu >= cpus
-        {
-            bail!(
-                "--cpu {cpu} does not exist: this machine has CPUs 0–{}",
-                cpus - 1
-            );
+        if let Some(cpu) = self.cpu {
+            let allowed =
+                haptic_loop::rt::allowed_cpus().context("cannot read the CPU affinity")?;
+            if !allowed.contains(&cpu) {
+                bail!("--cpu {cpu} is not a CPU this process may run on (allowed: {allowed:?})");
+            }
         }
         positive("fade-ms", self.fade_ms)?;
         positive("user-speed", self.user_speed)?;
