@@ -107,8 +107,10 @@ fn guidance_reaches_the_arm_fades_on_planner_death_and_returns() {
     // (b) After the start-up ramp, commanded = F_s + the always-on damping of the moving
     // arm (−c·v, c = damping fraction × the arm's damping limit, device frame): the arm's
     // frame is the scene frame rotated by the start orientation (identity in the default
-    // scene) and the arm stays inside its workspace (no boundary force), so they agree
-    // within the force-rate limit's lag.
+    // scene) and the arm stays inside its workspace (no boundary force). What lies between
+    // that sum and the commanded wrench, saturation and the force-rate limit, does not act
+    // on millinewton forces that change by far less than the limit per tick: they agree
+    // to rounding, so a commanded wrench without F_s (about 2 mN here) fails.
     let c = haptic_loop::safety::SafetyConfig::default().damping_fraction
         * devices::sim::SimulatedArmConfig::default()
             .spec()
@@ -124,8 +126,16 @@ fn guidance_reaches_the_arm_fades_on_planner_death_and_returns() {
     let diff: Vec<f64> = (0..3)
         .map(|i| s.commanded_wrench.force_n[i] - expected[i])
         .collect();
+    eprintln!(
+        "(b) commanded {:?} N, F_s {:?} N, damping {:?} N, |difference| {:.2e} N",
+        s.commanded_wrench.force_n,
+        s.guidance_wrench.force_n,
+        v.map(|vi| -c * vi),
+        norm([diff[0], diff[1], diff[2]])
+    );
     assert!(
-        norm([diff[0], diff[1], diff[2]]) < 0.05 + 0.1 * norm(s.guidance_wrench.force_n),
+        norm([diff[0], diff[1], diff[2]])
+            <= 1e-9 + 1e-6 * norm([expected[0], expected[1], expected[2]]),
         "commanded {:?} vs F_s {:?} + damping {:?}",
         s.commanded_wrench.force_n,
         s.guidance_wrench.force_n,

@@ -17,20 +17,25 @@ const PHASES: usize = 3;
 /// What the loop did over one phase.
 #[derive(Debug, Clone, Copy)]
 struct Phase {
+    /// Stalls: readings (every 5 ms) at which the loop's deadline-miss count had grown.
+    /// A stall of the machine costs as many misses as it lasts in milliseconds (this VM's
+    /// wake-up floor reaches 15 ms), but counts once here; a loop coupled to the view would
+    /// stall with it again and again, or stop.
+    stalls: u64,
     /// Deadline misses over the phase.
     misses: u64,
     /// A fault was raised during the phase (seen going from none to a code).
     fault_raised: bool,
 }
 
-/// `PHASES` phases under one condition: the median miss count, and whether any phase
-/// raised a fault.
+/// `PHASES` phases under one condition: the median stall count (with its phase's misses),
+/// and whether any phase raised a fault.
 fn condition(state: &StateReader, name: &str) -> Phase {
     let mut phases: Vec<Phase> = (0..PHASES).map(|_| phase(state, name)).collect();
-    phases.sort_by_key(|p| p.misses);
+    phases.sort_by_key(|p| p.stalls);
     Phase {
-        misses: phases[PHASES / 2].misses,
         fault_raised: phases.iter().any(|p| p.fault_raised),
+        ..phases[PHASES / 2]
     }
 }
 
@@ -39,6 +44,8 @@ fn condition(state: &StateReader, name: &str) -> Phase {
 fn phase(state: &StateReader, name: &str) -> Phase {
     let first: HapticState = *state.get();
     let mut prev = first.fault;
+    let mut prev_misses = first.deadline_misses;
+    let mut stalls = 0;
     let mut fault_raised = false;
     let last = wait_for(
         &format!("{name}: {PHASE_TICKS} ticks"),
@@ -47,10 +54,13 @@ fn phase(state: &StateReader, name: &str) -> Phase {
             let s = *state.get();
             fault_raised |= prev == FaultCode::NONE && s.fault != FaultCode::NONE;
             prev = s.fault;
+            stalls += u64::from(s.deadline_misses > prev_misses);
+            prev_misses = s.deadline_misses;
             (s.header.sequence >= first.header.sequence + PHASE_TICKS).then_some(s)
         },
     );
     Phase {
+        stalls,
         misses: last.deadline_misses - first.deadline_misses,
         fault_raised,
     }
@@ -90,10 +100,9 @@ fn view(ns: &str, extra: &[&str]) -> Proc {
 
 /// Four conditions, three phases of 500 ticks each: no view (baseline), a view serving and
 /// recording, the view stopped (SIGSTOP: a view that never reads again), the view killed.
-/// Tolerance: a condition's median may miss the baseline's median again plus 2 % of the
-/// phase's ticks (this VM is shared with the other tests and other sessions, and misses
-/// come in bursts from that work), and no
-/// phase raises a fault unless a baseline phase did. The
+/// Tolerance: a condition's median may stall as often as the baseline's median again plus
+/// 2 % of the phase's ticks (this VM is shared with the other tests and other sessions),
+/// and no phase raises a fault unless a baseline phase did. The
 /// stopped and killed phases are always asserted (the view takes no CPU then); the
 /// running phase only when the loop ran SCHED_FIFO (otherwise the view's CPU competes
 /// with a normal-priority loop on two cores, which is scheduling, not coupling).
@@ -197,17 +206,15 @@ fn issue_8_a_slow_or_dead_view_changes_nothing_in_the_loop() {
         p["roadmap_publish_mean_us"].as_f64().unwrap(),
         p["roadmap_publish_max_us"].as_f64().unwrap()
     );
-    let tolerance = baseline.misses + PHASE_TICKS / 50;
+    let tolerance = baseline.stalls + PHASE_TICKS / 50;
     let mut checked = vec![("stopped", stopped), ("killed", killed)];
     if fifo {
         checked.push(("running", running));
     }
     for (name, p) in checked {
         assert!(
-            p.misses <= baseline.misses + tolerance,
-            "view {name}: {} misses vs baseline {}",
-            p.misses,
-            baseline.misses
+            p.stalls <= baseline.stalls + tolerance,
+            "view {name}: {p:?} vs baseline {baseline:?}"
         );
         assert!(
             !p.fault_raised || baseline.fault_raised,
