@@ -28,10 +28,15 @@ pub struct Found {
     pub path: String,
 }
 
-/// Lists attached SpaceMouse interfaces. An error means HID could not be listed at all
-/// (e.g. no `/sys/class/hidraw`), not that nothing was found.
-pub fn enumerate() -> Result<Vec<Found>, String> {
-    let api = HidApi::new().map_err(|e| format!("cannot list HID devices: {e}"))?;
+/// HID devices could not be listed at all (e.g. no `/sys/class/hidraw`); hidapi's reason.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("cannot list HID devices: {0}")]
+pub struct ListError(pub String);
+
+/// Lists attached SpaceMouse interfaces. An error means HID could not be listed at all,
+/// not that nothing was found.
+pub fn enumerate() -> Result<Vec<Found>, ListError> {
+    let api = HidApi::new().map_err(|e| ListError(e.to_string()))?;
     Ok(list(&api))
 }
 

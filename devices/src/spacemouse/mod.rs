@@ -24,7 +24,7 @@ use std::time::Duration;
 use triple_buffer::Output;
 
 pub use feed::{Feed, Snapshot};
-pub use hid::{ConnectError, Found, enumerate};
+pub use hid::{ConnectError, Found, ListError, enumerate};
 pub use rate::{AxisMap, RateConfig, RateControl};
 
 use crate::{Capabilities, DeviceError, DeviceSpec, DeviceState, HapticDevice, Wrench};
