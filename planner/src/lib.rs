@@ -22,7 +22,6 @@ pub mod cli;
 pub mod collision;
 pub mod experiment;
 pub mod guidance;
-pub mod pacing;
 pub mod params;
 pub mod path;
 pub mod picture;

@@ -3,8 +3,8 @@
 //!
 //! It only reads: the `HapticState` blackboard (pose, proxy, forces, contact), the
 //! `Guidance` and `Path` services, and the planner's `Roadmap` increments
-//! (`ipc_types::services::ROADMAP`, filled by [`feed::RoadmapFeed`] in the planner's main
-//! thread). Neither the haptic loop nor the planner waits for it: a blackboard reader is
+//! (`ipc_types::services::ROADMAP`, filled by `planner::shell::roadmap::RoadmapFeed` in the
+//! planner's main thread). Neither the haptic loop nor the planner waits for it: a blackboard reader is
 //! invisible to the writer, and the publish-subscribe services overflow safely. The view
 //! may start and stop at any time; a late view gets the whole roadmap from the rolling
 //! window within a few seconds.
@@ -28,7 +28,6 @@
 //! (`mcap merge`, or `planner view --merge`).
 
 pub mod draw;
-pub mod feed;
 pub mod model;
 mod run;
 #[cfg(test)]

@@ -205,8 +205,22 @@ impl RoadmapModel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::view::feed::tests::chain;
-    use crate::view::feed::{FeedInfo, RoadmapFeed};
+    use crate::Se3;
+    use crate::shell::roadmap::{FeedInfo, RoadmapFeed};
+    use crate::tree::{NodeId, Tree};
+
+    /// A tree of `n` nodes in a line along x at height `y`, 1 mm apart.
+    fn chain(n: usize, y: f64) -> Tree {
+        let mut t = Tree::new(Se3::from_xyz(0.0, y, 0.0), 1.0);
+        for i in 1..n {
+            t.add(
+                NodeId(i as u32 - 1),
+                Se3::from_xyz(i as f64 * 1e-3, y, 0.0),
+                1.0,
+            );
+        }
+        t
+    }
 
     fn info(pid: u32) -> FeedInfo {
         FeedInfo {

@@ -4,7 +4,7 @@
 //! bounded only so that a broken view fails instead of hanging.
 
 use super::{TOPICS, ViewConfig, ViewReport, Viewer};
-use crate::view::feed::{FeedInfo, RoadmapFeed};
+use crate::shell::roadmap::{FeedInfo, RoadmapFeed};
 use crate::{Planner, PlannerParams, Scene};
 use foxglove::Decode;
 use foxglove::messages::{PointCloud, SceneUpdate};

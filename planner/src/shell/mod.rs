@@ -2,7 +2,7 @@
 //!
 //! Threads:
 //! - *receiver*: polls the [`HapticState`] blackboard phase-locked to the loop's ticks
-//!   ([`crate::pacing::StatePacer`]: about one absolute-deadline wake-up per tick, just after
+//!   ([`pacing::StatePacer`]: about one absolute-deadline wake-up per tick, just after
 //!   the state is written; `state_poll_hz` until it has locked on), counts every new tick it
 //!   sees (and those it skipped, from sequence gaps), and keeps the newest operator pose for
 //!   the planning thread. Polling rather than an event: the haptic loop must not call
@@ -10,11 +10,14 @@
 //! - *main*: runs planner iterations as fast as they go and, independently of their speed,
 //!   publishes [`Guidance`] at `guidance_rate_hz`, the [`Path`] once solved, and roadmap
 //!   increments for viewers ([`ipc_types::Roadmap`], filled by
-//!   [`crate::view::feed::RoadmapFeed`]: O(1024) nodes per sample whatever the roadmap's
+//!   [`roadmap::RoadmapFeed`]: O(1024) nodes per sample whatever the roadmap's
 //!   size) at `roadmap_rate_hz`. Never waits for the haptic loop or a viewer: a roadmap
 //!   sample that cannot be loaned is skipped, and a full viewer queue overflows safely.
 
-use crate::view::feed::{FeedInfo, RoadmapFeed};
+pub mod pacing;
+pub mod roadmap;
+
+use roadmap::{FeedInfo, RoadmapFeed};
 use crate::{Planner, PlannerParams, Scene, Se3};
 use ipc_types::services::{self, GuidanceNotifier, GuidancePublisher, RoadmapPublisher};
 use ipc_types::{Guidance, GuidanceMode, HapticState, Header, PATH_CAPACITY, Path, Pose};
@@ -317,7 +320,7 @@ fn receive_states(
     };
     let mut last_seq = 0u64;
     let mut last_pid = 0u32;
-    let mut pacer = crate::pacing::StatePacer::new(poll_ns);
+    let mut pacer = pacing::StatePacer::new(poll_ns);
     // The pacer aims within microseconds; the default 50 µs timer slack would blur that.
     if !ipc_types::set_thread_timer_slack_ns(1_000) {
         tracing::debug!("cannot set the receiver's timer slack; its polls may be up to 50 µs late");
