@@ -19,23 +19,14 @@
 #![deny(unsafe_code)]
 
 pub mod cli;
-pub mod collision;
 pub mod experiment;
-pub mod guidance;
-pub mod params;
-pub mod path;
 pub mod picture;
-pub mod rrt;
-pub mod sampling;
 pub mod shell;
-pub mod space;
-pub mod tree;
 pub mod view;
 
-pub use collision::CollisionChecker;
-pub use params::{Algorithm, ExtendA, PlannerError, PlannerParams};
-pub use rrt::{Extend, IterReport, Planner, Source, Stats};
-pub use sampling::{Contact, Sampling, UserInput};
-pub use scene::pose::Se3;
-pub use scene::{Scene, SceneError};
-pub use space::{Combine, ConfigSpace, PlanarSpace, Se3Space, Space, Weights};
+pub use planner_core::{collision, guidance, params, path, rrt, sampling, space, tree};
+pub use planner_core::{
+    Algorithm, CollisionChecker, Combine, ConfigSpace, Contact, Extend, ExtendA, IterReport,
+    PlanarSpace, Planner, PlannerError, PlannerParams, Sampling, Scene, SceneError, Se3,
+    Se3Space, Source, Space, Stats, UserInput, Weights,
+};
