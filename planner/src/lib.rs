@@ -18,15 +18,14 @@
 #![warn(missing_docs)]
 #![deny(unsafe_code)]
 
-pub mod cli;
 pub mod experiment;
 pub mod picture;
 pub mod shell;
 pub mod view;
 
-pub use planner_core::{collision, guidance, params, path, rrt, sampling, space, tree};
 pub use planner_core::{
     Algorithm, CollisionChecker, Combine, ConfigSpace, Contact, Extend, ExtendA, IterReport,
-    PlanarSpace, Planner, PlannerError, PlannerParams, Sampling, Scene, SceneError, Se3,
-    Se3Space, Source, Space, Stats, UserInput, Weights,
+    PlanarSpace, Planner, PlannerError, PlannerParams, Sampling, Scene, SceneError, Se3, Se3Space,
+    Source, Space, Stats, UserInput, Weights,
 };
+pub use planner_core::{collision, guidance, params, path, rrt, sampling, space, tree};
