@@ -21,7 +21,6 @@
 pub mod experiment;
 pub mod picture;
 pub mod shell;
-pub mod view;
 
 pub use planner_core::{
     Algorithm, CollisionChecker, Combine, ConfigSpace, Contact, Extend, ExtendA, IterReport,

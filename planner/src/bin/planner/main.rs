@@ -11,6 +11,7 @@ mod serve;
 mod solve;
 mod view;
 
+use self::view::{MergeArgs, ViewArgs};
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 use experiment::ExperimentArgs;
@@ -21,7 +22,6 @@ use solve::SolveArgs;
 use std::io::IsTerminal;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use view::{MergeArgs, ViewArgs};
 
 /// Interactive motion planner (I-RRT / H-RRT-C) paired with the 1 kHz haptic loop.
 #[derive(Debug, Parser)]

@@ -2,11 +2,11 @@
 //! `planner merge-recordings`.
 
 use crate::common::{positive, positive_opt};
+use ::view::{ViewConfig, Viewer};
 use anyhow::bail;
 use clap::Args;
 use ipc_types::services;
 use planner::Scene;
-use planner::view::{ViewConfig, Viewer};
 use std::path::PathBuf;
 
 /// Options of `planner view`.
@@ -109,7 +109,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<i32> {
 
 /// Runs `planner merge-recordings`; the exit code is 0.
 pub fn merge(args: &MergeArgs) -> anyhow::Result<i32> {
-    let n = planner::view::merge_mcap(&args.inputs, &args.out)?;
+    let n = ::view::merge_mcap(&args.inputs, &args.out)?;
     println!("wrote {} messages to {}", n, args.out.display());
     Ok(0)
 }

@@ -141,7 +141,7 @@ impl RoadmapModel {
                 position_m: n.pose.position_m,
                 parent: n.parent,
                 distance_to_goal: n.distance_to_goal,
-                freedom: crate::tree::Labels {
+                freedom: planner_core::tree::Labels {
                     distance_to_goal: n.distance_to_goal,
                     extension_attempts: n.extension_attempts,
                     collisions: n.collisions,
@@ -205,9 +205,9 @@ impl RoadmapModel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Se3;
-    use crate::shell::roadmap::{FeedInfo, RoadmapFeed};
-    use crate::tree::{NodeId, Tree};
+    use planner::shell::roadmap::{FeedInfo, RoadmapFeed};
+    use planner_core::Se3;
+    use planner_core::tree::{NodeId, Tree};
 
     /// A tree of `n` nodes in a line along x at height `y`, 1 mm apart.
     fn chain(n: usize, y: f64) -> Tree {

@@ -1,4 +1,4 @@
-//! `planner view`: a separate process that shows the haptic session live over the Foxglove
+//! The live view (`planner view`): a separate process that shows the haptic session live over the Foxglove
 //! WebSocket protocol and can record the same channels to MCAP.
 //!
 //! It only reads: the `HapticState` blackboard (pose, proxy, forces, contact), the
@@ -26,6 +26,8 @@
 //! Log times are `CLOCK_MONOTONIC` ns, the time base of the device recording
 //! (`devices::record`), whose topics are under `/device/`: the two files merge into one
 //! (`mcap merge`, or `planner view --merge`).
+
+#![warn(missing_docs)]
 
 pub mod draw;
 pub mod model;

@@ -1,9 +1,8 @@
 //! The viewer process: subscribe, reassemble, log to the Foxglove context (WebSocket
 //! server and/or MCAP file). Reads the clock and does I/O: this is process shell, not core.
 
-use super::draw::{self, ForceScale};
-use super::model::{Removal, RoadmapModel};
-use crate::Scene;
+use crate::draw::{self, ForceScale};
+use crate::model::{Removal, RoadmapModel};
 use anyhow::Context as _;
 use foxglove::messages::{FrameTransforms, PointCloud, SceneEntityDeletion, SceneUpdate};
 use foxglove::websocket::{ChannelView, Client, ServerListener};
@@ -12,6 +11,7 @@ use ipc_types::services::{
     self, GuidanceSubscriber, Ipc, PathSubscriber, RoadmapSubscriber, StateFollower,
 };
 use ipc_types::{ContactCode, Guidance, HapticState, monotonic_ns};
+use scene::Scene;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::fs::File;
