@@ -18,8 +18,6 @@
 #![warn(missing_docs)]
 #![deny(unsafe_code)]
 
-pub mod experiment;
-pub mod picture;
 pub mod shell;
 
 pub use planner_core::{

@@ -65,7 +65,7 @@ pub struct ExperimentArgs {
 
 /// Runs `planner experiment`: the sweep, then runs.csv, summary.md and plots in `--out`.
 pub fn run(a: &ExperimentArgs) -> anyhow::Result<i32> {
-    use planner::experiment::{self as ex, report};
+    use lab::experiment::{self as ex, report};
     let limit = positive("time-limit", a.time_limit)?;
     if a.seeds == 0 {
         bail!("--seeds must be >= 1");

@@ -66,9 +66,9 @@ pub struct SolveReport {
 pub fn solve(args: &SolveArgs) -> anyhow::Result<SolveReport> {
     let (scene, params) = args.core.load()?;
     let limit = positive("time-limit", args.time_limit)?;
-    let color_by = planner::picture::ColorBy::parse(&args.png_color)
+    let color_by = lab::picture::ColorBy::parse(&args.png_color)
         .with_context(|| format!("--png-color: unknown `{}`", args.png_color))?;
-    let plane = planner::picture::Plane::parse(&args.png_plane)
+    let plane = lab::picture::Plane::parse(&args.png_plane)
         .with_context(|| format!("--png-plane: unknown `{}`", args.png_plane))?;
     let mut planner = Planner::new(&scene, params, args.core.seed)?;
     let started = Instant::now();
@@ -91,11 +91,11 @@ pub fn solve(args: &SolveArgs) -> anyhow::Result<SolveReport> {
         write(&args.path_json, planner::path::to_json(planner.space(), p))?;
     }
     if let Some(file) = &args.png {
-        if !planner::experiment::report::register_font() {
+        if !lab::register_font() {
             tracing::warn!("no TrueType font found (DejaVuSans.ttf): the PNG has no text");
         }
         let label = format!("{} seed {}", scene.name, args.core.seed);
-        planner::picture::draw_planner_png(
+        lab::picture::draw_planner_png(
             &scene,
             &planner,
             &label,

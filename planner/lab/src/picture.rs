@@ -8,9 +8,9 @@
 //! far away) or the collision label (green: extensions from the node made progress; red:
 //! they collided); the solution path is thick black, the operator's travelled path cyan.
 
-use crate::Se3;
-use crate::tree::Tree;
 use nalgebra::Vector3;
+use planner_core::Se3;
+use planner_core::tree::Tree;
 use plotters::prelude::*;
 use scene::{Part, Primitive, Scene};
 use std::path::Path;
@@ -188,7 +188,7 @@ fn convex_hull(mut pts: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
 /// (`size` = width, height in pixels), titled "`label`: N nodes, solved" (or "not solved").
 pub fn draw_planner_png(
     scene: &Scene,
-    planner: &crate::Planner,
+    planner: &planner_core::Planner,
     label: &str,
     color_by: ColorBy,
     plane: Plane,

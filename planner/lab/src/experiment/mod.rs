@@ -14,10 +14,10 @@
 pub mod report;
 pub mod user;
 
-use crate::params::PlannerParams;
-use crate::sampling::Sampling;
-use crate::space::path_length;
-use crate::{Planner, PlannerError};
+use planner_core::params::PlannerParams;
+use planner_core::sampling::Sampling;
+use planner_core::space::path_length;
+use planner_core::{Planner, PlannerError};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use scene::Scene;
