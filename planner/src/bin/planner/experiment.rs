@@ -1,9 +1,13 @@
 //! `planner experiment`: the papers' sweeps with a simulated operator in lockstep, then
-//! runs.csv, summary.md and plots.
+//! runs.csv, summary.md and plots. The options are validated into a [`SweepConfig`];
+//! [`Sweep`] does the work, this file shows its progress.
 
 use crate::common::positive;
 use anyhow::{Context, bail};
 use clap::Args;
+use lab::LabError;
+use lab::experiment::sweep::{Sweep, SweepConfig, SweepKind};
+use lab::experiment::{hrrtc_specs, irrt_specs};
 use std::path::PathBuf;
 
 /// Options of `planner experiment`.
@@ -63,46 +67,63 @@ pub struct ExperimentArgs {
     pub quiet: bool,
 }
 
-/// Runs `planner experiment`: the sweep, then runs.csv, summary.md and plots in `--out`.
-pub fn run(a: &ExperimentArgs) -> anyhow::Result<i32> {
-    use lab::experiment::{self as ex, report};
-    let limit = positive("time-limit", a.time_limit)?;
-    if a.seeds == 0 {
-        bail!("--seeds must be >= 1");
-    }
-    let specs = if a.sweep == "irrt" {
-        let methods = a
-            .methods
-            .iter()
-            .map(|m| {
-                planner::Sampling::parse(m, a.beta, 0.5)
-                    .with_context(|| format!("unknown method `{m}` in --methods"))
-            })
-            .collect::<anyhow::Result<Vec<_>>>()?;
-        ex::irrt_specs(&a.scene, &methods, &a.sigmas, &a.eps, a.seeds, limit)
-    } else {
-        ex::hrrtc_specs(
-            &a.scenes,
-            &a.alphas,
-            a.hrrtc_eps,
-            a.error_sigma,
-            a.local_trees,
-            a.seeds,
-            limit,
-        )
-    };
-    for s in &specs {
-        s.params.validate()?;
-        if scene::Scene::builtin(&s.scene).is_none() {
-            bail!("`{}` is not a built-in scene", s.scene);
+impl ExperimentArgs {
+    /// Validates the arguments into a [`SweepConfig`].
+    pub fn to_config(&self) -> anyhow::Result<SweepConfig> {
+        let time_limit_s = positive("time-limit", self.time_limit)?;
+        if self.seeds == 0 {
+            bail!("--seeds must be >= 1");
         }
+        let (kind, specs) = if self.sweep == "irrt" {
+            let methods = self
+                .methods
+                .iter()
+                .map(|m| {
+                    planner::Sampling::parse(m, self.beta, 0.5)
+                        .with_context(|| format!("unknown method `{m}` in --methods"))
+                })
+                .collect::<anyhow::Result<Vec<_>>>()?;
+            let specs = irrt_specs(
+                &self.scene,
+                &methods,
+                &self.sigmas,
+                &self.eps,
+                self.seeds,
+                time_limit_s,
+            );
+            (SweepKind::Irrt, specs)
+        } else {
+            let specs = hrrtc_specs(
+                &self.scenes,
+                &self.alphas,
+                self.hrrtc_eps,
+                self.error_sigma,
+                self.local_trees,
+                self.seeds,
+                time_limit_s,
+            );
+            (SweepKind::Hrrtc, specs)
+        };
+        Ok(SweepConfig {
+            kind,
+            specs,
+            seeds: self.seeds,
+            time_limit_s,
+            out: self.out.clone(),
+            pictures: self.pictures,
+        })
     }
-    std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("cannot create {}", a.out.display()))?;
+}
+
+/// Runs the command: the sweep with a progress bar, then prints the summary table and what
+/// was written. The exit code is 0; pictures and plots that cannot be drawn are reported
+/// and skipped.
+pub fn run(a: &ExperimentArgs) -> anyhow::Result<i32> {
+    let sweep = Sweep::new(a.to_config()?)?;
     let bar = if a.quiet {
         indicatif::ProgressBar::hidden()
     } else {
-        indicatif::ProgressBar::new(specs.len() as u64)
+        indicatif::ProgressBar::new(sweep.runs() as u64)
     };
     bar.set_style(
         indicatif::ProgressStyle::with_template(
@@ -110,40 +131,12 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<i32> {
         )
         .context("progress template")?,
     );
-    let pictures = a.pictures && report::register_font();
-    if a.pictures && !pictures {
+    if a.pictures && !sweep.pictures() {
         eprintln!("planner: no TrueType font found (DejaVuSans.ttf): pictures skipped");
     }
-    let roadmaps = a.out.join("roadmaps");
-    if pictures {
-        std::fs::create_dir_all(&roadmaps)
-            .with_context(|| format!("cannot create {}", roadmaps.display()))?;
-    }
-    let mut results = Vec::with_capacity(specs.len());
-    for s in &specs {
-        let png = (pictures && s.seed == 1).then(|| {
-            let method = match s.user {
-                ex::UserModel::None => "auto",
-                _ => s.params.sampling.name(),
-            };
-            roadmaps.join(format!(
-                "{}-{}-sigma{}-{}.png",
-                s.scene,
-                method.replace('+', "_"),
-                s.params.user_sigma,
-                match s.user {
-                    ex::UserModel::PassThrough { eps_v }
-                    | ex::UserModel::ContactSeeking { eps_v, .. } => format!("eps{eps_v}"),
-                    ex::UserModel::None => "auto".into(),
-                } + &match s.params.sampling {
-                    planner::Sampling::Hrrtc { alpha } => format!("-alpha{alpha}"),
-                    _ => String::new(),
-                }
-            ))
-        });
-        let (r, drawn) = ex::run_drawn(s, png.as_deref())?;
-        if let Err(e) = drawn {
-            eprintln!("planner: {e}");
+    let results = sweep.run(|r, not_drawn| {
+        if let Some(e) = not_drawn {
+            eprintln!("planner: {:#}", anyhow::Error::new(e));
         }
         bar.set_message(format!(
             "{} {} seed {}: {}",
@@ -157,36 +150,24 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<i32> {
             }
         ));
         bar.inc(1);
-        results.push(r);
-    }
+    })?;
     bar.finish();
-    let summaries = report::summarize(&results, limit);
-    let csv = a.out.join("runs.csv");
-    std::fs::write(&csv, report::to_csv(&results))?;
-    let md = a.out.join("summary.md");
-    let header = format!(
-        "# `planner experiment {}`: {} runs, {} seeds per configuration, {} s limit\n\n",
-        a.sweep,
-        results.len(),
-        a.seeds,
-        limit
+    let reports = sweep.write_reports(&results)?;
+    println!("{}", reports.markdown);
+    println!(
+        "wrote {} and {}",
+        reports.csv.display(),
+        reports.md.display()
     );
-    std::fs::write(&md, header + &report::to_markdown(&summaries))?;
-    println!("{}", report::to_markdown(&summaries));
-    println!("wrote {} and {}", csv.display(), md.display());
-    if report::register_font() {
-        let png = a.out.join(format!("{}.png", a.sweep));
-        let drawn = if a.sweep == "irrt" {
-            report::plot_irrt(&summaries, limit, &png)
-        } else {
-            report::plot_hrrtc(&summaries, limit, &png)
-        };
-        match drawn {
-            Ok(()) => println!("wrote {}", png.display()),
-            Err(e) => eprintln!("planner: cannot draw {}: {e}", png.display()),
+    match sweep.plot(&reports.summaries) {
+        Ok(png) => println!("wrote {}", png.display()),
+        Err(LabError::NoFont) => {
+            eprintln!("planner: no TrueType font found (DejaVuSans.ttf): plots skipped")
         }
-    } else {
-        eprintln!("planner: no TrueType font found (DejaVuSans.ttf): plots skipped");
+        Err(LabError::Draw { path, source }) => {
+            eprintln!("planner: cannot draw {}: {source}", path.display())
+        }
+        Err(e) => return Err(e.into()),
     }
     Ok(0)
 }
