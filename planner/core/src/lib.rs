@@ -33,7 +33,7 @@ pub mod tree;
 pub use collision::CollisionChecker;
 pub use params::{Algorithm, ExtendA, PlannerError, PlannerParams};
 pub use rrt::{Extend, IterReport, Planner, Source, Stats};
-pub use sampling::{Contact, Sampling, UserInput};
+pub use sampling::{Contact, Sampling, SamplingError, UserInput};
 pub use scene::pose::Se3;
 pub use scene::{Scene, SceneError};
 pub use space::{Combine, ConfigSpace, PlanarSpace, Se3Space, Space, Weights};

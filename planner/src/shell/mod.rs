@@ -15,11 +15,14 @@
 //!   sample that cannot be loaned is skipped, and a full viewer queue overflows safely.
 
 pub mod convert;
+mod error;
 pub mod pacing;
 mod receiver;
 pub mod roadmap;
 
 use crate::{Planner, PlannerParams, Scene, Se3};
+pub use error::ShellError;
+
 use convert::{se3, to_wire_path, user_input};
 use ipc_types::services::{self, GuidanceNotifier, GuidancePublisher, RoadmapPublisher};
 use ipc_types::{Guidance, GuidanceMode, Header};
@@ -117,7 +120,7 @@ pub struct ShellReport {
 }
 
 /// Runs the planner process until `stop` is set or the duration elapses.
-pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellReport> {
+pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> Result<ShellReport, ShellError> {
     let started = Instant::now();
     let node_name = format!("planner_{}", std::process::id());
     let (node, cleaned) = services::create_node(&node_name)?;
@@ -155,6 +158,10 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
                     tracing::warn!("state receiver: {e}; it keeps the normal scheduler");
                 }
                 receive_states(state_source, operator, &stop, poll_ns, spin_ns)
+            })
+            .map_err(|source| ShellError::Thread {
+                thread: "state receiver (planner-rx)",
+                source,
             })?
     };
 
