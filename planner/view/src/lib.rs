@@ -25,17 +25,21 @@
 //!
 //! Log times are `CLOCK_MONOTONIC` ns, the time base of the device recording
 //! (`devices::record`), whose topics are under `/device/`: the two files merge into one
-//! (`mcap merge`, or `planner view --merge`).
+//! (`mcap merge`, or [`merge_mcap`]: `planner merge-recordings`).
 
 #![warn(missing_docs)]
 
 pub mod draw;
+mod error;
+mod merge;
 pub mod model;
 mod run;
 #[cfg(test)]
 mod tests;
 
-pub use run::{ViewConfig, ViewReport, Viewer, merge_mcap};
+pub use error::ViewError;
+pub use merge::merge_mcap;
+pub use run::{ViewConfig, ViewReport, ViewStatus, Viewer};
 
 /// Every topic the view writes, in the order of the table above.
 pub const TOPICS: [&str; 9] = [

@@ -73,7 +73,7 @@ fn live_view_and_recording_match_the_planner() {
     let (port_tx, port_rx) = std::sync::mpsc::channel();
     let viewer = {
         let stop = stop.clone();
-        std::thread::spawn(move || -> anyhow::Result<ViewReport> {
+        std::thread::spawn(move || -> Result<ViewReport, crate::ViewError> {
             let v = Viewer::new(&config)?;
             let _ = port_tx.send(v.port());
             v.run(&stop)
