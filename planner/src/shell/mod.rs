@@ -1,4 +1,7 @@
-//! The planner process: IPC and timing around the pure [`Planner`] core.
+//! The planner process: IPC and timing around the pure [`Planner`] core. [`run`] opens the
+//! services, starts the receiver thread and runs the main loop until told to stop; what it
+//! did comes back as a [`ShellReport`]. Set-up failures are a [`ShellError`]; once running,
+//! nothing fails: what cannot be sent is logged and skipped.
 //!
 //! Threads:
 //! - *receiver*: polls the [`ipc_types::HapticState`] blackboard phase-locked to the loop's ticks
