@@ -1,42 +1,31 @@
-//! Core of the interactive motion planner (I-RRT / H-RRT-C): scenes, the SE(3)
-//! configuration space, collision checking with parry, trees with I-RRT labels,
-//! RRT-Connect, and the attractive pseudo-force F_a.
-//!
-//! The core is pure: deterministic for a seed and an input sequence, no I/O except
-//! explicit scene loading (`Scene::load`), no clock reads, no threads. The process shell
-//! (IPC, timing) lives outside these modules.
+//! The interactive motion planner (I-RRT / H-RRT-C) as a process next to the haptic loop:
+//! the pure planning core, re-exported from `planner-core` at the same paths, and the
+//! process shell around it.
 //!
 //! Code map:
-//! - [`space`]: weighted SE(3) distance (I-RRT eq. 2), interpolation, sampling, `delta`.
-//! - [`collision`]: parry compounds, `is_free`, `edge_free` at a stated resolution.
-//! - [`tree`]: tree arena, node labels, nearest / k-nearest, paths.
-//! - [`sampling`]: CS, POS, PATH, +CS, H-RRT-C authority sharing and HapticSampling.
-//! - [`rrt`]: RRT, RRT-Connect with I-RRT Extend and local trees, the `Planner` API.
-//! - [`path`]: shortcut smoothing, CSV / JSON export.
-//! - [`guidance`]: F_a (label-weighted barycenter) and solution-path following.
-//! - [`params`]: `PlannerParams` and `PlannerError`.
+//! - The core ([`space`], [`collision`], [`tree`], [`sampling`], [`rrt`] with the
+//!   [`Planner`] API, [`path`], [`guidance`], [`params`]): see `planner_core`. Pure:
+//!   deterministic for a seed and an input sequence, no clock reads, no I/O, no threads.
+//! - [`shell`]: the planner process. Its threads read the haptic state over iceoryx2
+//!   ([`shell::pacing`] decides when), iterate the planner and publish guidance, the
+//!   solution path and roadmap increments ([`shell::roadmap`]); [`shell::convert`] turns
+//!   wire types into core types and back at the edge. Configured by a validated
+//!   [`shell::ShellConfig`]; fails with [`shell::ShellError`].
+//!
+//! Architecture invariant: [`shell`] is the only part of this library that does IPC or
+//! reads the clock; the core is handed time and operator input as values.
+//!
+//! Around it, not in it: the binary (`src/bin/planner`: flags, logging, signals, exit
+//! codes), the live view (crate `view`) and the laboratory (crate `lab`: `solve`,
+//! experiments, pictures). This library holds no command-line code.
 #![warn(missing_docs)]
 #![deny(unsafe_code)]
 
-pub mod cli;
-pub mod collision;
-pub mod experiment;
-pub mod guidance;
-pub mod pacing;
-pub mod params;
-pub mod path;
-pub mod picture;
-pub mod rrt;
-pub mod sampling;
 pub mod shell;
-pub mod space;
-pub mod tree;
-pub mod view;
 
-pub use collision::CollisionChecker;
-pub use params::{Algorithm, ExtendA, PlannerError, PlannerParams};
-pub use rrt::{Extend, IterReport, Planner, Source, Stats};
-pub use sampling::{Contact, Sampling, UserInput};
-pub use scene::pose::Se3;
-pub use scene::{Scene, SceneError};
-pub use space::{Combine, ConfigSpace, PlanarSpace, Se3Space, Space, Weights};
+pub use planner_core::{
+    Algorithm, CollisionChecker, Combine, ConfigSpace, Contact, Extend, ExtendA, IterReport,
+    PlanarSpace, Planner, PlannerError, PlannerParams, Sampling, SamplingError, Scene, SceneError,
+    Se3, Se3Space, Source, Space, Stats, UserInput, Weights,
+};
+pub use planner_core::{collision, guidance, params, path, rrt, sampling, space, tree};

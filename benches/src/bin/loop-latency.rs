@@ -217,7 +217,7 @@ fn main() -> anyhow::Result<()> {
     };
     print_table(&out);
     if let Some(p) = &args.png {
-        if planner::experiment::report::register_font() {
+        if lab::register_font() {
             plot(
                 p,
                 &out,

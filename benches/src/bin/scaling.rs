@@ -148,7 +148,7 @@ fn main() -> anyhow::Result<()> {
         );
     }
     if let Some(dir) = &args.out_dir {
-        if planner::experiment::report::register_font() {
+        if lab::register_font() {
             let tick_png = dir.join("scaling-tick.png");
             scaling::plot_loglog(
                 &tick_png,

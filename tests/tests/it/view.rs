@@ -214,7 +214,11 @@ fn issue_8_a_slow_or_dead_view_changes_nothing_in_the_loop() {
     for (name, p) in checked {
         assert!(
             p.stalls <= baseline.stalls + tolerance,
-            "view {name}: {p:?} vs baseline {baseline:?}"
+            "view {name}: {} stalls ({} missed ticks) vs baseline {} stalls ({} missed ticks)",
+            p.stalls,
+            p.misses,
+            baseline.stalls,
+            baseline.misses
         );
         assert!(
             !p.fault_raised || baseline.fault_raised,

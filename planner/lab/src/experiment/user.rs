@@ -19,10 +19,10 @@
 //!   (our assumption, the benefit of force feedback that H-RRT-C §V.B reports over a 6-D
 //!   mouse; without it a simulated hand with a fixed error never enters a tight slot).
 
-use crate::collision::CollisionChecker;
-use crate::sampling::{Contact, UserInput};
-use crate::space::ConfigSpace;
 use nalgebra::{UnitQuaternion, Vector3};
+use planner_core::collision::CollisionChecker;
+use planner_core::sampling::{Contact, UserInput};
+use planner_core::space::ConfigSpace;
 use rand::{Rng, RngCore};
 use rand_distr::StandardNormal;
 use scene::pose::{Se3, exp_rotation};
@@ -257,7 +257,7 @@ pub fn keyframes(scene: &str) -> Option<Vec<Se3>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::space::{Space, Weights};
+    use planner_core::space::{Space, Weights};
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
     use scene::Scene;

@@ -12,12 +12,14 @@
 //! machine (the limit is wall-clock too, as in the papers).
 
 pub mod report;
+pub mod sweep;
 pub mod user;
 
-use crate::params::PlannerParams;
-use crate::sampling::Sampling;
-use crate::space::path_length;
-use crate::{Planner, PlannerError};
+use crate::LabError;
+use planner_core::Planner;
+use planner_core::params::PlannerParams;
+use planner_core::sampling::Sampling;
+use planner_core::space::path_length;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use scene::Scene;
@@ -91,7 +93,7 @@ pub struct RunResult {
 }
 
 /// Runs one experiment.
-pub fn run(spec: &RunSpec) -> Result<RunResult, PlannerError> {
+pub fn run(spec: &RunSpec) -> Result<RunResult, LabError> {
     run_drawn(spec, None).map(|(r, _)| r)
 }
 
@@ -101,11 +103,9 @@ pub fn run(spec: &RunSpec) -> Result<RunResult, PlannerError> {
 pub fn run_drawn(
     spec: &RunSpec,
     png: Option<&std::path::Path>,
-) -> Result<(RunResult, Result<(), String>), PlannerError> {
-    let scene = Scene::builtin(&spec.scene).ok_or_else(|| PlannerError::InvalidParam {
-        name: "scene",
-        reason: format!("`{}` is not a built-in scene", spec.scene),
-    })?;
+) -> Result<(RunResult, Result<(), LabError>), LabError> {
+    let scene =
+        Scene::builtin(&spec.scene).ok_or_else(|| LabError::UnknownScene(spec.scene.clone()))?;
     let mut planner = Planner::new(&scene, spec.params.clone(), spec.seed)?;
     let keyframes = user::keyframes(&spec.scene).unwrap_or_else(|| vec![scene.start, scene.goal]);
     // The operator's error has its own stream so that it does not depend on the planner.

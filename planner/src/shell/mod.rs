@@ -1,23 +1,36 @@
-//! The planner process: IPC and timing around the pure [`Planner`] core.
+//! The planner process: IPC and timing around the pure [`Planner`] core. [`run`] opens the
+//! services, starts the receiver thread and runs the main loop until told to stop; what it
+//! did comes back as a [`ShellReport`]. Set-up failures are a [`ShellError`]; once running,
+//! nothing fails: what cannot be sent is logged and skipped.
 //!
 //! Threads:
-//! - *receiver*: polls the [`HapticState`] blackboard phase-locked to the loop's ticks
-//!   ([`crate::pacing::StatePacer`]: about one absolute-deadline wake-up per tick, just after
+//! - *receiver*: polls the [`ipc_types::HapticState`] blackboard phase-locked to the loop's ticks
+//!   ([`pacing::StatePacer`]: about one absolute-deadline wake-up per tick, just after
 //!   the state is written; `state_poll_hz` until it has locked on), counts every new tick it
 //!   sees (and those it skipped, from sequence gaps), and keeps the newest operator pose for
 //!   the planning thread. Polling rather than an event: the haptic loop must not call
 //!   `notify()` from its RT thread (see `ipc_types::services`).
 //! - *main*: runs planner iterations as fast as they go and, independently of their speed,
-//!   publishes [`Guidance`] at `guidance_rate_hz`, the [`Path`] once solved, and roadmap
+//!   publishes [`Guidance`] at `guidance_rate_hz`, the [`ipc_types::Path`] once solved, and roadmap
 //!   increments for viewers ([`ipc_types::Roadmap`], filled by
-//!   [`crate::view::feed::RoadmapFeed`]: O(1024) nodes per sample whatever the roadmap's
+//!   [`roadmap::RoadmapFeed`]: O(1024) nodes per sample whatever the roadmap's
 //!   size) at `roadmap_rate_hz`. Never waits for the haptic loop or a viewer: a roadmap
 //!   sample that cannot be loaned is skipped, and a full viewer queue overflows safely.
 
-use crate::view::feed::{FeedInfo, RoadmapFeed};
+pub mod convert;
+mod error;
+pub mod pacing;
+mod receiver;
+pub mod roadmap;
+
 use crate::{Planner, PlannerParams, Scene, Se3};
+pub use error::ShellError;
+
+use convert::{se3, to_wire_path, user_input};
 use ipc_types::services::{self, GuidanceNotifier, Publisher};
-use ipc_types::{Guidance, GuidanceMode, HapticState, Header, PATH_CAPACITY, Path, Pose};
+use ipc_types::{Guidance, GuidanceMode, Header};
+use receiver::{Operator, lock, receive_states};
+use roadmap::{FeedInfo, RoadmapFeed};
 use serde::Serialize;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -109,23 +122,8 @@ pub struct ShellReport {
     pub roadmap_publish_max_us: f64,
 }
 
-/// The newest operator state as seen by the receiver thread.
-#[derive(Debug, Default, Clone, Copy)]
-struct Operator {
-    state: Option<HapticState>,
-    /// `Instant` of the last new state, for staleness.
-    seen_at: Option<Instant>,
-    received: u64,
-    skipped: u64,
-    rejected: u64,
-    first_at: Option<Instant>,
-    last_at: Option<Instant>,
-    /// Times the receiver switched to a restarted loop's state.
-    loop_generations: u64,
-}
-
 /// Runs the planner process until `stop` is set or the duration elapses.
-pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellReport> {
+pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> Result<ShellReport, ShellError> {
     let started = Instant::now();
     let node_name = format!("planner_{}", std::process::id());
     let (node, cleaned) = services::create_node(&node_name)?;
@@ -166,6 +164,10 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
                     tracing::warn!("state receiver: {e}; it keeps the normal scheduler");
                 }
                 receive_states(state_source, operator, &stop, poll_ns, spin_ns)
+            })
+            .map_err(|source| ShellError::Thread {
+                thread: "state receiver (planner-rx)",
+                source,
             })?
     };
 
@@ -295,95 +297,6 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> anyhow::Result<ShellR
     Ok(report)
 }
 
-fn lock(m: &Mutex<Operator>) -> std::sync::MutexGuard<'_, Operator> {
-    // The receiver never panics while holding the lock; recover the data if it ever did.
-    m.lock().unwrap_or_else(|p| p.into_inner())
-}
-
-/// What the state receiver measured (see [`ShellReport`]'s `state_latency_us` and
-/// `state_age_us`).
-struct StateLatency {
-    transport: ipc_types::latency::NsHistogram,
-    age: ipc_types::latency::NsHistogram,
-}
-
-fn receive_states(
-    mut source: services::StateFollower,
-    operator: Arc<Mutex<Operator>>,
-    stop: &AtomicBool,
-    poll_ns: u64,
-    spin_ns: u64,
-) -> StateLatency {
-    let mut latency = StateLatency {
-        transport: ipc_types::latency::NsHistogram::new(),
-        age: ipc_types::latency::NsHistogram::new(),
-    };
-    let mut last_seq = 0u64;
-    let mut last_pid = 0u32;
-    let mut pacer = crate::pacing::StatePacer::new(poll_ns);
-    // The pacer aims within microseconds; the default 50 µs timer slack would blur that.
-    if !ipc_types::set_thread_timer_slack_ns(1_000) {
-        tracing::debug!("cannot set the receiver's timer slack; its polls may be up to 50 µs late");
-    }
-    while !stop.load(Ordering::Acquire) {
-        let s = source.get();
-        let seq = s.header.sequence;
-        let restarted = s.header.writer_pid != last_pid;
-        let new_state = seq != 0 && (seq != last_seq || restarted);
-        match source.after_read(new_state) {
-            Ok(Some(generation)) => {
-                tracing::info!(
-                    "following the haptic state of a new loop (generation {generation})"
-                );
-                lock(&operator).loop_generations += 1;
-            }
-            Ok(None) => {}
-            Err(e) => tracing::warn!("cannot follow a restarted haptic loop: {e}"),
-        }
-        if new_state {
-            let now = ipc_types::monotonic_ns();
-            latency
-                .age
-                .record(now.saturating_sub(s.header.timestamp_ns));
-            // A loop older than the stamp publishes 0: nothing to measure.
-            if s.published_ns != 0 {
-                latency.transport.record(now.saturating_sub(s.published_ns));
-            }
-            let now = Instant::now();
-            let mut op = lock(&operator);
-            if !restarted && seq > last_seq + 1 && last_seq != 0 {
-                op.skipped += seq - last_seq - 1;
-            }
-            if s.user_pose.is_valid() {
-                op.state = Some(s);
-                op.seen_at = Some(now);
-            } else {
-                op.rejected += 1;
-            }
-            op.received += 1;
-            op.first_at.get_or_insert(now);
-            op.last_at = Some(now);
-            last_seq = seq;
-            last_pid = s.header.writer_pid;
-        }
-        let stamp = new_state.then_some((seq, s.header.timestamp_ns));
-        let next = pacer.next_poll(ipc_types::monotonic_ns(), stamp);
-        if spin_ns > 0 && pacer.predicted() {
-            // Wake a little early and watch the entry until the state comes or the window
-            // closes: the state is read within a microsecond of its write, for about
-            // 2 × `spin_ns` of CPU per tick.
-            ipc_types::sleep_until_ns(next.saturating_sub(spin_ns));
-            let end = next + spin_ns;
-            while source.get().header.sequence == seq && ipc_types::monotonic_ns() < end {
-                std::hint::spin_loop();
-            }
-        } else {
-            ipc_types::sleep_until_ns(next);
-        }
-    }
-    latency
-}
-
 fn make_guidance(
     config: &ShellConfig,
     planner: &Planner,
@@ -473,99 +386,5 @@ fn publish_guidance(publisher: &Publisher<Guidance>, event: &GuidanceNotifier, g
     // Without the wake-up the relay still polls: a failed notification only costs latency.
     if let Err(e) = event.notify() {
         tracing::debug!("cannot notify the guidance event: {e:?}");
-    }
-}
-
-/// The operator input of one haptic state: `q_user` from `user_pose`, and contact (H-RRT-C
-/// contact mode) while the loop reports `ContactCode::CONTACT` with a unit normal. `None`
-/// when the pose is invalid.
-pub fn user_input(s: &HapticState) -> Option<crate::UserInput> {
-    let q_user = se3(&s.user_pose)?;
-    let v = |a: [f64; 3]| nalgebra::Vector3::new(a[0], a[1], a[2]);
-    let normal = v(s.contact_normal);
-    let finite = [
-        s.contact_normal,
-        s.contact_point_m,
-        s.operator_force_n,
-        s.displacement_m,
-    ]
-    .iter()
-    .flatten()
-    .all(|x| x.is_finite());
-    let contact = (s.contact == ipc_types::ContactCode::CONTACT
-        && finite
-        && (normal.norm() - 1.0).abs() < 1e-3)
-        .then(|| {
-            Some(crate::Contact {
-                point_m: v(s.contact_point_m),
-                normal,
-                force_n: v(s.operator_force_n),
-                displacement_m: v(s.displacement_m),
-                proxy: se3(&s.proxy_pose)?,
-            })
-        })
-        .flatten();
-    Some(crate::UserInput { q_user, contact })
-}
-
-/// The planner's pose type from a wire pose; `None` if invalid.
-pub fn se3(p: &Pose) -> Option<Se3> {
-    ipc_types::convert::isometry(p).map(|iso| Se3::from_isometry(&iso))
-}
-
-/// The wire pose of a planner pose.
-pub fn pose(q: &Se3) -> Pose {
-    ipc_types::convert::pose(&q.to_isometry())
-}
-
-/// The solution as a wire [`Path`], resampled to at most [`PATH_CAPACITY`] waypoints by
-/// keeping evenly spaced ones (always the first and the last).
-fn to_wire_path(sol: &[Se3], planner: &Planner, seq: u64, pid: u32) -> Path {
-    let mut path = Path::EMPTY;
-    let n = sol.len();
-    let keep = n.min(PATH_CAPACITY);
-    for i in 0..keep {
-        let src = if keep <= 1 {
-            0
-        } else {
-            i * (n - 1) / (keep - 1)
-        };
-        path.waypoints[i] = pose(&sol[src]);
-    }
-    path.len = keep as u64;
-    path.length = crate::space::path_length(planner.space(), sol);
-    path.header = Header {
-        sequence: seq,
-        timestamp_ns: ipc_types::monotonic_ns(),
-        writer_pid: pid,
-        reserved: 0,
-    };
-    path
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn contact_state_becomes_contact_input() {
-        let mut s = HapticState::default();
-        let q = Se3::from_xyz(0.1, 0.0, 0.0);
-        s.user_pose = pose(&q);
-        s.proxy_pose = pose(&Se3::from_xyz(0.09, 0.0, 0.0));
-        let free = user_input(&s).expect("valid");
-        assert!(free.contact.is_none() && (free.q_user.pos - q.pos).norm() < 1e-12);
-        s.contact = ipc_types::ContactCode::CONTACT;
-        s.contact_normal = [-1.0, 0.0, 0.0];
-        s.operator_force_n = [3.0, 0.0, 0.0];
-        s.displacement_m = [0.0, 0.001, 0.0];
-        let c = user_input(&s).expect("valid").contact.expect("contact");
-        assert_eq!(c.force_n.x, 3.0);
-        assert!((c.proxy.pos.x - 0.09).abs() < 1e-12);
-        // A zero normal (not yet filled) or NaN is no contact.
-        s.contact_normal = [0.0; 3];
-        assert!(user_input(&s).expect("valid").contact.is_none());
-        s.contact_normal = [f64::NAN, 0.0, 0.0];
-        assert!(user_input(&s).expect("valid").contact.is_none());
     }
 }

@@ -127,9 +127,9 @@ impl PlannerParams {
         }
         self.sampling
             .validate()
-            .map_err(|reason| PlannerError::InvalidParam {
+            .map_err(|e| PlannerError::InvalidParam {
                 name: "sampling",
-                reason,
+                reason: e.to_string(),
             })?;
         let c = &self.contact;
         pos("contact.area_per_newton_m2", c.area_per_newton_m2)?;

@@ -78,20 +78,31 @@ impl Sampling {
         }
     }
 
-    /// `Err(reason)` when β ≤ 1 or α outside [0, 1].
-    pub fn validate(&self) -> Result<(), String> {
+    /// Checks β (finite, >= 1) and α (in [0, 1]).
+    pub fn validate(&self) -> Result<(), SamplingError> {
         match *self {
             Sampling::Pos { beta: Some(b) } | Sampling::Path { beta: Some(b) }
                 if !(b.is_finite() && b >= 1.0) =>
             {
-                Err(format!("beta must be finite and >= 1, got {b}"))
+                Err(SamplingError::Beta(b))
             }
             Sampling::Hrrtc { alpha } if !(0.0..=1.0).contains(&alpha) => {
-                Err(format!("alpha must be in [0, 1], got {alpha}"))
+                Err(SamplingError::Alpha(alpha))
             }
             _ => Ok(()),
         }
     }
+}
+
+/// Why a [`Sampling`] is out of range ([`Sampling::validate`]).
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum SamplingError {
+    /// β of a +CS method is below 1 or not finite (one sample in β is uniform).
+    #[error("beta must be finite and >= 1, got {0}")]
+    Beta(f64),
+    /// α of H-RRT-C is outside [0, 1] (it is a probability).
+    #[error("alpha must be in [0, 1], got {0}")]
+    Alpha(f64),
 }
 
 /// Contact state as the haptic loop reports it (scene frame).

@@ -5,8 +5,7 @@
 //! `user_pose`) and `proxy` (the proxy object), the last two given by
 //! [`frame_transforms`].
 
-use super::model::{CHUNK_NODES, RoadmapModel};
-use crate::Se3;
+use crate::model::{CHUNK_NODES, RoadmapModel};
 use foxglove::messages::{
     ArrowPrimitive, Color, CubePrimitive, FrameTransform, FrameTransforms, LinePrimitive,
     PackedElementField, Point3, PointCloud, Pose, Quaternion, SceneEntity, SceneEntityDeletion,
@@ -15,6 +14,7 @@ use foxglove::messages::{
 };
 use ipc_types::{HapticState, TreeKind};
 use nalgebra::{UnitQuaternion, Vector3 as V3};
+use scene::pose::Se3;
 use scene::{Part, Primitive, Scene};
 
 /// The scene frame's name.

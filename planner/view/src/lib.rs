@@ -1,10 +1,10 @@
-//! `planner view`: a separate process that shows the haptic session live over the Foxglove
+//! The live view (`planner view`): a separate process that shows the haptic session live over the Foxglove
 //! WebSocket protocol and can record the same channels to MCAP.
 //!
 //! It only reads: the `HapticState` blackboard (pose, proxy, forces, contact), the
 //! `Guidance` and `Path` services, and the planner's `Roadmap` increments
-//! (`ipc_types::services::ROADMAP`, filled by [`feed::RoadmapFeed`] in the planner's main
-//! thread). Neither the haptic loop nor the planner waits for it: a blackboard reader is
+//! (`ipc_types::services::ROADMAP`, filled by `planner::shell::roadmap::RoadmapFeed` in the
+//! planner's main thread). Neither the haptic loop nor the planner waits for it: a blackboard reader is
 //! invisible to the writer, and the publish-subscribe services overflow safely. The view
 //! may start and stop at any time; a late view gets the whole roadmap from the rolling
 //! window within a few seconds.
@@ -25,16 +25,21 @@
 //!
 //! Log times are `CLOCK_MONOTONIC` ns, the time base of the device recording
 //! (`devices::record`), whose topics are under `/device/`: the two files merge into one
-//! (`mcap merge`, or `planner view --merge`).
+//! (`mcap merge`, or [`merge_mcap`]: `planner merge-recordings`).
+
+#![warn(missing_docs)]
 
 pub mod draw;
-pub mod feed;
+mod error;
+mod merge;
 pub mod model;
 mod run;
 #[cfg(test)]
 mod tests;
 
-pub use run::{ViewConfig, ViewReport, Viewer, merge_mcap};
+pub use error::ViewError;
+pub use merge::merge_mcap;
+pub use run::{ViewConfig, ViewReport, ViewStatus, Viewer};
 
 /// Every topic the view writes, in the order of the table above.
 pub const TOPICS: [&str; 9] = [

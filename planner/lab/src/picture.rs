@@ -1,6 +1,6 @@
 //! Pictures without a viewer: a projection of the scene, the roadmap coloured by an I-RRT
 //! label and the paths onto a coordinate plane (top-down x–y by default), like I-RRT
-//! Fig. 9. Drawn with plotters into a PNG; text needs [`crate::experiment::report::register_font`].
+//! Fig. 9. Drawn with plotters into a PNG; text needs [`crate::register_font`].
 //!
 //! Obstacles are filled grey shapes (the projected outline of each box, sphere or mesh
 //! triangle); edges are thin lines in their tree's colour (start blue, goal green, local
@@ -8,9 +8,10 @@
 //! far away) or the collision label (green: extensions from the node made progress; red:
 //! they collided); the solution path is thick black, the operator's travelled path cyan.
 
-use crate::Se3;
-use crate::tree::Tree;
+use crate::LabError;
 use nalgebra::Vector3;
+use planner_core::Se3;
+use planner_core::tree::Tree;
 use plotters::prelude::*;
 use scene::{Part, Primitive, Scene};
 use std::path::Path;
@@ -188,13 +189,13 @@ fn convex_hull(mut pts: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
 /// (`size` = width, height in pixels), titled "`label`: N nodes, solved" (or "not solved").
 pub fn draw_planner_png(
     scene: &Scene,
-    planner: &crate::Planner,
+    planner: &planner_core::Planner,
     label: &str,
     color_by: ColorBy,
     plane: Plane,
     file: &Path,
     size: (u32, u32),
-) -> Result<(), String> {
+) -> Result<(), LabError> {
     let solved = if planner.solved() {
         "solved"
     } else {
@@ -213,9 +214,12 @@ pub fn draw_planner_png(
     draw_png(&pic, file, size.0, size.1)
 }
 
-/// Draws `pic` into a `width`×`height` PNG at `file`. Errors name what failed.
-pub fn draw_png(pic: &Picture<'_>, file: &Path, width: u32, height: u32) -> Result<(), String> {
-    draw(pic, file, width, height).map_err(|e| format!("{}: cannot draw: {e}", file.display()))
+/// Draws `pic` into a `width`×`height` PNG at `file`. The error names the file.
+pub fn draw_png(pic: &Picture<'_>, file: &Path, width: u32, height: u32) -> Result<(), LabError> {
+    draw(pic, file, width, height).map_err(|source| LabError::Draw {
+        path: file.to_path_buf(),
+        source,
+    })
 }
 
 fn draw(
@@ -223,7 +227,7 @@ fn draw(
     file: &Path,
     width: u32,
     height: u32,
-) -> Result<(), Box<dyn std::error::Error>> {
+) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     let plane = pic.plane;
     let scene = pic.scene;
     // Plot range: the bounds of the reference point grown by the object's reach, and a

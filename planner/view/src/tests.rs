@@ -3,13 +3,13 @@
 //! recording of the same run is read back. No wall-clock timing is asserted: waits are
 //! bounded only so that a broken view fails instead of hanging.
 
-use super::{TOPICS, ViewConfig, ViewReport, Viewer};
-use crate::view::feed::{FeedInfo, RoadmapFeed};
-use crate::{Planner, PlannerParams, Scene};
+use crate::{TOPICS, ViewConfig, ViewReport, Viewer};
 use foxglove::Decode;
 use foxglove::messages::{PointCloud, SceneUpdate};
 use ipc_types::services;
 use ipc_types::{Guidance, GuidanceMode, HapticState, Header, Path, monotonic_ns};
+use planner::shell::roadmap::{FeedInfo, RoadmapFeed};
+use planner_core::{Planner, PlannerParams, Scene};
 use std::collections::BTreeMap;
 use std::net::TcpStream;
 use std::sync::Arc;
@@ -75,7 +75,7 @@ fn live_view_and_recording_match_the_planner() {
     let (port_tx, port_rx) = std::sync::mpsc::channel();
     let viewer = {
         let stop = stop.clone();
-        std::thread::spawn(move || -> anyhow::Result<ViewReport> {
+        std::thread::spawn(move || -> Result<ViewReport, crate::ViewError> {
             let v = Viewer::new(&config)?;
             let _ = port_tx.send(v.port());
             v.run(&stop)
@@ -349,7 +349,7 @@ fn merged_recordings_keep_every_channel_and_message_in_time_order() {
     let a = write("device.mcap", "/device/state", &[1, 3, 5]);
     let b = write("view.mcap", "/view/status", &[2, 4]);
     let out = dir.join("both.mcap");
-    assert_eq!(super::merge_mcap(&[a, b], &out).expect("merge"), 5);
+    assert_eq!(crate::merge_mcap(&[a, b], &out).expect("merge"), 5);
     let bytes = std::fs::read(&out).expect("read");
     let got: Vec<(String, u64)> = mcap::MessageStream::new(&bytes)
         .expect("stream")
@@ -370,14 +370,14 @@ fn merged_recordings_keep_every_channel_and_message_in_time_order() {
     // A file that is not MCAP is an error naming it.
     let bad = dir.join("bad.mcap");
     std::fs::write(&bad, b"not mcap").expect("write");
-    let e = super::merge_mcap(std::slice::from_ref(&bad), &dir.join("x.mcap")).unwrap_err();
+    let e = crate::merge_mcap(std::slice::from_ref(&bad), &dir.join("x.mcap")).unwrap_err();
     assert!(format!("{e:#}").contains("bad.mcap"), "{e:#}");
     let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
 fn the_shipped_layout_names_only_topics_the_view_writes() {
-    let text = include_str!("../../view/layout.json");
+    let text = include_str!("../layout.json");
     let v: serde_json::Value = serde_json::from_str(text).expect("layout.json is JSON");
     let panel = &v["configById"]["3D!hrrtc-view"];
     let topics = panel["topics"].as_object().expect("3D topics");
@@ -397,5 +397,5 @@ fn the_shipped_layout_names_only_topics_the_view_writes() {
 }
 
 fn draw_frame() -> &'static str {
-    super::draw::SCENE_FRAME
+    crate::draw::SCENE_FRAME
 }

@@ -1,20 +1,20 @@
 //! The viewer process: subscribe, reassemble, log to the Foxglove context (WebSocket
 //! server and/or MCAP file). Reads the clock and does I/O: this is process shell, not core.
 
-use super::draw::{self, ForceScale};
-use super::model::{Removal, RoadmapModel};
-use crate::Scene;
-use anyhow::Context as _;
+use crate::ViewError;
+use crate::draw::{self, ForceScale};
+use crate::model::{Removal, RoadmapModel};
 use foxglove::messages::{FrameTransforms, PointCloud, SceneEntityDeletion, SceneUpdate};
 use foxglove::websocket::{ChannelView, Client, ServerListener};
 use foxglove::{Channel, Context, McapWriterHandle, WebSocketServerHandle};
 use ipc_types::services::{self, Ipc, StateFollower, Subscriber};
 use ipc_types::{ContactCode, Guidance, HapticState, monotonic_ns};
+use scene::Scene;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::BufWriter;
-use std::path::{Path as FsPath, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -176,7 +176,7 @@ fn contact_name(c: ContactCode) -> &'static str {
 impl Viewer {
     /// Opens the services, starts the WebSocket server (if `config.port` is set) and the
     /// MCAP writer (if `config.record` is set).
-    pub fn new(config: &ViewConfig) -> anyhow::Result<Viewer> {
+    pub fn new(config: &ViewConfig) -> Result<Viewer, ViewError> {
         let (node, cleaned) = services::create_node(&format!("view_{}", std::process::id()))?;
         if cleaned > 0 {
             tracing::info!("removed resources of {cleaned} dead iceoryx2 node(s)");
@@ -202,15 +202,22 @@ impl Viewer {
         };
         let mcap = match &config.record {
             Some(p) => {
-                let file = File::create(p)
-                    .with_context(|| format!("--record: cannot create {}", p.display()))?;
+                let file = File::create(p).map_err(|source| ViewError::File {
+                    action: "create the recording",
+                    path: p.clone(),
+                    source,
+                })?;
                 let options = mcap::WriteOptions::new()
                     .compression(Some(mcap::Compression::Lz4))
                     .profile("hrrtc");
                 Some(
                     ctx.mcap_writer_with_options(options)
                         .create(BufWriter::new(file))
-                        .with_context(|| format!("--record: cannot write {}", p.display()))?,
+                        .map_err(|source| ViewError::Recording {
+                            action: "write",
+                            path: p.clone(),
+                            source,
+                        })?,
                 )
             }
             None => None,
@@ -223,11 +230,10 @@ impl Viewer {
                     .bind(config.host.clone(), port)
                     .listener(Arc::new(Resend(resend.clone())))
                     .start_blocking()
-                    .with_context(|| {
-                        format!(
-                            "cannot start the WebSocket server on {}:{port} (in use? try --port)",
-                            config.host
-                        )
+                    .map_err(|source| ViewError::Server {
+                        host: config.host.clone(),
+                        port,
+                        source,
                     })?,
             ),
             None => None,
@@ -278,8 +284,9 @@ impl Viewer {
     }
 
     /// Drains the services; returns true when a new haptic state arrived.
-    fn receive(&mut self) -> anyhow::Result<bool> {
-        while let Some(sample) = self.roadmap.receive().context("roadmap receive")? {
+    fn receive(&mut self) -> Result<bool, ViewError> {
+        let failed = |service| move |source| ViewError::Receive { service, source };
+        while let Some(sample) = self.roadmap.receive().map_err(failed("roadmap"))? {
             match self.model.apply(&sample) {
                 Some(Removal::All) => {
                     let now = monotonic_ns();
@@ -301,13 +308,13 @@ impl Viewer {
             }
             self.nodes_changed |= self.model.take_changed();
         }
-        while let Some(p) = self.path_sub.receive().context("path receive")? {
+        while let Some(p) = self.path_sub.receive().map_err(failed("path"))? {
             self.path = p.waypoints().iter().map(|w| w.position_m).collect();
             self.path_pid = p.header.writer_pid;
             self.path_changed = true;
             self.report.path_waypoints = p.waypoints().len() as u64;
         }
-        while let Some(g) = self.guidance.receive().context("guidance receive")? {
+        while let Some(g) = self.guidance.receive().map_err(failed("guidance"))? {
             if g.validate().is_ok() {
                 self.last_guidance = Some(*g);
             }
@@ -468,7 +475,7 @@ impl Viewer {
     }
 
     /// Runs until `stop` is set or the configured duration elapses; closes the recording.
-    pub fn run(mut self, stop: &AtomicBool) -> anyhow::Result<ViewReport> {
+    pub fn run(mut self, stop: &AtomicBool) -> Result<ViewReport, ViewError> {
         let started = Instant::now();
         let poll = Duration::from_millis(5);
         let pose_period = Duration::from_secs_f64(1.0 / self.config.rate_hz);
@@ -543,7 +550,11 @@ impl Viewer {
         report.trees = self.model.trees.len() as u64;
         report.solved = self.model.solved;
         if let Some(m) = self.mcap.take() {
-            m.close().context("cannot finish the MCAP recording")?;
+            m.close().map_err(|source| ViewError::Recording {
+                action: "finish",
+                path: self.config.record.clone().unwrap_or_default(),
+                source,
+            })?;
         }
         if let Some(s) = self.server.take() {
             s.stop().wait_blocking();
@@ -551,73 +562,4 @@ impl Viewer {
         drop(self.ctx);
         Ok(report)
     }
-}
-
-/// Merges MCAP files (e.g. a device recording from `haptic-loop run --record` and a view
-/// recording) into `out`: every schema, channel and message, messages ordered by log time.
-/// Both use `CLOCK_MONOTONIC` ns and distinct topic prefixes (`/device/`, `/view/`), so
-/// nothing clashes. Returns the number of messages written.
-pub fn merge_mcap(inputs: &[PathBuf], out: &FsPath) -> anyhow::Result<u64> {
-    let mut bufs = Vec::with_capacity(inputs.len());
-    for p in inputs {
-        bufs.push(std::fs::read(p).with_context(|| format!("cannot read {}", p.display()))?);
-    }
-    let mut messages = Vec::new();
-    for (p, buf) in inputs.iter().zip(&bufs) {
-        let stream = mcap::MessageStream::new(buf)
-            .with_context(|| format!("{}: not an MCAP file", p.display()))?;
-        for m in stream {
-            messages.push(m.with_context(|| format!("{}: corrupt MCAP", p.display()))?);
-        }
-    }
-    messages.sort_by_key(|m| m.log_time);
-    let file = File::create(out).with_context(|| format!("cannot create {}", out.display()))?;
-    let mut w = mcap::WriteOptions::new()
-        .compression(Some(mcap::Compression::Lz4))
-        .profile("hrrtc")
-        .create(BufWriter::new(file))
-        .with_context(|| format!("cannot write {}", out.display()))?;
-    let mut channel_ids: BTreeMap<(String, String, String, Vec<u8>), u16> = BTreeMap::new();
-    let mut seq: BTreeMap<u16, u32> = BTreeMap::new();
-    for m in &messages {
-        let ch = &m.channel;
-        let key = (
-            ch.topic.clone(),
-            ch.message_encoding.clone(),
-            ch.schema
-                .as_ref()
-                .map(|s| s.name.clone())
-                .unwrap_or_default(),
-            ch.schema
-                .as_ref()
-                .map(|s| s.data.to_vec())
-                .unwrap_or_default(),
-        );
-        let id = match channel_ids.get(&key) {
-            Some(id) => *id,
-            None => {
-                let schema_id = match &ch.schema {
-                    Some(s) => w.add_schema(&s.name, &s.encoding, &s.data)?,
-                    None => 0,
-                };
-                let id = w.add_channel(schema_id, &ch.topic, &ch.message_encoding, &ch.metadata)?;
-                channel_ids.insert(key, id);
-                id
-            }
-        };
-        let s = seq.entry(id).or_default();
-        *s = s.wrapping_add(1);
-        w.write_to_known_channel(
-            &mcap::records::MessageHeader {
-                channel_id: id,
-                sequence: *s,
-                log_time: m.log_time,
-                publish_time: m.publish_time,
-            },
-            &m.data,
-        )?;
-    }
-    w.finish()
-        .with_context(|| format!("cannot finish {}", out.display()))?;
-    Ok(messages.len() as u64)
 }

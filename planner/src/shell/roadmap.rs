@@ -174,14 +174,13 @@ fn wire_node(tree: &Tree, tree_id: u32, index: u32) -> RoadmapNode {
 }
 
 #[cfg(test)]
-pub(super) mod tests {
+mod tests {
     use super::*;
     use crate::Se3;
     use crate::tree::NodeId;
 
-    /// A tree of `n` nodes in a line along x at height `y`, 1 mm apart (also for the model's
-    /// tests).
-    pub(in crate::view) fn chain(n: usize, y: f64) -> Tree {
+    /// A tree of `n` nodes in a line along x at height `y`, 1 mm apart.
+    fn chain(n: usize, y: f64) -> Tree {
         let mut t = Tree::new(Se3::from_xyz(0.0, y, 0.0), 1.0);
         for i in 1..n {
             t.add(

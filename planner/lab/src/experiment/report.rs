@@ -5,6 +5,7 @@
 //! the limit for hopeless settings) and report the solved fraction beside the median.
 
 use super::RunResult;
+use crate::LabError;
 use plotters::prelude::*;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -177,7 +178,7 @@ pub fn register_font() -> bool {
     false
 }
 
-type PlotResult = Result<(), Box<dyn std::error::Error>>;
+type PlotResult = Result<(), Box<dyn std::error::Error + Send + Sync>>;
 
 const COLOURS: [RGBColor; 6] = [BLUE, GREEN, RED, MAGENTA, CYAN, BLACK];
 
@@ -193,8 +194,15 @@ fn time_axis(summaries: &[Summary], limit_s: f64) -> std::ops::Range<f64> {
 }
 
 /// I-RRT Fig. 15 layout: one panel per method, median time (log scale) against ε_v (log
-/// scale), one line per σ.
-pub fn plot_irrt(summaries: &[Summary], limit_s: f64, path: &Path) -> PlotResult {
+/// scale), one line per σ. The error names the file.
+pub fn plot_irrt(summaries: &[Summary], limit_s: f64, path: &Path) -> Result<(), LabError> {
+    draw_irrt(summaries, limit_s, path).map_err(|source| LabError::Draw {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+fn draw_irrt(summaries: &[Summary], limit_s: f64, path: &Path) -> PlotResult {
     let root = BitMapBackend::new(path, (1200, 900)).into_drawing_area();
     root.fill(&WHITE)?;
     let methods: Vec<String> = dedup(summaries.iter().map(|s| s.method.clone()));
@@ -247,8 +255,15 @@ pub fn plot_irrt(summaries: &[Summary], limit_s: f64, path: &Path) -> PlotResult
 }
 
 /// H-RRT-C Tables I / III as a plot: median time against α per scene, with automatic
-/// RRT-Connect as a dashed level.
-pub fn plot_hrrtc(summaries: &[Summary], limit_s: f64, path: &Path) -> PlotResult {
+/// RRT-Connect as a dashed level. The error names the file.
+pub fn plot_hrrtc(summaries: &[Summary], limit_s: f64, path: &Path) -> Result<(), LabError> {
+    draw_hrrtc(summaries, limit_s, path).map_err(|source| LabError::Draw {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+fn draw_hrrtc(summaries: &[Summary], limit_s: f64, path: &Path) -> PlotResult {
     let root = BitMapBackend::new(path, (1200, 500)).into_drawing_area();
     root.fill(&WHITE)?;
     let scenes: Vec<String> = dedup(summaries.iter().map(|s| s.scene.clone()));

@@ -15,6 +15,9 @@
 //! exact (grown on insertion), so the bound is tight for the points under a node.
 //! Replaces a uniform grid over positions (pruning by translation only), which the
 //! rotation term defeated in SE(3) and whose far queries fell back to linear scans.
+//!
+//! [`ConfigSpace::embed`]: crate::space::ConfigSpace::embed
+//! [`ConfigSpace::embed_mirror`]: crate::space::ConfigSpace::embed_mirror
 
 use crate::space::{Combine, EMBED_DIM, EmbedTerms, Embedded};
 

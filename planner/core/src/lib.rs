@@ -1,0 +1,39 @@
+//! The pure core of the interactive motion planner (I-RRT / H-RRT-C): the SE(3) and planar
+//! configuration spaces, collision checking with parry, trees with I-RRT labels, the
+//! samplers, RRT and RRT-Connect with I-RRT local trees, paths, and the attractive
+//! pseudo-force F_a.
+//!
+//! Architecture invariant: this crate is deterministic for a seed and an input sequence.
+//! It reads no clock, does no I/O and starts no threads; it depends on no IPC crate. Time,
+//! IPC and files are the business of the crates around it (`planner::shell`, `view`,
+//! `lab`), which pass in what it needs.
+//!
+//! Code map:
+//! - [`space`]: weighted SE(3) and planar (x, y, θ) distances (I-RRT eq. 2), interpolation,
+//!   sampling, `delta`.
+//! - [`collision`]: parry compounds, `is_free`, `edge_free` at a stated resolution.
+//! - [`tree`]: tree arena, node labels, a k-d tree for nearest / k-nearest, paths.
+//! - [`sampling`]: CS, POS, PATH, +CS, H-RRT-C authority sharing and HapticSampling.
+//! - [`rrt`]: RRT, RRT-Connect with I-RRT Extend and local trees, the `Planner` API.
+//! - [`path`]: shortcut smoothing, CSV / JSON export.
+//! - [`guidance`]: F_a (label-weighted barycenter) and solution-path following.
+//! - [`params`]: `PlannerParams` and `PlannerError`.
+#![warn(missing_docs)]
+#![deny(unsafe_code)]
+
+pub mod collision;
+pub mod guidance;
+pub mod params;
+pub mod path;
+pub mod rrt;
+pub mod sampling;
+pub mod space;
+pub mod tree;
+
+pub use collision::CollisionChecker;
+pub use params::{Algorithm, ExtendA, PlannerError, PlannerParams};
+pub use rrt::{Extend, IterReport, Planner, Source, Stats};
+pub use sampling::{Contact, Sampling, SamplingError, UserInput};
+pub use scene::pose::Se3;
+pub use scene::{Scene, SceneError};
+pub use space::{Combine, ConfigSpace, PlanarSpace, Se3Space, Space, Weights};

@@ -1,0 +1,118 @@
+//! `planner solve`: automatic planning (no operator) against a wall-clock limit, the files
+//! asked for (the solution path as CSV / JSON, a picture of the roadmap), and a report.
+
+use crate::LabError;
+use crate::picture::{self, ColorBy, Plane};
+use planner_core::{Planner, PlannerParams, Scene};
+use serde::Serialize;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// A picture of the final roadmap (see [`crate::picture`]).
+#[derive(Clone, Debug)]
+pub struct Png {
+    /// The PNG file (overwritten).
+    pub file: PathBuf,
+    /// Which label colours the nodes.
+    pub color_by: ColorBy,
+    /// The projection plane.
+    pub plane: Plane,
+}
+
+/// What to solve and what to write, validated.
+#[derive(Clone, Debug)]
+pub struct SolveConfig {
+    /// The scene.
+    pub scene: Scene,
+    /// Tree parameters (checked again by [`Planner::new`]).
+    pub params: PlannerParams,
+    /// RNG seed.
+    pub seed: u64,
+    /// Give up after this long, s (wall clock, > 0).
+    pub time_limit_s: f64,
+    /// Write the solution path here as CSV, if solved.
+    pub path_csv: Option<PathBuf>,
+    /// Write the solution path here as JSON waypoints, if solved.
+    pub path_json: Option<PathBuf>,
+    /// Draw the roadmap, solved or not.
+    pub png: Option<Png>,
+}
+
+/// Result of a solve; `planner solve --json` writes it.
+#[derive(Debug, Clone, Serialize)]
+pub struct SolveReport {
+    /// Scene name.
+    pub scene: String,
+    /// Seed.
+    pub seed: u64,
+    /// Solved within the time limit.
+    pub solved: bool,
+    /// Seconds spent (to the solution, or the limit).
+    pub time_s: f64,
+    /// Iterations.
+    pub iterations: u64,
+    /// Nodes in all trees.
+    pub nodes: u64,
+    /// Collision checks.
+    pub collision_checks: u64,
+    /// Weighted length of the solution path (I-RRT eq. 2), if solved.
+    pub path_length: Option<f64>,
+    /// Waypoints of the solution path, if solved.
+    pub path_waypoints: Option<usize>,
+}
+
+/// Iterates until solved or out of time, then writes the files asked for.
+pub fn solve(config: &SolveConfig) -> Result<SolveReport, LabError> {
+    let mut planner = Planner::new(&config.scene, config.params.clone(), config.seed)?;
+    let started = Instant::now();
+    while !planner.solved() && started.elapsed().as_secs_f64() < config.time_limit_s {
+        planner.iterate(None);
+    }
+    let time_s = started.elapsed().as_secs_f64();
+    let s = planner.stats();
+    let path_length = planner
+        .solution()
+        .map(|p| planner_core::space::path_length(planner.space(), p));
+    if let Some(p) = planner.solution() {
+        let write = |file: &Option<PathBuf>, text: String| -> Result<(), LabError> {
+            match file {
+                Some(f) => std::fs::write(f, text).map_err(LabError::write(f)),
+                None => Ok(()),
+            }
+        };
+        write(
+            &config.path_csv,
+            planner_core::path::to_csv(planner.space(), p),
+        )?;
+        write(
+            &config.path_json,
+            planner_core::path::to_json(planner.space(), p),
+        )?;
+    }
+    if let Some(png) = &config.png {
+        if !crate::register_font() {
+            tracing::warn!("no TrueType font found (DejaVuSans.ttf): the PNG has no text");
+        }
+        let label = format!("{} seed {}", config.scene.name, config.seed);
+        picture::draw_planner_png(
+            &config.scene,
+            &planner,
+            &label,
+            png.color_by,
+            png.plane,
+            &png.file,
+            (1000, 1000),
+        )?;
+    }
+    Ok(SolveReport {
+        scene: config.scene.name.clone(),
+        seed: config.seed,
+        solved: planner.solved(),
+        time_s,
+        iterations: s.iterations,
+        nodes: s.nodes as u64,
+        collision_checks: s.collision_checks,
+        path_length,
+        path_waypoints: planner.solution().map(<[_]>::len),
+    })
+}

@@ -1,0 +1,143 @@
+//! Options shared by the planning commands (`serve`, `solve`): the scene, the seed and the
+//! tree parameters, and how the operator's input drives sampling; with the checks that turn
+//! them into a [`PlannerParams`].
+
+use anyhow::{Context, bail};
+use clap::Args;
+use planner::{PlannerParams, Scene};
+
+/// Options shared by every planning command.
+#[derive(Debug, Args, Clone)]
+pub struct CoreArgs {
+    /// Scene: a built-in name (`wall-hole` alias `default`, `maze`, `tunnels`,
+    /// `tunnels-1axis`, `tunnels-2axes`, `crossing-planes`, `silencer`, `free`; see
+    /// `planner scenes`) or a TOML scene file.
+    #[arg(long, default_value = "wall-hole")]
+    pub scene: String,
+    /// RNG seed: the same seed and inputs give the same trees.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Extension step, weighted m (I-RRT eq. 2 metric: 1 per m, 0.01 per rad²).
+    #[arg(long, default_value_t = 0.05)]
+    pub step: f64,
+    /// Edge validation resolution, weighted m.
+    #[arg(long, default_value_t = 0.005)]
+    pub edge_resolution: f64,
+    /// p: nearest nodes in F_a's barycenter (I-RRT uses 5).
+    #[arg(long, default_value_t = 5)]
+    pub neighbours: usize,
+    /// Tree algorithm: `rrt-connect` (two trees, greedy I-RRT Extend) or `rrt` (one tree,
+    /// one step per iteration, 5 % goal bias).
+    #[arg(long, default_value = "rrt-connect", value_parser = ["rrt-connect", "rrt"])]
+    pub algorithm: String,
+    /// Random shortcut attempts on the solution path (0 keeps the raw tree path).
+    #[arg(long, default_value_t = 100)]
+    pub shortcut_attempts: u32,
+    /// RRT-Connect: how the tree extended towards the sample grows, `greedy` (I-RRT
+    /// Extend: steps until reached or blocked) or `step` (one step, as OMPL's
+    /// RRTConnect); the other tree always connects greedily.
+    #[arg(long, default_value = "greedy", value_parser = ["greedy", "step"])]
+    pub extend: String,
+    /// How the distance (used for nearest nodes, steps and edge resolution) combines
+    /// translation and rotation: `euclidean` (I-RRT eq. 2, √(|Δp|² + (0.1 m·θ)²)) or
+    /// `sum` (|Δp| + 0.1 m·θ, as OMPL's SE(2)/SE(3) spaces).
+    #[arg(long, default_value = "euclidean", value_parser = ["euclidean", "sum"])]
+    pub metric: String,
+}
+
+impl CoreArgs {
+    /// Loads the scene and validates the tree parameters.
+    pub fn load(&self) -> anyhow::Result<(Scene, PlannerParams)> {
+        let scene = Scene::by_name_or_path(&self.scene)?;
+        let params = PlannerParams {
+            step: self.step,
+            edge_resolution: self.edge_resolution,
+            neighbours: self.neighbours,
+            algorithm: if self.algorithm == "rrt" {
+                planner::Algorithm::Rrt
+            } else {
+                planner::Algorithm::RrtConnect
+            },
+            shortcut_attempts: self.shortcut_attempts,
+            extend_a: if self.extend == "step" {
+                planner::ExtendA::Step
+            } else {
+                planner::ExtendA::Greedy
+            },
+            weights: planner::Weights {
+                combine: if self.metric == "sum" {
+                    planner::Combine::Sum
+                } else {
+                    planner::Combine::Euclidean
+                },
+                ..planner::Weights::default()
+            },
+            ..PlannerParams::default()
+        };
+        params.validate()?;
+        Ok((scene, params))
+    }
+}
+
+/// Operator-driven sampling options (I-RRT §4.2.2 and §6, H-RRT-C Algorithms 1–2).
+#[derive(Debug, Args, Clone)]
+pub struct SamplingArgs {
+    /// Sampling method: `cs` (uniform), `pos` (Gaussian around the operator along F_r),
+    /// `path` (Gaussian around the operator's travelled path), `pos+cs` / `path+cs` (one
+    /// uniform sample in β), `hrrtc` (H-RRT-C: uniform with probability α else the
+    /// operator's configuration; HapticSampling on the contact plane while in contact).
+    #[arg(long, default_value = "hrrtc",
+          value_parser = ["cs", "pos", "path", "pos+cs", "path+cs", "hrrtc"])]
+    pub sampling: String,
+    /// α of H-RRT-C: share of machine (uniform) samples in free space, in [0, 1].
+    #[arg(long, default_value_t = 0.5)]
+    pub alpha: f64,
+    /// β of the +CS methods: one sample in β is uniform (I-RRT uses 3), >= 1.
+    #[arg(long, default_value_t = 3.0)]
+    pub beta: f64,
+    /// σ: standard deviation of the POS and PATH Gaussians, weighted m (m, or rad × 0.1).
+    #[arg(long, default_value_t = 0.05)]
+    pub sigma: f64,
+    /// α of I-RRT eq. 1, F_r = α·F_u + (1−α)·F_a, in [0, 1].
+    #[arg(long, default_value_t = 0.5)]
+    pub fr_alpha: f64,
+    /// Grow I-RRT local trees at operator samples the main trees cannot reach.
+    #[arg(long)]
+    pub local_trees: bool,
+}
+
+impl SamplingArgs {
+    /// Applies the options to `params` and validates them.
+    pub fn apply(&self, params: &mut PlannerParams) -> anyhow::Result<()> {
+        params.sampling = planner::Sampling::parse(&self.sampling, self.beta, self.alpha)
+            .with_context(|| format!("unknown --sampling {}", self.sampling))?;
+        params.user_sigma = self.sigma;
+        params.fr_alpha = self.fr_alpha;
+        params.local_trees = self.local_trees;
+        params.validate()?;
+        Ok(())
+    }
+}
+
+/// `v` if it is finite and > 0; the error names the flag `--name`.
+pub fn positive(name: &str, v: f64) -> anyhow::Result<f64> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        bail!("--{name} must be a finite number > 0, got {v}")
+    }
+}
+
+/// `v` if it is finite and >= 0; the error names the flag `--name`.
+pub fn non_negative(name: &str, v: f64) -> anyhow::Result<f64> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        bail!("--{name} must be a finite number >= 0, got {v}")
+    }
+}
+
+/// `Some(positive(v))` for a given optional value.
+pub fn positive_opt(name: &str, v: Option<f64>) -> anyhow::Result<Option<f64>> {
+    v.map(|d| positive(name, d)).transpose()
+}

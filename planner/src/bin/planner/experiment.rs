@@ -1,0 +1,173 @@
+//! `planner experiment`: the papers' sweeps with a simulated operator in lockstep, then
+//! runs.csv, summary.md and plots. The options are validated into a [`SweepConfig`];
+//! [`Sweep`] does the work, this file shows its progress.
+
+use crate::common::positive;
+use anyhow::{Context, bail};
+use clap::Args;
+use lab::LabError;
+use lab::experiment::sweep::{Sweep, SweepConfig, SweepKind};
+use lab::experiment::{hrrtc_specs, irrt_specs};
+use std::path::PathBuf;
+
+/// Options of `planner experiment`.
+#[derive(Debug, Args, Clone)]
+pub struct ExperimentArgs {
+    /// `irrt`: sampling method × σ × ε_v on the maze with a pass-through operator (I-RRT
+    /// §6). `hrrtc`: α on narrow tunnels and crossing planes with a contact-seeking
+    /// operator, beside automatic RRT-Connect (H-RRT-C Tables I and III).
+    #[arg(value_parser = ["irrt", "hrrtc"])]
+    pub sweep: String,
+    /// Runs (seeds 1..=N) per configuration.
+    #[arg(long, default_value_t = 5)]
+    pub seeds: u64,
+    /// Wall-clock limit per run, s (unsolved runs count at the limit in medians).
+    #[arg(long, default_value_t = 10.0)]
+    pub time_limit: f64,
+    /// Output directory (created).
+    #[arg(long, default_value = "experiment-out")]
+    pub out: PathBuf,
+    /// irrt: scene (a built-in with an operator path).
+    #[arg(long, default_value = "maze")]
+    pub scene: String,
+    /// irrt: methods, comma-separated, from pos, pos+cs, path, path+cs, cs.
+    #[arg(long, default_value = "pos,pos+cs,path,path+cs", value_delimiter = ',')]
+    pub methods: Vec<String>,
+    /// irrt: σ values (weighted m), comma-separated.
+    #[arg(long, default_value = "0.01,0.05", value_delimiter = ',')]
+    pub sigmas: Vec<f64>,
+    /// irrt: ε_v values (operator speed, weighted m per iteration), comma-separated.
+    #[arg(long, default_value = "0.0002,0.001,0.005", value_delimiter = ',')]
+    pub eps: Vec<f64>,
+    /// irrt: β of the +CS methods (one uniform sample in β).
+    #[arg(long, default_value_t = 3.0)]
+    pub beta: f64,
+    /// hrrtc: scenes, comma-separated built-ins.
+    #[arg(long, default_value = "tunnels,crossing-planes", value_delimiter = ',')]
+    pub scenes: Vec<String>,
+    /// hrrtc: α values (share of machine samples), comma-separated.
+    #[arg(long, default_value = "0,0.1,0.5,0.9", value_delimiter = ',')]
+    pub alphas: Vec<f64>,
+    /// hrrtc: operator speed ε_v, weighted m per iteration.
+    #[arg(long, default_value_t = 0.001)]
+    pub hrrtc_eps: f64,
+    /// hrrtc: σ of the operator's orientation error, rad per axis (its dexterity).
+    #[arg(long, default_value_t = 0.1)]
+    pub error_sigma: f64,
+    /// hrrtc: operator samples that cannot connect to a tree start I-RRT local trees,
+    /// merged when they connect (as `planner serve --local-trees`).
+    #[arg(long)]
+    pub local_trees: bool,
+    /// Also draw the final roadmap of each configuration's first seed, top-down with
+    /// the operator's path and the solution, into OUT/roadmaps/*.png.
+    #[arg(long)]
+    pub pictures: bool,
+    /// Hide the progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+impl ExperimentArgs {
+    /// Validates the arguments into a [`SweepConfig`].
+    pub fn to_config(&self) -> anyhow::Result<SweepConfig> {
+        let time_limit_s = positive("time-limit", self.time_limit)?;
+        if self.seeds == 0 {
+            bail!("--seeds must be >= 1");
+        }
+        let (kind, specs) = if self.sweep == "irrt" {
+            let methods = self
+                .methods
+                .iter()
+                .map(|m| {
+                    planner::Sampling::parse(m, self.beta, 0.5)
+                        .with_context(|| format!("unknown method `{m}` in --methods"))
+                })
+                .collect::<anyhow::Result<Vec<_>>>()?;
+            let specs = irrt_specs(
+                &self.scene,
+                &methods,
+                &self.sigmas,
+                &self.eps,
+                self.seeds,
+                time_limit_s,
+            );
+            (SweepKind::Irrt, specs)
+        } else {
+            let specs = hrrtc_specs(
+                &self.scenes,
+                &self.alphas,
+                self.hrrtc_eps,
+                self.error_sigma,
+                self.local_trees,
+                self.seeds,
+                time_limit_s,
+            );
+            (SweepKind::Hrrtc, specs)
+        };
+        Ok(SweepConfig {
+            kind,
+            specs,
+            seeds: self.seeds,
+            time_limit_s,
+            out: self.out.clone(),
+            pictures: self.pictures,
+        })
+    }
+}
+
+/// Runs the command: the sweep with a progress bar, then prints the summary table and what
+/// was written. The exit code is 0; pictures and plots that cannot be drawn are reported
+/// and skipped.
+pub fn run(a: &ExperimentArgs) -> anyhow::Result<i32> {
+    let sweep = Sweep::new(a.to_config()?)?;
+    let bar = if a.quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        indicatif::ProgressBar::new(sweep.runs() as u64)
+    };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{elapsed_precise} [{bar:40}] {pos}/{len} runs, eta {eta} {msg}",
+        )
+        .context("progress template")?,
+    );
+    if a.pictures && !sweep.pictures() {
+        eprintln!("planner: no TrueType font found (DejaVuSans.ttf): pictures skipped");
+    }
+    let results = sweep.run(|r, not_drawn| {
+        if let Some(e) = not_drawn {
+            eprintln!("planner: {:#}", anyhow::Error::new(e));
+        }
+        bar.set_message(format!(
+            "{} {} seed {}: {}",
+            r.scene,
+            r.method,
+            r.seed,
+            if r.solved {
+                format!("{:.2} s", r.time_s)
+            } else {
+                "unsolved".into()
+            }
+        ));
+        bar.inc(1);
+    })?;
+    bar.finish();
+    let reports = sweep.write_reports(&results)?;
+    println!("{}", reports.markdown);
+    println!(
+        "wrote {} and {}",
+        reports.csv.display(),
+        reports.md.display()
+    );
+    match sweep.plot(&reports.summaries) {
+        Ok(png) => println!("wrote {}", png.display()),
+        Err(LabError::NoFont) => {
+            eprintln!("planner: no TrueType font found (DejaVuSans.ttf): plots skipped")
+        }
+        Err(LabError::Draw { path, source }) => {
+            eprintln!("planner: cannot draw {}: {source}", path.display())
+        }
+        Err(e) => return Err(e.into()),
+    }
+    Ok(0)
+}

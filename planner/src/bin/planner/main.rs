@@ -1,0 +1,183 @@
+//! `planner`: the interactive motion planner's command line. Parses the arguments (one file
+//! per command, `common` for the options the planning commands share), validates them
+//! into a library config (`ShellConfig`, `ViewConfig`, ...), and runs it; the work is in the
+//! `planner`, `view` and `lab` libraries. Exit codes: 0 done (for `solve`: solved), 1
+//! `solve` did not solve in time, 2 an error (printed on stderr) or bad arguments.
+
+mod common;
+mod experiment;
+mod scenes;
+mod serve;
+mod solve;
+mod view;
+
+use self::view::{MergeArgs, ViewArgs};
+use anyhow::Context;
+use clap::{Parser, Subcommand};
+use experiment::ExperimentArgs;
+use scenes::ScenesArgs;
+use serde::Serialize;
+use serve::ServeArgs;
+use solve::SolveArgs;
+use std::io::IsTerminal;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Interactive motion planner (I-RRT / H-RRT-C) paired with the 1 kHz haptic loop.
+#[derive(Debug, Parser)]
+#[command(name = "planner", version, about, long_about = None)]
+struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    command: Command,
+}
+
+/// Planner subcommands.
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Run next to a haptic loop: read its state over iceoryx2, grow the trees, publish
+    /// guidance, the solution path and roadmap increments (for `planner view`). Stops on
+    /// Ctrl-C / SIGTERM or after --duration-s.
+    Serve(ServeArgs),
+    /// Plan automatically (no operator) with RRT-Connect or RRT (--algorithm) and report.
+    Solve(SolveArgs),
+    /// List the built-in scenes, or write them as TOML files (with OBJ meshes).
+    Scenes(ScenesArgs),
+    /// Rerun the papers' experiments with a simulated operator in lockstep and write
+    /// runs.csv, summary.md and PNG plots.
+    Experiment(ExperimentArgs),
+    /// Live 3D view for Foxglove / Lichtblick (WebSocket, default ws://127.0.0.1:8765) of
+    /// a running haptic loop and planner: scene, object and proxy, contact, forces,
+    /// roadmap, paths. Optionally records the same channels to MCAP. Read-only: the loop
+    /// and the planner never wait for it. Stops on Ctrl-C / SIGTERM or after --duration-s.
+    View(ViewArgs),
+    /// Merge MCAP recordings (e.g. `haptic-loop run --record` and `planner view --record`)
+    /// into one file, messages ordered by log time.
+    MergeRecordings(MergeArgs),
+}
+
+/// Logs to stderr (`RUST_LOG` overrides `info`), in colour only on a terminal.
+fn init_logging() {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_ansi(std::io::stderr().is_terminal())
+        .with_writer(std::io::stderr)
+        .try_init();
+}
+
+/// A flag set by SIGINT / SIGTERM.
+fn stop_on_signal() -> anyhow::Result<Arc<AtomicBool>> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let s = stop.clone();
+    ctrlc::set_handler(move || s.store(true, Ordering::Release))
+        .context("cannot install the SIGINT/SIGTERM handler")?;
+    Ok(stop)
+}
+
+/// Writes `value` as pretty JSON (and a newline) to `path`.
+fn write_json(path: &std::path::Path, value: &impl Serialize) -> anyhow::Result<()> {
+    let text = serde_json::to_string_pretty(value)?;
+    std::fs::write(path, text + "\n").with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// Parses `args` (the first is the program name) and runs the command. Returns the process
+/// exit code: 0 on success (for `solve`: solved), 1 when `solve` did not solve in time.
+fn main_with_args<I, T>(args: I) -> anyhow::Result<i32>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let cli = match Cli::try_parse_from(args) {
+        Ok(c) => c,
+        Err(e) => {
+            // --help and --version are not errors.
+            let code = if e.use_stderr() { 2 } else { 0 };
+            let _ = e.print();
+            return Ok(code);
+        }
+    };
+    init_logging();
+    match cli.command {
+        Command::Serve(a) => serve::run(&a),
+        Command::Solve(a) => solve::run(&a),
+        Command::Experiment(a) => experiment::run(&a),
+        Command::View(a) => view::run(&a),
+        Command::MergeRecordings(a) => view::merge(&a),
+        Command::Scenes(a) => scenes::run(&a),
+    }
+}
+
+fn main() -> std::process::ExitCode {
+    match main_with_args(std::env::args_os()) {
+        Ok(code) => std::process::ExitCode::from(code.clamp(0, 255) as u8),
+        Err(e) => {
+            eprintln!("planner: error: {e:#}");
+            std::process::ExitCode::from(2)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn every_option_has_help() {
+        let cmd = Cli::command();
+        cmd.clone().debug_assert();
+        for sub in cmd.get_subcommands() {
+            assert!(sub.get_about().is_some(), "{} has no about", sub.get_name());
+            for arg in sub.get_arguments() {
+                assert!(
+                    arg.get_help().is_some() || arg.get_long_help().is_some(),
+                    "`{} --{}` has no help",
+                    sub.get_name(),
+                    arg.get_id()
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn solve_writes_json_and_paths() {
+        let dir = std::env::temp_dir().join(format!("planner-cli-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let (json, csv, pj) = (dir.join("r.json"), dir.join("p.csv"), dir.join("p.json"));
+        let argv = [
+            "planner",
+            "solve",
+            "--scene",
+            "free",
+            "--seed",
+            "3",
+            "--time-limit",
+            "5",
+            "--json",
+        ];
+        let mut args: Vec<String> = argv.iter().map(|s| s.to_string()).collect();
+        args.push(json.display().to_string());
+        args.extend(["--path-csv".into(), csv.display().to_string()]);
+        args.extend(["--path-json".into(), pj.display().to_string()]);
+        assert_eq!(main_with_args(args).expect("runs"), 0);
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("parse");
+        assert_eq!(v["solved"], true);
+        for key in ["time_s", "nodes", "collision_checks", "path_length"] {
+            assert!(v[key].is_number(), "{key}: {v}");
+        }
+        let rows = std::fs::read_to_string(&csv).expect("csv");
+        assert!(
+            rows.starts_with("x_m,y_m,z_m,qw,qx,qy,qz,arc_length\n") && rows.lines().count() >= 3
+        );
+        let wp: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&pj).expect("pj")).expect("parse");
+        assert!(wp.as_array().is_some_and(|a| a.len() >= 2));
+        // A bad scene is an error naming it, not a panic.
+        let bad = ["planner", "solve", "--scene", "/nonexistent.toml"];
+        let e = main_with_args(bad).unwrap_err().to_string();
+        assert!(e.contains("/nonexistent.toml"), "{e}");
+    }
+}

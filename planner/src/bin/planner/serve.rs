@@ -1,0 +1,129 @@
+//! `planner serve`: next to a haptic loop, over iceoryx2. The options are validated into a
+//! [`ShellConfig`]; [`planner::shell::run`] does the work.
+
+use crate::common::{CoreArgs, SamplingArgs, non_negative, positive, positive_opt};
+use anyhow::bail;
+use clap::Args;
+use ipc_types::services;
+use planner::shell::{self, ShellConfig};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+
+/// Options of `planner serve`.
+#[derive(Debug, Args, Clone)]
+pub struct ServeArgs {
+    /// Scene, seed and tree parameters.
+    #[command(flatten)]
+    pub core: CoreArgs,
+    /// IPC namespace; must match the haptic loop's.
+    #[arg(long, default_value = ipc_types::services::DEFAULT_NAMESPACE)]
+    pub namespace: String,
+    /// Guidance publish rate, Hz, independent of iteration speed.
+    #[arg(long, default_value_t = 100.0)]
+    pub guidance_rate_hz: f64,
+    /// k for the force part of F_s = k·F_a, N per scene metre.
+    #[arg(long, default_value_t = 20.0)]
+    pub gain_n_per_m: f64,
+    /// k for the torque part of F_s = k·F_a, N·m per rad.
+    #[arg(long, default_value_t = 0.05)]
+    pub gain_nm_per_rad: f64,
+    /// Time-to-live of each guidance sample, ms; the loop fades it out after that.
+    #[arg(long, default_value_t = 100.0)]
+    pub ttl_ms: f64,
+    /// How the operator's input drives sampling.
+    #[command(flatten)]
+    pub sampling: SamplingArgs,
+    /// How often to poll the haptic state until the receiver has locked onto the loop's
+    /// ticks (then it polls once per tick, just after each state is written) and while no
+    /// new state comes, Hz.
+    #[arg(long, default_value_t = 2000.0)]
+    pub poll_hz: f64,
+    /// Spin this long before and after each state's predicted time instead of sleeping, µs
+    /// (reads the state within ~1 µs of its write for ~2 × this much CPU per tick; 0: only
+    /// sleep, adding the thread's wake-up latency, ~5–20 µs).
+    #[arg(long, default_value_t = 10.0)]
+    pub state_spin_us: f64,
+    /// SCHED_FIFO priority of the thread that receives the haptic state (below the haptic
+    /// loop's, 80 by default), so that it wakes on time on a busy machine and catches each
+    /// state as it is written; it sleeps but for the spin window. 0 keeps the normal
+    /// scheduler; without permission (see README "Real-time permissions") it is kept too,
+    /// with a warning.
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u8).range(0..=98))]
+    pub state_priority: u8,
+    /// Roadmap increments per second for `planner view` (1024 nodes each; a late viewer
+    /// gets the whole roadmap from a rolling window); 0 publishes none.
+    #[arg(long, default_value_t = 20.0)]
+    pub roadmap_rate_hz: f64,
+    /// Stop after this many seconds.
+    #[arg(long)]
+    pub duration_s: Option<f64>,
+    /// Keep growing the trees while no haptic loop publishes a fresh state (by default
+    /// the planner idles then, and resumes when a loop appears).
+    #[arg(long)]
+    pub plan_without_operator: bool,
+    /// Write a JSON report here on exit.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+impl ServeArgs {
+    /// Validates the arguments into a [`ShellConfig`] (loads the scene).
+    pub fn to_config(&self) -> anyhow::Result<ShellConfig> {
+        let (scene, mut params) = self.core.load()?;
+        self.sampling.apply(&mut params)?;
+        services::validate_namespace(&self.namespace)
+            .map_err(|e| anyhow::anyhow!("--namespace: {e}"))?;
+        Ok(ShellConfig {
+            namespace: self.namespace.clone(),
+            scene,
+            params,
+            seed: self.core.seed,
+            guidance_rate_hz: positive("guidance-rate-hz", self.guidance_rate_hz)?,
+            gain_n_per_m: non_negative("gain-n-per-m", self.gain_n_per_m)?,
+            gain_nm_per_rad: non_negative("gain-nm-per-rad", self.gain_nm_per_rad)?,
+            ttl_s: positive("ttl-ms", self.ttl_ms)? / 1000.0,
+            state_poll_hz: positive("poll-hz", self.poll_hz)?,
+            state_spin_us: {
+                let v = non_negative("state-spin-us", self.state_spin_us)?;
+                if v > 500.0 {
+                    bail!("--state-spin-us must be at most 500 (half a tick at 1 kHz), got {v}");
+                }
+                v
+            },
+            state_priority: self.state_priority,
+            state_timeout_s: 0.5,
+            plan_without_operator: self.plan_without_operator,
+            roadmap_rate_hz: if self.roadmap_rate_hz == 0.0 {
+                0.0
+            } else {
+                positive("roadmap-rate-hz", self.roadmap_rate_hz)?
+            },
+            duration_s: positive_opt("duration-s", self.duration_s)?,
+        })
+    }
+}
+
+/// Runs the command until Ctrl-C / SIGTERM or --duration-s; the exit code is 0.
+pub fn run(args: &ServeArgs) -> anyhow::Result<i32> {
+    let config = args.to_config()?;
+    let stop: Arc<AtomicBool> = crate::stop_on_signal()?;
+    tracing::info!(
+        "planner serving scene '{}' in namespace '{}' (seed {})",
+        config.scene.name,
+        config.namespace,
+        config.seed
+    );
+    let report = shell::run(&config, stop)?;
+    tracing::info!(
+        "planner done: solved {}, {} iterations, {} nodes, states {:.0} Hz",
+        report.solved,
+        report.iterations,
+        report.nodes,
+        report.state_rate_hz
+    );
+    if let Some(p) = &args.json {
+        crate::write_json(p, &report)?;
+    }
+    Ok(0)
+}

@@ -1,0 +1,114 @@
+//! The receiver thread: reads the haptic state blackboard phase-locked to the loop's ticks
+//! ([`super::pacing::StatePacer`]) and keeps the newest operator state for the planning
+//! thread, with what it counted and measured on the way.
+
+use super::pacing::StatePacer;
+use ipc_types::HapticState;
+use ipc_types::services;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+/// The newest operator state as seen by the receiver thread.
+#[derive(Debug, Default, Clone, Copy)]
+pub(super) struct Operator {
+    pub(super) state: Option<HapticState>,
+    /// `Instant` of the last new state, for staleness.
+    pub(super) seen_at: Option<Instant>,
+    pub(super) received: u64,
+    pub(super) skipped: u64,
+    pub(super) rejected: u64,
+    pub(super) first_at: Option<Instant>,
+    pub(super) last_at: Option<Instant>,
+    /// Times the receiver switched to a restarted loop's state.
+    pub(super) loop_generations: u64,
+}
+
+pub(super) fn lock(m: &Mutex<Operator>) -> std::sync::MutexGuard<'_, Operator> {
+    // The receiver never panics while holding the lock; recover the data if it ever did.
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// What the state receiver measured (see [`super::ShellReport`]'s `state_latency_us` and
+/// `state_age_us`).
+pub(super) struct StateLatency {
+    pub(super) transport: ipc_types::latency::NsHistogram,
+    pub(super) age: ipc_types::latency::NsHistogram,
+}
+
+pub(super) fn receive_states(
+    mut source: services::StateFollower,
+    operator: Arc<Mutex<Operator>>,
+    stop: &AtomicBool,
+    poll_ns: u64,
+    spin_ns: u64,
+) -> StateLatency {
+    let mut latency = StateLatency {
+        transport: ipc_types::latency::NsHistogram::new(),
+        age: ipc_types::latency::NsHistogram::new(),
+    };
+    let mut last_seq = 0u64;
+    let mut last_pid = 0u32;
+    let mut pacer = StatePacer::new(poll_ns);
+    // The pacer aims within microseconds; the default 50 µs timer slack would blur that.
+    if !ipc_types::set_thread_timer_slack_ns(1_000) {
+        tracing::debug!("cannot set the receiver's timer slack; its polls may be up to 50 µs late");
+    }
+    while !stop.load(Ordering::Acquire) {
+        let s = source.get();
+        let seq = s.header.sequence;
+        let restarted = s.header.writer_pid != last_pid;
+        let new_state = seq != 0 && (seq != last_seq || restarted);
+        match source.after_read(new_state) {
+            Ok(Some(generation)) => {
+                tracing::info!(
+                    "following the haptic state of a new loop (generation {generation})"
+                );
+                lock(&operator).loop_generations += 1;
+            }
+            Ok(None) => {}
+            Err(e) => tracing::warn!("cannot follow a restarted haptic loop: {e}"),
+        }
+        if new_state {
+            let now = ipc_types::monotonic_ns();
+            latency
+                .age
+                .record(now.saturating_sub(s.header.timestamp_ns));
+            // A loop older than the stamp publishes 0: nothing to measure.
+            if s.published_ns != 0 {
+                latency.transport.record(now.saturating_sub(s.published_ns));
+            }
+            let now = Instant::now();
+            let mut op = lock(&operator);
+            if !restarted && seq > last_seq + 1 && last_seq != 0 {
+                op.skipped += seq - last_seq - 1;
+            }
+            if s.user_pose.is_valid() {
+                op.state = Some(s);
+                op.seen_at = Some(now);
+            } else {
+                op.rejected += 1;
+            }
+            op.received += 1;
+            op.first_at.get_or_insert(now);
+            op.last_at = Some(now);
+            last_seq = seq;
+            last_pid = s.header.writer_pid;
+        }
+        let stamp = new_state.then_some((seq, s.header.timestamp_ns));
+        let next = pacer.next_poll(ipc_types::monotonic_ns(), stamp);
+        if spin_ns > 0 && pacer.predicted() {
+            // Wake a little early and watch the entry until the state comes or the window
+            // closes: the state is read within a microsecond of its write, for about
+            // 2 × `spin_ns` of CPU per tick.
+            ipc_types::sleep_until_ns(next.saturating_sub(spin_ns));
+            let end = next + spin_ns;
+            while source.get().header.sequence == seq && ipc_types::monotonic_ns() < end {
+                std::hint::spin_loop();
+            }
+        } else {
+            ipc_types::sleep_until_ns(next);
+        }
+    }
+    latency
+}
