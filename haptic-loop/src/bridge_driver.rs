@@ -52,7 +52,7 @@ pub fn run(
     let sub = services::subscriber::<ipc_types::DriverCommand>(&node, namespace)?;
     let arm_error = |source| Error::Device {
         device: "the simulated arm".into(),
-        source,
+        error: source,
         hint: "",
     };
     let mut arm = SimulatedArm::new(SimulatedArmConfig::default()).map_err(arm_error)?;

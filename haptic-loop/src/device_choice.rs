@@ -90,7 +90,7 @@ impl DeviceChoice {
     pub fn open_error(&self, source: DeviceError) -> Error {
         Error::Device {
             device: self.name(),
-            source,
+            error: source,
             hint: self.hint(),
         }
     }
@@ -98,7 +98,7 @@ impl DeviceChoice {
     fn sdk_error(&self, source: devices::sdk::SdkError) -> Error {
         Error::Sdk {
             device: self.name(),
-            source,
+            error: source,
         }
     }
 }
@@ -148,7 +148,7 @@ pub fn build(
         DeviceChoice::Replay(p) => {
             Box::new(ReplayDevice::from_file(p).map_err(|source| Error::Record {
                 what: format!("cannot use {}", choice.name()),
-                source,
+                error: source,
             })?)
         }
     };
@@ -156,7 +156,7 @@ pub fn build(
         Some(p) => Ok(Box::new(Recorder::create(device, p).map_err(|source| {
             Error::Record {
                 what: format!("cannot record to {}", p.display()),
-                source,
+                error: source,
             }
         })?)),
         None => Ok(device),

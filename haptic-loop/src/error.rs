@@ -1,5 +1,6 @@
 //! The haptic loop library's error: what could not be set up, naming the part and, where the
-//! user can fix it, what to check. The RT thread itself never returns errors: faults there
+//! user can fix it, what to check. Each message includes the underlying error's, which is
+//! therefore not also returned as `source()` (a report would print it twice). The RT thread itself never returns errors: faults there
 //! are `u32` codes ([`ipc_types::FaultCode`]) latched by [`crate::safety`].
 
 use crate::contact::ContactError;
@@ -15,46 +16,46 @@ pub enum Error {
     #[error(transparent)]
     Ipc(#[from] ServiceError),
     /// The namespace's state blackboard already has a live writer.
-    #[error("{source}; is another haptic loop running on this namespace ('{namespace}')?")]
+    #[error("{error}; is another haptic loop running on this namespace ('{namespace}')?")]
     StateTaken {
         /// The IPC namespace.
         namespace: String,
         /// What iceoryx2 said.
-        source: ServiceError,
+        error: ServiceError,
     },
     /// A device did not open or could not be built; `hint` says what to check.
-    #[error("cannot open {device}: {source}{}", if hint.is_empty() { String::new() } else { format!("; {hint}") })]
+    #[error("cannot open {device}: {error}{}", if hint.is_empty() { String::new() } else { format!("; {hint}") })]
     Device {
         /// The device, e.g. `the SpaceMouse`.
         device: String,
         /// The device's error.
-        source: DeviceError,
+        error: DeviceError,
         /// What to check (permissions, library path, driver); may be empty.
         hint: &'static str,
     },
     /// A vendor SDK could not be loaded.
-    #[error("cannot use {device}: {source}")]
+    #[error("cannot use {device}: {error}")]
     Sdk {
         /// The device.
         device: String,
         /// The loader's error (names the library and what to check).
-        source: SdkError,
+        error: SdkError,
     },
     /// A recording could not be written or a replay read.
-    #[error("{what}: {source}")]
+    #[error("{what}: {error}")]
     Record {
         /// What was being done, naming the file.
         what: String,
         /// The recorder's error.
-        source: RecordError,
+        error: RecordError,
     },
     /// The contact model could not be built for this scene.
-    #[error("scene '{scene}': {source}")]
+    #[error("scene '{scene}': {error}")]
     Contact {
         /// Scene name.
         scene: String,
         /// Why.
-        source: ContactError,
+        error: ContactError,
     },
     /// A thread could not be started or died during its set-up.
     #[error("cannot start the {thread} thread: {reason}")]

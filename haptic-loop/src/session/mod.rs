@@ -56,7 +56,7 @@ impl LoopSetup {
         };
         let contact_error = |source| Error::Contact {
             scene: self.scene.name.clone(),
-            source,
+            error: source,
         };
         config.validate().map_err(contact_error)?;
         let model = ContactModel::from_scene(&self.scene, &config.voxmap).map_err(contact_error)?;
@@ -186,7 +186,7 @@ pub fn run(
         services::state_writer(&node, &setup.namespace).map_err(|source| match source {
             ServiceError::WriterTaken { .. } => Error::StateTaken {
                 namespace: setup.namespace.clone(),
-                source,
+                error: source,
             },
             other => Error::Ipc(other),
         })?;

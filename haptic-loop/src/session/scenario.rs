@@ -91,7 +91,7 @@ pub fn simulated_arm(
         .map(|(p, dwell)| Waypoint::new(mapping.to_device(p)).with_dwell(*dwell));
     let sim_error = |source| Error::Device {
         device: "the simulated arm".into(),
-        source,
+        error: source,
         hint: "",
     };
     let user = ScriptedUser::new(setup.user, waypoints).map_err(sim_error)?;

@@ -180,7 +180,7 @@ pub(super) fn parse(text: &str, origin: &str) -> Result<Scene, SceneError> {
                                 origin: origin.to_owned(),
                                 line,
                                 field: format!("{field}.file"),
-                                source: Box::new(source),
+                                error: Box::new(source),
                             }
                         })?;
                     Primitive::Mesh {

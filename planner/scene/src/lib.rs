@@ -146,12 +146,12 @@ pub struct Scene {
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
     /// The file could not be read.
-    #[error("{origin}: cannot read scene file: {source}")]
+    #[error("{origin}: cannot read scene file: {error}")]
     Io {
         /// File path.
         origin: String,
         /// The I/O error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// The TOML text is malformed or has a bad value; the message carries line and column.
     #[error("{origin}: {message}")]
@@ -163,7 +163,7 @@ pub enum SceneError {
     },
     /// A mesh referenced by `field` could not be loaded; the mesh error names its file and
     /// line.
-    #[error("{origin}{}: field `{field}`: {source}", line.map(|l| format!(":{l}")).unwrap_or_default())]
+    #[error("{origin}{}: field `{field}`: {error}", line.map(|l| format!(":{l}")).unwrap_or_default())]
     Mesh {
         /// Scene file path.
         origin: String,
@@ -172,7 +172,7 @@ pub enum SceneError {
         /// The part, e.g. `moving_object[0]`.
         field: String,
         /// The mesh error (boxed: keeps `SceneError` small).
-        source: Box<MeshError>,
+        error: Box<MeshError>,
     },
     /// The scene parsed but a field is invalid.
     #[error("{origin}{}: field `{field}`: {reason}", line.map(|l| format!(":{l}")).unwrap_or_default())]
@@ -254,9 +254,9 @@ impl Scene {
     /// Reads and validates a TOML scene file (format: see `planner/scenes/wall-hole.toml`).
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
         let origin = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+        let text = std::fs::read_to_string(path).map_err(|error| SceneError::Io {
             origin: origin.clone(),
-            source,
+            error,
         })?;
         Scene::from_toml_str(&text, &origin)
     }

@@ -29,12 +29,12 @@ pub struct MeshData {
 #[derive(Debug, thiserror::Error)]
 pub enum MeshError {
     /// The file could not be opened or read.
-    #[error("{path}: cannot read mesh: {source}")]
+    #[error("{path}: cannot read mesh: {error}")]
     Io {
         /// Mesh file path.
         path: String,
         /// The I/O error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// The file is not a valid mesh; `line` is the 1-based line when known.
     #[error("{path}{}: {reason}", line.map(|l| format!(":{l}")).unwrap_or_default())]
@@ -150,9 +150,9 @@ impl MeshData {
 type RawMesh = (Vec<Vector3<f64>>, Vec<[u32; 3]>);
 
 fn read_obj(path: &Path, name: &str) -> Result<RawMesh, MeshError> {
-    let text = std::fs::read_to_string(path).map_err(|source| MeshError::Io {
+    let text = std::fs::read_to_string(path).map_err(|error| MeshError::Io {
         path: name.to_owned(),
-        source,
+        error,
     })?;
     // tobj reports what went wrong but not where: find the line ourselves first.
     if let Some((line, reason)) = obj_first_bad_line(&text) {
@@ -241,9 +241,9 @@ fn obj_first_bad_line(text: &str) -> Option<(usize, String)> {
 }
 
 fn read_stl(path: &Path, name: &str) -> Result<RawMesh, MeshError> {
-    let file = std::fs::File::open(path).map_err(|source| MeshError::Io {
+    let file = std::fs::File::open(path).map_err(|error| MeshError::Io {
         path: name.to_owned(),
-        source,
+        error,
     })?;
     let mut reader = BufReader::new(file);
     let mesh = stl_io::read_stl(&mut reader).map_err(|e| MeshError::Format {
