@@ -38,6 +38,7 @@
 //! centre of mass of the device-mapped object to the proxy's.
 
 mod error;
+mod lanes;
 mod near;
 mod pointshell;
 #[cfg(test)]

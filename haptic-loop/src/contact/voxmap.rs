@@ -20,7 +20,7 @@
 //! same code. The union of obstacles takes the minimum of their signed distances: exact
 //! outside, and inside it never understates a depth.
 
-use super::near::{LANES, Lanes, axes, lanes};
+use super::lanes::{LANES, Lanes, axes, lanes};
 use nalgebra::Vector3;
 use parry3d_f64::bounding_volume::{Aabb, BoundingVolume};
 use parry3d_f64::math::{Pose, Vector as PVec};
