@@ -75,9 +75,26 @@ impl Default for VoxmapConfig {
 /// Why a voxmap could not be built.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum VoxmapError {
-    /// A parameter is out of range.
-    #[error("voxmap: {0}")]
-    Config(String),
+    /// A parameter is out of its range.
+    #[error("voxmap: {name} must be {need}, got {value}")]
+    Parameter {
+        /// The parameter, e.g. `voxel size`.
+        name: &'static str,
+        /// The range it must be in, e.g. `a positive number of metres`.
+        need: &'static str,
+        /// The value given.
+        value: f64,
+    },
+    /// The stored distance layers are out of range (both named: they are checked together).
+    #[error(
+        "voxmap: layers_out and layers_in must be in 1..=100, got {layers_out} and {layers_in}"
+    )]
+    Layers {
+        /// Distance layers outside asked for, voxels.
+        layers_out: u32,
+        /// Distance layers inside asked for, voxels.
+        layers_in: u32,
+    },
     /// The grid would exceed the memory budget.
     #[error(
         "voxmap: {what} would need {needed_mb:.0} MB at {voxel_mm} mm voxels (limit {limit_mb:.0} MB); use larger voxels"

@@ -39,18 +39,20 @@ impl Voxmap {
         let started = Instant::now();
         let h = config.voxel_m;
         if !(h.is_finite() && h > 0.0) {
-            return Err(VoxmapError::Config(format!(
-                "voxel size must be a positive number of metres, got {h}"
-            )));
+            return Err(VoxmapError::Parameter {
+                name: "voxel size",
+                need: "a positive number of metres",
+                value: h,
+            });
         }
         if config.layers_out < 1
             || config.layers_in < 1
             || config.layers_out.max(config.layers_in) > 100
         {
-            return Err(VoxmapError::Config(format!(
-                "layers_out and layers_in must be in 1..=100, got {} and {}",
-                config.layers_out, config.layers_in
-            )));
+            return Err(VoxmapError::Layers {
+                layers_out: config.layers_out,
+                layers_in: config.layers_in,
+            });
         }
         let reach = f64::from(config.layers_out.max(config.layers_in) + 1) * h;
         let aabbs: Vec<Aabb> = shapes
@@ -302,6 +304,43 @@ mod tests {
             Voxmap::build(&slab(), &c),
             Err(VoxmapError::TooLarge { .. })
         ));
+    }
+
+    #[test]
+    fn bad_config_errors_name_the_parameter_and_value() {
+        let c = VoxmapConfig {
+            voxel_m: -0.5,
+            ..VoxmapConfig::default()
+        };
+        let e = Voxmap::build(&slab(), &c).unwrap_err();
+        assert_eq!(
+            e,
+            VoxmapError::Parameter {
+                name: "voxel size",
+                need: "a positive number of metres",
+                value: -0.5
+            }
+        );
+        assert_eq!(
+            e.to_string(),
+            "voxmap: voxel size must be a positive number of metres, got -0.5"
+        );
+        let c = VoxmapConfig {
+            layers_out: 101,
+            ..VoxmapConfig::default()
+        };
+        let e = Voxmap::build(&slab(), &c).unwrap_err();
+        assert_eq!(
+            e,
+            VoxmapError::Layers {
+                layers_out: 101,
+                layers_in: 8
+            }
+        );
+        assert_eq!(
+            e.to_string(),
+            "voxmap: layers_out and layers_in must be in 1..=100, got 101 and 8"
+        );
     }
 
     #[test]
