@@ -18,7 +18,7 @@
 //! `f32` resolves 0.1 µm, far below the voxmap's 1/256-voxel quantisation; sums are
 //! returned in `f64`.
 
-use super::JtJ;
+use super::jtj::JtJ;
 use super::lanes::{LANES, Lanes, axes, lanes};
 use super::pointshell::{Cluster, Pointshell};
 use super::voxmap::Voxmap;
@@ -738,7 +738,7 @@ mod tests {
             Pose::translation(0.0, 0.0, -0.01),
             SharedShape::cuboid(0.1, 0.1, 0.01),
         )];
-        let vox = Voxmap::build(&slab, &super::super::VoxmapConfig::default()).unwrap();
+        let vox = Voxmap::build(&slab, &super::super::voxmap::VoxmapConfig::default()).unwrap();
         let cube = [(Pose::IDENTITY, SharedShape::cuboid(0.02, 0.02, 0.02))];
         let shell = ShellColumns::new(&Pointshell::build(&cube, 0.001).unwrap());
         let points = shell.point[0].len();
