@@ -4,6 +4,8 @@
 //! what the RT thread calls once per period (see `runner`). It reads no clock itself: the
 //! tick time is passed in, so tests and benches drive it in lockstep.
 
+mod plausibility;
+
 use crate::contact::{Anchor, ContactStage};
 use crate::guidance::{GuidanceConfig, GuidanceFilter, RenderedGuidance};
 use crate::mapping::{Mapping, MappingConfig};
@@ -12,6 +14,7 @@ use devices::{DeviceError, DeviceSpec, DeviceState, HapticDevice, Wrench};
 use ipc_types::convert as wire;
 use ipc_types::{ContactCode, FaultCode, Guidance, HapticState, Header};
 use nalgebra::{Isometry3, Vector3};
+use plausibility::Plausibility;
 
 /// Where the newest [`Guidance`] comes from. Must not allocate or block.
 pub trait GuidanceSource {
@@ -90,16 +93,13 @@ pub struct Tick<D, G, S> {
     period_s: f64,
     sequence: u64,
     last_proxy: Option<Isometry3<f64>>,
-    last_device_timestamp_ns: u64,
+    plausibility: Plausibility,
     state: HapticState,
     guidance_age_ns: u64,
     pid: u32,
     contact: Option<ContactStage>,
     contact_ticks: u64,
     max_penetration_m: f64,
-    last_device_position: Option<Vector3<f64>>,
-    last_deadline_misses: u64,
-    miss_streak: u32,
 }
 
 impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
@@ -123,16 +123,13 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
             period_s: config.period_s,
             sequence: 0,
             last_proxy: None,
-            last_device_timestamp_ns: 0,
+            plausibility: Plausibility::new(&config.safety, config.period_s),
             state: HapticState::default(),
             guidance_age_ns: 0,
             pid: std::process::id(),
             contact: None,
             contact_ticks: 0,
             max_penetration_m: 0.0,
-            last_device_position: None,
-            last_deadline_misses: 0,
-            miss_streak: 0,
         })
     }
 
@@ -200,54 +197,12 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
     /// One tick at `now_ns` (CLOCK_MONOTONIC, start of the tick). Allocation-free.
     pub fn step(&mut self, now_ns: u64, prev: PrevTiming) -> &HapticState {
         self.sequence += 1;
-        let mut fault = FaultCode::NONE;
 
-        // 1. Device.
-        let reading = match self.device.read(now_ns) {
-            Ok(s) if s.is_finite() => Some(s),
-            Ok(_) => {
-                fault = FaultCode::DEVICE_NON_FINITE;
-                None
-            }
-            Err(DeviceError::Disconnected) => {
-                fault = FaultCode::DEVICE_DISCONNECTED;
-                None
-            }
-            Err(_) => {
-                fault = FaultCode::DEVICE_READ;
-                None
-            }
-        };
-        let sc = *self.safety.config();
-        if let Some(s) = &reading {
-            if s.timestamp_ns <= self.last_device_timestamp_ns {
-                fault = FaultCode::DEVICE_STALE;
-            } else if let Some(last) = self.last_device_position {
-                // Farther than the arm can move between the two readings (plus 2 mm of
-                // sensor noise): a glitch, not a motion.
-                let dt_s = (s.timestamp_ns - self.last_device_timestamp_ns) as f64 * 1e-9;
-                let limit = sc.max_device_speed_m_per_s * dt_s.max(self.period_s) + 0.002;
-                if (s.pose.translation.vector - last).norm() > limit {
-                    fault = FaultCode::DEVICE_JUMP;
-                }
-            }
-            self.last_device_timestamp_ns = s.timestamp_ns;
-            self.last_device_position = Some(s.pose.translation.vector);
-        }
-        // Deadline misses in consecutive ticks: the loop cannot keep its rhythm.
-        if prev.deadline_misses > self.last_deadline_misses {
-            self.miss_streak += 1;
-        } else {
-            self.miss_streak = 0;
-        }
-        self.last_deadline_misses = prev.deadline_misses;
-        if fault == FaultCode::NONE
-            && sc.max_miss_streak > 0
-            && self.miss_streak >= sc.max_miss_streak
-        {
-            fault = FaultCode::OVERRUN_STREAK;
-        }
+        // 1. Device, checked for plausibility; while it fails, its last good state.
+        let read = self.device.read(now_ns);
+        let (reading, fault) = self.plausibility.check(read, prev.deadline_misses);
         let device = reading.unwrap_or_else(|| self.last_device_state());
+        let sc = *self.safety.config();
         let still = device.linear_velocity.norm() < sc.still_speed_m_per_s
             && device.angular_velocity.norm() < sc.still_rate_rad_per_s;
 
