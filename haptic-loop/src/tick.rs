@@ -4,14 +4,19 @@
 //! what the RT thread calls once per period (see `runner`). It reads no clock itself: the
 //! tick time is passed in, so tests and benches drive it in lockstep.
 
-use crate::contact::{Anchor, ContactStage};
+mod plausibility;
+mod state_fill;
+
+use crate::contact::{Anchor, ContactOutput, ContactStage};
 use crate::guidance::{GuidanceConfig, GuidanceFilter, RenderedGuidance};
 use crate::mapping::{Mapping, MappingConfig};
 use crate::safety::{Safety, SafetyConfig};
 use devices::{DeviceError, DeviceSpec, DeviceState, HapticDevice, Wrench};
 use ipc_types::convert as wire;
-use ipc_types::{ContactCode, FaultCode, Guidance, HapticState, Header};
+use ipc_types::{ContactCode, FaultCode, Guidance, HapticState};
 use nalgebra::{Isometry3, Vector3};
+use plausibility::Plausibility;
+use state_fill::TickResults;
 
 /// Where the newest [`Guidance`] comes from. Must not allocate or block.
 pub trait GuidanceSource {
@@ -90,16 +95,13 @@ pub struct Tick<D, G, S> {
     period_s: f64,
     sequence: u64,
     last_proxy: Option<Isometry3<f64>>,
-    last_device_timestamp_ns: u64,
+    plausibility: Plausibility,
     state: HapticState,
     guidance_age_ns: u64,
     pid: u32,
     contact: Option<ContactStage>,
     contact_ticks: u64,
     max_penetration_m: f64,
-    last_device_position: Option<Vector3<f64>>,
-    last_deadline_misses: u64,
-    miss_streak: u32,
 }
 
 impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
@@ -123,16 +125,13 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
             period_s: config.period_s,
             sequence: 0,
             last_proxy: None,
-            last_device_timestamp_ns: 0,
+            plausibility: Plausibility::new(&config.safety, config.period_s),
             state: HapticState::default(),
             guidance_age_ns: 0,
             pid: std::process::id(),
             contact: None,
             contact_ticks: 0,
             max_penetration_m: 0.0,
-            last_device_position: None,
-            last_deadline_misses: 0,
-            miss_streak: 0,
         })
     }
 
@@ -200,54 +199,12 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
     /// One tick at `now_ns` (CLOCK_MONOTONIC, start of the tick). Allocation-free.
     pub fn step(&mut self, now_ns: u64, prev: PrevTiming) -> &HapticState {
         self.sequence += 1;
-        let mut fault = FaultCode::NONE;
 
-        // 1. Device.
-        let reading = match self.device.read(now_ns) {
-            Ok(s) if s.is_finite() => Some(s),
-            Ok(_) => {
-                fault = FaultCode::DEVICE_NON_FINITE;
-                None
-            }
-            Err(DeviceError::Disconnected) => {
-                fault = FaultCode::DEVICE_DISCONNECTED;
-                None
-            }
-            Err(_) => {
-                fault = FaultCode::DEVICE_READ;
-                None
-            }
-        };
-        let sc = *self.safety.config();
-        if let Some(s) = &reading {
-            if s.timestamp_ns <= self.last_device_timestamp_ns {
-                fault = FaultCode::DEVICE_STALE;
-            } else if let Some(last) = self.last_device_position {
-                // Farther than the arm can move between the two readings (plus 2 mm of
-                // sensor noise): a glitch, not a motion.
-                let dt_s = (s.timestamp_ns - self.last_device_timestamp_ns) as f64 * 1e-9;
-                let limit = sc.max_device_speed_m_per_s * dt_s.max(self.period_s) + 0.002;
-                if (s.pose.translation.vector - last).norm() > limit {
-                    fault = FaultCode::DEVICE_JUMP;
-                }
-            }
-            self.last_device_timestamp_ns = s.timestamp_ns;
-            self.last_device_position = Some(s.pose.translation.vector);
-        }
-        // Deadline misses in consecutive ticks: the loop cannot keep its rhythm.
-        if prev.deadline_misses > self.last_deadline_misses {
-            self.miss_streak += 1;
-        } else {
-            self.miss_streak = 0;
-        }
-        self.last_deadline_misses = prev.deadline_misses;
-        if fault == FaultCode::NONE
-            && sc.max_miss_streak > 0
-            && self.miss_streak >= sc.max_miss_streak
-        {
-            fault = FaultCode::OVERRUN_STREAK;
-        }
+        // 1. Device, checked for plausibility; while it fails, its last good state.
+        let read = self.device.read(now_ns);
+        let (reading, fault) = self.plausibility.check(read, prev.deadline_misses);
         let device = reading.unwrap_or_else(|| self.last_device_state());
+        let sc = self.safety.config();
         let still = device.linear_velocity.norm() < sc.still_speed_m_per_s
             && device.angular_velocity.norm() < sc.still_rate_rad_per_s;
 
@@ -256,15 +213,7 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
 
         // 3. Contact: the proxy is pulled towards the user's pose by the virtual coupling
         //    and held out of the obstacles; the device gets the negated coupling wrench.
-        let contact = self.contact.as_mut().map(|stage| {
-            let rot = self.mapping.rotation();
-            let anchor = Anchor {
-                pose: user,
-                linear_velocity: rot * device.linear_velocity * self.mapping.scale(),
-                angular_velocity: rot * device.angular_velocity,
-            };
-            stage.step(&anchor, self.period_s)
-        });
+        let contact = self.render_contact(&user, &device);
         let proxy = contact.as_ref().map_or(user, |c| c.proxy);
         let (device_force, device_torque) = contact
             .as_ref()
@@ -282,8 +231,74 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
         self.guidance_age_ns = g.age_ns;
 
         // 5. Sum in the scene frame, rotate to the device frame, apply safety.
-        //    Always on, in the device frame: a soft wall at the workspace sphere and a little
-        //    viscous damping of the end effector.
+        let wanted = self.device_wrench(
+            &device,
+            &(device_force + g.force_n),
+            &(device_torque + g.torque_nm),
+        );
+        let (out, fault) = self.safety.apply(&wanted, fault, still, self.period_s);
+
+        // 6. Device.
+        let fault = match (fault, self.device.write(&out)) {
+            (FaultCode::NONE, Err(_)) => FaultCode::DEVICE_WRITE,
+            (f, _) => f,
+        };
+
+        // 7. Count and publish.
+        if let Some(c) = &contact {
+            self.contact_ticks += u64::from(c.code == ContactCode::CONTACT);
+            self.max_penetration_m = self.max_penetration_m.max(c.penetration_m);
+        }
+        let results = TickResults {
+            sequence: self.sequence,
+            now_ns,
+            pid: self.pid,
+            device: &device,
+            user: &user,
+            proxy: &proxy,
+            commanded: &out,
+            contact: contact.as_ref(),
+            guidance: &g,
+            fault,
+            displacement,
+            prev,
+        };
+        state_fill::fill(&mut self.state, &results);
+        self.sink.publish(&self.state);
+        &self.state
+    }
+
+    /// The contact stage's step towards the user's pose `user` (scene frame), moving with
+    /// the device's velocities; `None` when contact rendering is off.
+    #[inline]
+    fn render_contact(
+        &mut self,
+        user: &Isometry3<f64>,
+        device: &DeviceState,
+    ) -> Option<ContactOutput> {
+        self.contact.as_mut().map(|stage| {
+            let rot = self.mapping.rotation();
+            let anchor = Anchor {
+                pose: *user,
+                linear_velocity: rot * device.linear_velocity * self.mapping.scale(),
+                angular_velocity: rot * device.angular_velocity,
+            };
+            stage.step(&anchor, self.period_s)
+        })
+    }
+
+    /// The wrench wanted at the device before the safety limits: `force` and `torque`
+    /// (scene frame) rotated into the device frame, plus what is always on, in the device
+    /// frame: a soft wall at the workspace sphere and a little viscous damping of the end
+    /// effector.
+    #[inline]
+    fn device_wrench(
+        &self,
+        device: &DeviceState,
+        force: &Vector3<f64>,
+        torque: &Vector3<f64>,
+    ) -> Wrench {
+        let sc = self.safety.config();
         let p = device.pose.translation.vector;
         let outside = p.norm() - self.spec.workspace_radius_m;
         let boundary = if outside > 0.0 {
@@ -296,66 +311,10 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
             -device.linear_velocity * (sc.damping_fraction * self.spec.max_damping_n_s_per_m);
         let rot_damping = -device.angular_velocity
             * (sc.damping_fraction * self.spec.max_rot_damping_nm_s_per_rad);
-        let wanted = Wrench {
-            force: self.mapping.vector_to_device(&(device_force + g.force_n)) + boundary + damping,
-            torque: self
-                .mapping
-                .vector_to_device(&(device_torque + g.torque_nm))
-                + rot_damping,
-        };
-        let (out, fault) = self.safety.apply(&wanted, fault, still, self.period_s);
-
-        // 6. Device.
-        let fault = match (fault, self.device.write(&out)) {
-            (FaultCode::NONE, Err(_)) => FaultCode::DEVICE_WRITE,
-            (f, _) => f,
-        };
-
-        // 7. Publish.
-        let s = &mut self.state;
-        s.header = Header {
-            sequence: self.sequence,
-            timestamp_ns: now_ns,
-            writer_pid: self.pid,
-            reserved: 0,
-        };
-        s.device_pose = wire::pose(&device.pose);
-        s.device_twist = wire::twist(&device.linear_velocity, &device.angular_velocity);
-        s.user_pose = wire::pose(&user);
-        s.proxy_pose = wire::pose(&proxy);
-        s.commanded_wrench = wire::wrench(&out.force, &out.torque);
-        match &contact {
-            Some(c) => {
-                s.contact_wrench = wire::wrench(&c.contact_force_n, &c.contact_torque_nm);
-                s.contact = c.code;
-                s.contact_normal = c.normal.into();
-                s.contact_point_m = c.point_m.into();
-                s.operator_force_n = c.operator_force_n.into();
-                s.penetration_m = c.penetration_m;
-                self.contact_ticks += u64::from(c.code == ContactCode::CONTACT);
-                self.max_penetration_m = self.max_penetration_m.max(c.penetration_m);
-            }
-            None => {
-                s.contact_wrench = ipc_types::Wrench::ZERO;
-                s.contact = ContactCode::DISABLED;
-                s.contact_normal = [0.0; 3];
-                s.contact_point_m = [0.0; 3];
-                s.operator_force_n = [0.0; 3];
-                s.penetration_m = 0.0;
-            }
+        Wrench {
+            force: self.mapping.vector_to_device(force) + boundary + damping,
+            torque: self.mapping.vector_to_device(torque) + rot_damping,
         }
-        s.guidance_wrench = wire::wrench(&g.force_n, &g.torque_nm);
-        s.fault = fault;
-        s.buttons = device.buttons;
-        s.guidance_freshness = g.freshness;
-        s.displacement_m = displacement.into();
-        s.guidance_sequence = g.sequence;
-        s.prev_wake_latency_ns = prev.wake_latency_ns;
-        s.prev_compute_ns = prev.compute_ns;
-        s.prev_period_ns = prev.period_ns;
-        s.deadline_misses = prev.deadline_misses;
-        self.sink.publish(&self.state);
-        &self.state
     }
 
     /// The last good device state, held while the device fails (force is zero then).
@@ -371,7 +330,7 @@ mod tests {
     use devices::sim::{
         ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmConfig, Waypoint,
     };
-    use ipc_types::{GuidanceFreshness, GuidanceMode};
+    use ipc_types::{GuidanceFreshness, GuidanceMode, Header};
 
     struct Fixed(Guidance);
     impl GuidanceSource for Fixed {

@@ -1,6 +1,6 @@
 //! Why contact rendering could not be set up. Every message names the parameter or part.
 
-use super::VoxmapError;
+use super::voxmap::VoxmapError;
 
 /// Why the contact model or stage could not be built.
 #[derive(Debug, thiserror::Error, PartialEq)]

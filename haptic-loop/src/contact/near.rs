@@ -18,7 +18,10 @@
 //! `f32` resolves 0.1 µm, far below the voxmap's 1/256-voxel quantisation; sums are
 //! returned in `f64`.
 
-use super::{Cluster, JtJ, Pointshell, Voxmap};
+use super::jtj::JtJ;
+use super::lanes::{LANES, Lanes, axes, lanes};
+use super::pointshell::{Cluster, Pointshell};
+use super::voxmap::Voxmap;
 
 /// Calls `$m!($args; i: a b, ...)` with the 21 pairs (a, b) of J's rows whose products
 /// JJᵀ's upper triangle sums, at their index i in [`JtJ`]'s layout (see `PAIRS`): the
@@ -36,29 +39,6 @@ macro_rules! jj_pairs {
 #[cfg(target_arch = "x86_64")]
 mod avx2;
 use nalgebra::{Matrix3, Vector3, Vector6};
-
-/// Points processed together: eight `f32` fill an AVX2 register.
-pub(super) const LANES: usize = 8;
-
-/// One value per point of a chunk.
-pub(super) type Lanes = [f32; LANES];
-
-/// One value per lane. (A plain loop: `std::array::from_fn` is not always inlined, and
-/// then nothing vectorises.)
-#[inline(always)]
-pub(super) fn lanes<T: Copy + Default>(f: impl Fn(usize) -> T) -> [T; LANES] {
-    let mut out = [T::default(); LANES];
-    for (l, o) in out.iter_mut().enumerate() {
-        *o = f(l);
-    }
-    out
-}
-
-/// One value per axis.
-#[inline(always)]
-pub(super) fn axes<T>(f: impl Fn(usize) -> T) -> [T; 3] {
-    [f(0), f(1), f(2)]
-}
 
 /// The upper triangle of a symmetric 6×6 matrix, in [`JtJ`]'s layout (the force pass
 /// spells the same list out): `nn` (6), `mn` (9), `mm` (6), with J = [n; m] as indices 0..3
@@ -758,7 +738,7 @@ mod tests {
             Pose::translation(0.0, 0.0, -0.01),
             SharedShape::cuboid(0.1, 0.1, 0.01),
         )];
-        let vox = Voxmap::build(&slab, &super::super::VoxmapConfig::default()).unwrap();
+        let vox = Voxmap::build(&slab, &super::super::voxmap::VoxmapConfig::default()).unwrap();
         let cube = [(Pose::IDENTITY, SharedShape::cuboid(0.02, 0.02, 0.02))];
         let shell = ShellColumns::new(&Pointshell::build(&cube, 0.001).unwrap());
         let points = shell.point[0].len();

@@ -17,7 +17,7 @@ use parry3d_f64::math::{Pose, Vector as PVec};
 use parry3d_f64::shape::SharedShape;
 use std::collections::BTreeMap;
 
-use super::ContactError;
+use super::error::ContactError;
 
 /// A surface point and its inward normal.
 type PointNormal = (Vector3<f64>, Vector3<f64>);

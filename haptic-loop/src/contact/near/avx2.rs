@@ -6,7 +6,8 @@
 //! loaded with gathers, and every value lives in a `__m256` instead of an `[f32; 8]` that
 //! the compiler kept in memory (three instructions per operation, measured with callgrind).
 
-use super::{Accumulators, Chunks, LANES, ShellColumns};
+use super::{Accumulators, Chunks, ShellColumns};
+use crate::contact::lanes::LANES;
 use crate::contact::voxmap::Voxmap;
 use std::arch::x86_64::*;
 
