@@ -52,7 +52,7 @@ pub fn fitting_scale(scene: &Scene, workspace_radius_m: f64) -> f64 {
 /// the goal, then hold. The S does not fit through the hole in its start orientation, so
 /// with contact on the object stays in front of the wall until the planner's guidance
 /// turns it; the planner uses the operator's configuration as a hint (I-RRT §5, where "the
-/// user [may] go through obstacles").
+/// user \[may\] go through obstacles").
 pub fn demo_route(scene: &Scene) -> Vec<(Isometry3<f64>, f64)> {
     let start = scene.start.to_isometry();
     let goal = scene.goal.to_isometry();
