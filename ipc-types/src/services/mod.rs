@@ -234,6 +234,21 @@ fn iceoryx_name(namespace: &str, leaf: &str) -> Result<(String, ServiceName), Se
     Ok((full, name))
 }
 
+/// The error of a port of `service` that could not be created; `hint` says what limit
+/// applies (may be empty).
+fn port_error<E: core::fmt::Debug>(
+    service: String,
+    port: &'static str,
+    hint: String,
+) -> impl FnOnce(E) -> ServiceError {
+    move |e| ServiceError::Port {
+        service,
+        port,
+        reason: format!("{e:?}"),
+        hint,
+    }
+}
+
 /// Quality of service of a publish-subscribe service: set by whoever creates it, and the
 /// same for every process (a mismatch would make the second opener fail).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -334,15 +349,11 @@ pub fn publisher<T: Topic>(
     namespace: &str,
 ) -> Result<Publisher<T>, ServiceError> {
     let (service, factory) = topic::<T>(node, namespace)?;
-    factory
-        .publisher_builder()
-        .create()
-        .map_err(|e| ServiceError::Port {
-            service,
-            port: "publisher",
-            reason: format!("{e:?}"),
-            hint: format!("; at most {} publishers", T::QOS.max_publishers),
-        })
+    factory.publisher_builder().create().map_err(port_error(
+        service,
+        "publisher",
+        format!("; at most {} publishers", T::QOS.max_publishers),
+    ))
 }
 
 /// A subscriber of the service carrying `T` on `namespace`.
@@ -351,18 +362,14 @@ pub fn subscriber<T: Topic>(
     namespace: &str,
 ) -> Result<Subscriber<T>, ServiceError> {
     let (service, factory) = topic::<T>(node, namespace)?;
-    factory
-        .subscriber_builder()
-        .create()
-        .map_err(|e| ServiceError::Port {
-            service,
-            port: "subscriber",
-            reason: format!("{e:?}"),
-            hint: format!(
-                "; at most {} subscribers may attach",
-                T::QOS.max_subscribers
-            ),
-        })
+    factory.subscriber_builder().create().map_err(port_error(
+        service,
+        "subscriber",
+        format!(
+            "; at most {} subscribers may attach",
+            T::QOS.max_subscribers
+        ),
+    ))
 }
 
 fn guidance_event(
@@ -399,12 +406,7 @@ pub fn guidance_notifier(
     factory
         .notifier_builder()
         .create()
-        .map_err(|e| ServiceError::Port {
-            service,
-            port: "notifier",
-            reason: format!("{e:?}"),
-            hint: String::new(),
-        })
+        .map_err(port_error(service, "notifier", String::new()))
 }
 
 /// Listener of [`GUIDANCE_EVENT`] (for the loop's relay thread, never the RT thread).
@@ -416,12 +418,7 @@ pub fn guidance_listener(
     factory
         .listener_builder()
         .create()
-        .map_err(|e| ServiceError::Port {
-            service,
-            port: "listener",
-            reason: format!("{e:?}"),
-            hint: String::new(),
-        })
+        .map_err(port_error(service, "listener", String::new()))
 }
 
 #[cfg(test)]
