@@ -1,7 +1,7 @@
 //! What the harness binaries share: the real haptic loop on the simulated arm in the
 //! hardest steady contact case, and a planner child process.
 
-use anyhow::{Context, bail};
+use crate::BenchError;
 use devices::DeviceSpec;
 use devices::sim::{ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmConfig, Waypoint};
 use haptic_loop::contact::{ContactConfig, ContactModel, ContactStage, Coupling};
@@ -27,19 +27,19 @@ pub struct PlannerChild(pub Child);
 
 impl PlannerChild {
     /// Starts `planner serve` on namespace `ns` from the binary next to the running one.
-    pub fn spawn(ns: &str) -> anyhow::Result<Self> {
+    pub fn spawn(ns: &str) -> Result<Self, BenchError> {
         Self::spawn_with(ns, &[])
     }
 
     /// [`PlannerChild::spawn`] with more `planner serve` arguments.
-    pub fn spawn_with(ns: &str, extra: &[String]) -> anyhow::Result<Self> {
-        let exe = std::env::current_exe()?;
+    pub fn spawn_with(ns: &str, extra: &[String]) -> Result<Self, BenchError> {
+        let exe = std::env::current_exe().map_err(|error| BenchError::Start {
+            what: "the planner (no path of this executable)".into(),
+            error,
+        })?;
         let planner = exe.with_file_name("planner");
         if !planner.exists() {
-            bail!(
-                "the planner binary is not next to this one ({}): run `cargo build --release -p planner`",
-                planner.display()
-            );
+            return Err(BenchError::NoPlanner(planner));
         }
         let child = Command::new(&planner)
             .args(["serve", "--namespace", ns, "--scene", "wall-hole"])
@@ -47,7 +47,10 @@ impl PlannerChild {
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()
-            .with_context(|| format!("cannot start {}", planner.display()))?;
+            .map_err(|error| BenchError::Start {
+                what: planner.display().to_string(),
+                error,
+            })?;
         Ok(Self(child))
     }
 
@@ -117,7 +120,7 @@ pub fn wall_setup(
     rate_hz: f64,
     seconds: f64,
     voxel_m: Option<f64>,
-) -> anyhow::Result<(SimulatedArm, TickConfig, Option<ContactStage>)> {
+) -> Result<(SimulatedArm, TickConfig, Option<ContactStage>), BenchError> {
     let scene = Scene::wall_with_hole();
     let origin = Isometry3::from_parts(Translation3::new(-0.08, 0.15, 0.1), scene.start.rot);
     let mut route = vec![device(0.0, 0.0, 0.0)];
@@ -151,7 +154,7 @@ pub fn cube_setup(
     rate_hz: f64,
     seconds: f64,
     voxel_m: f64,
-) -> anyhow::Result<(SimulatedArm, TickConfig, ContactStage)> {
+) -> Result<(SimulatedArm, TickConfig, ContactStage), BenchError> {
     let half = 0.5 * voxel_m * (points as f64 / 6.0).sqrt();
     let plate = [(
         Pose::translation(0.0, 0.0, -0.01),
@@ -172,8 +175,7 @@ pub fn cube_setup(
         ContactConfig::with_voxel_m(voxel_m),
         &spec,
         config.mapping.position_scale,
-    )
-    .map_err(anyhow::Error::msg)?;
+    )?;
     eprintln!("{}", stage.model().describe());
     Ok((arm, config, stage))
 }
@@ -189,7 +191,7 @@ fn scripted_arm(
     route: Vec<Waypoint>,
     origin: Isometry3<f64>,
     rate_hz: f64,
-) -> anyhow::Result<(SimulatedArm, TickConfig, DeviceSpec)> {
+) -> Result<(SimulatedArm, TickConfig, DeviceSpec), BenchError> {
     let arm_config = SimulatedArmConfig::default();
     let spec = arm_config.spec();
     let user = ScriptedUser::new(
@@ -215,13 +217,13 @@ fn scripted_arm(
 }
 
 /// Starts the real haptic loop of [`wall_setup`] on namespace `ns`, with IPC.
-pub fn wall_loop(ns: &str, run: &WallLoop) -> anyhow::Result<RunningLoop> {
+pub fn wall_loop(ns: &str, run: &WallLoop) -> Result<RunningLoop, BenchError> {
     let (node, _) = services::create_node(&format!("harness_loop_{}", std::process::id()))?;
     let writer = services::state_writer(&node, ns)?;
     let (relay, guidance) = Relay::spawn(ns, Duration::from_millis(1))?;
     let (arm, config, contact) =
         wall_setup(run.rate_hz, run.ticks as f64 / run.rate_hz, run.voxel_m)?;
-    let mut tick = Tick::new(arm, &config, guidance, writer).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let mut tick = Tick::new(arm, &config, guidance, writer)?;
     if let Some(stage) = contact {
         tick = tick.with_contact(stage);
     }
@@ -234,7 +236,11 @@ pub fn wall_loop(ns: &str, run: &WallLoop) -> anyhow::Result<RunningLoop> {
             max_ticks: Some(run.ticks),
         },
         |_| {},
-    )?;
+    )
+    .map_err(|error| BenchError::Start {
+        what: "the real-time loop thread".into(),
+        error,
+    })?;
     Ok(RunningLoop {
         handle,
         relay,

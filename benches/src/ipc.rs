@@ -15,7 +15,7 @@
 //! The writer marks warm-up samples (not recorded: the first sends after a reader joins
 //! rebuild connections) and a final stop sample in `header.reserved`.
 
-use anyhow::{Context, bail};
+use crate::BenchError;
 use haptic_loop::rt::{self, RtOptions};
 use haptic_loop::stats::NsHistogram;
 use iceoryx2::port::reader::EntryHandle;
@@ -74,11 +74,11 @@ impl Pattern {
     }
 
     /// Parses [`Pattern::name`].
-    pub fn parse(s: &str) -> anyhow::Result<Self> {
+    pub fn parse(s: &str) -> Result<Self, BenchError> {
         match s {
             "pubsub" => Ok(Pattern::PubSub),
             "blackboard" => Ok(Pattern::Blackboard),
-            _ => bail!("pattern must be pubsub or blackboard, got '{s}'"),
+            _ => Err(BenchError::Pattern(s.to_owned())),
         }
     }
 }
@@ -105,11 +105,11 @@ pub struct Bare {
     pub seconds: f64,
 }
 
-fn service_name(ns: &str) -> anyhow::Result<ServiceName> {
+fn service_name(ns: &str) -> Result<ServiceName, BenchError> {
     let full = services::service_name(ns, "bare");
     full.as_str()
         .try_into()
-        .map_err(|e| anyhow::anyhow!("invalid service name {full}: {e:?}"))
+        .map_err(BenchError::iceoryx(&format!("invalid service name {full}")))
 }
 
 /// The writing end, created before the reader opens the service.
@@ -134,7 +134,11 @@ impl<T: Stamped> std::fmt::Debug for Writer<T> {
 
 impl<T: Stamped> Writer<T> {
     /// Creates the service `hrrtc/<ns>/bare` and its writing port.
-    pub fn create(node: &Node<services::Ipc>, ns: &str, pattern: Pattern) -> anyhow::Result<Self> {
+    pub fn create(
+        node: &Node<services::Ipc>,
+        ns: &str,
+        pattern: Pattern,
+    ) -> Result<Self, BenchError> {
         let name = service_name(ns)?;
         Ok(match pattern {
             Pattern::PubSub => {
@@ -142,11 +146,11 @@ impl<T: Stamped> Writer<T> {
                     .service_builder(&name)
                     .publish_subscribe::<T>()
                     .open_or_create()
-                    .map_err(|e| anyhow::anyhow!("bare pub/sub service: {e:?}"))?;
+                    .map_err(BenchError::iceoryx("bare pub/sub service"))?;
                 let publisher = factory
                     .publisher_builder()
                     .create()
-                    .map_err(|e| anyhow::anyhow!("bare publisher: {e:?}"))?;
+                    .map_err(BenchError::iceoryx("bare publisher"))?;
                 Writer::PubSub(publisher, factory)
             }
             Pattern::Blackboard => {
@@ -155,24 +159,23 @@ impl<T: Stamped> Writer<T> {
                     .blackboard_creator::<u64>()
                     .add::<T>(services::ENTRY_KEY, T::default())
                     .create()
-                    .map_err(|e| anyhow::anyhow!("bare blackboard: {e:?}"))?;
+                    .map_err(BenchError::iceoryx("bare blackboard"))?;
                 let writer = factory
                     .writer_builder()
                     .create()
-                    .map_err(|e| anyhow::anyhow!("bare blackboard writer: {e:?}"))?;
+                    .map_err(BenchError::iceoryx("bare blackboard writer"))?;
                 let entry = writer
                     .entry::<T>(&services::ENTRY_KEY)
-                    .map_err(|e| anyhow::anyhow!("bare blackboard entry: {e:?}"))?;
+                    .map_err(BenchError::iceoryx("bare blackboard entry"))?;
                 Writer::Blackboard(entry, factory)
             }
         })
     }
 
-    fn write(&self, value: T) -> anyhow::Result<()> {
+    fn write(&self, value: T) -> Result<(), BenchError> {
         match self {
             Writer::PubSub(p, _) => {
-                p.send_copy(value)
-                    .map_err(|e| anyhow::anyhow!("send: {e:?}"))?;
+                p.send_copy(value).map_err(BenchError::iceoryx("send"))?;
             }
             Writer::Blackboard(e, _) => e.update_with_copy(value),
         }
@@ -183,7 +186,7 @@ impl<T: Stamped> Writer<T> {
     /// sample; each stamped just before it is written. Returns how many recorded samples
     /// were written (neither warm-up nor stop) and the time each write call took (stamp →
     /// return of `send_copy` / `update_with_copy`, ns), which is part of the latency.
-    pub fn run(&self, bare: &Bare, rt: RtOptions) -> anyhow::Result<(u64, NsHistogram)> {
+    pub fn run(&self, bare: &Bare, rt: RtOptions) -> Result<(u64, NsHistogram), BenchError> {
         let _setup = rt::setup_current_thread(&rt);
         let period_ns = (1e9 / bare.rate_hz).round() as u64;
         let warm_up = (0.2 * bare.rate_hz) as u64;
@@ -236,7 +239,11 @@ impl<T: Stamped> std::fmt::Debug for Reader<T> {
 
 impl<T: Stamped> Reader<T> {
     /// Opens `hrrtc/<ns>/bare` (created by a [`Writer`]) and its reading port.
-    pub fn open(node: &Node<services::Ipc>, ns: &str, pattern: Pattern) -> anyhow::Result<Self> {
+    pub fn open(
+        node: &Node<services::Ipc>,
+        ns: &str,
+        pattern: Pattern,
+    ) -> Result<Self, BenchError> {
         let name = service_name(ns)?;
         let port = match pattern {
             Pattern::PubSub => {
@@ -244,12 +251,12 @@ impl<T: Stamped> Reader<T> {
                     .service_builder(&name)
                     .publish_subscribe::<T>()
                     .open_or_create()
-                    .map_err(|e| anyhow::anyhow!("bare pub/sub service: {e:?}"))?;
+                    .map_err(BenchError::iceoryx("bare pub/sub service"))?;
                 ReadPort::PubSub(
                     factory
                         .subscriber_builder()
                         .create()
-                        .map_err(|e| anyhow::anyhow!("bare subscriber: {e:?}"))?,
+                        .map_err(BenchError::iceoryx("bare subscriber"))?,
                 )
             }
             Pattern::Blackboard => {
@@ -257,15 +264,15 @@ impl<T: Stamped> Reader<T> {
                     .service_builder(&name)
                     .blackboard_opener::<u64>()
                     .open()
-                    .map_err(|e| anyhow::anyhow!("bare blackboard: {e:?}"))?;
+                    .map_err(BenchError::iceoryx("bare blackboard"))?;
                 let reader = factory
                     .reader_builder()
                     .create()
-                    .map_err(|e| anyhow::anyhow!("bare blackboard reader: {e:?}"))?;
+                    .map_err(BenchError::iceoryx("bare blackboard reader"))?;
                 ReadPort::Blackboard(
                     reader
                         .entry::<T>(&services::ENTRY_KEY)
-                        .map_err(|e| anyhow::anyhow!("bare blackboard entry: {e:?}"))?,
+                        .map_err(BenchError::iceoryx("bare blackboard entry"))?,
                 )
             }
         };
@@ -273,11 +280,11 @@ impl<T: Stamped> Reader<T> {
     }
 
     /// The newest sample now, if any.
-    fn newest(&self) -> anyhow::Result<Option<T>> {
+    fn newest(&self) -> Result<Option<T>, BenchError> {
         match &self.port {
             ReadPort::PubSub(s) => {
                 let mut newest = None;
-                while let Some(sample) = s.receive().map_err(|e| anyhow::anyhow!("{e:?}"))? {
+                while let Some(sample) = s.receive().map_err(BenchError::iceoryx("receive"))? {
                     newest = Some(*sample);
                 }
                 Ok(newest)
@@ -288,7 +295,7 @@ impl<T: Stamped> Reader<T> {
 
     /// Records the age of every new sample until the stop sample or `timeout`; returns the
     /// histogram (ns). Fails on timeout.
-    pub fn run(&self, poll: Poll, timeout: Duration) -> anyhow::Result<NsHistogram> {
+    pub fn run(&self, poll: Poll, timeout: Duration) -> Result<NsHistogram, BenchError> {
         let mut hist = NsHistogram::new();
         let started = Instant::now();
         let mut last_seq = 0u64;
@@ -313,7 +320,7 @@ impl<T: Stamped> Reader<T> {
                 }
             }
             if started.elapsed() > timeout {
-                bail!("no stop sample within {timeout:?} (writer gone?)");
+                return Err(BenchError::NoStop(timeout));
             }
             match period {
                 None => std::hint::spin_loop(),
@@ -333,10 +340,10 @@ impl<T: Stamped> Reader<T> {
 
 /// The reader of a bare measurement in this process (the harness's child process):
 /// opens, prints `ready` on stdout, records, returns the histogram.
-pub fn read<T: Stamped>(ns: &str, pattern: Pattern, poll: Poll) -> anyhow::Result<NsHistogram> {
+pub fn read<T: Stamped>(ns: &str, pattern: Pattern, poll: Poll) -> Result<NsHistogram, BenchError> {
     use std::io::Write;
     let (node, _) = services::create_node(&format!("bare_rx_{}", std::process::id()))?;
-    let reader = Reader::<T>::open(&node, ns, pattern).context("bare reader")?;
+    let reader = Reader::<T>::open(&node, ns, pattern)?;
     println!("ready");
     std::io::stdout().flush()?;
     reader.run(poll, Duration::from_secs(3600))

@@ -2,6 +2,9 @@
 //! `src/bin/`).
 
 pub mod contact_fixture;
+mod error;
 pub mod harness;
 pub mod ipc;
 pub mod scaling;
+
+pub use error::BenchError;

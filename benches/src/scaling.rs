@@ -1,6 +1,7 @@
 //! Scaling measurements for the `scaling` harness: contact-stage step time against
 //! pointshell size, and planner iteration cost against tree size; log–log plots.
 
+use crate::BenchError;
 use crate::contact_fixture::{Fixture, Situation};
 use haptic_loop::stats::{NsHistogram, Percentiles};
 use planner::{Planner, PlannerParams, Scene};
@@ -84,8 +85,8 @@ pub fn planner_series(
     batch: u64,
     max_nodes: usize,
     budget: Duration,
-) -> anyhow::Result<Vec<PlannerPoint>> {
-    let s = Scene::builtin(scene).ok_or_else(|| anyhow::anyhow!("no built-in scene {scene}"))?;
+) -> Result<Vec<PlannerPoint>, BenchError> {
+    let s = Scene::builtin(scene).ok_or_else(|| BenchError::UnknownScene(scene.to_owned()))?;
     let mut p = Planner::new(&s, PlannerParams::default(), 1)?;
     let started = Instant::now();
     let mut out = Vec::new();
