@@ -27,6 +27,7 @@ pub mod convert;
 mod driver;
 mod guidance;
 pub mod latency;
+pub mod layout;
 mod path;
 mod roadmap;
 pub mod services;
