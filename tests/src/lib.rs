@@ -24,7 +24,7 @@ pub fn bin_dir() -> &'static Path {
         let mut cmd = Command::new(cargo);
         // Everything the tests start, in one build before any test proceeds, so no build
         // competes for the CPU with a timing-sensitive test: the binaries, the bridge's
-        // example driver, and the fake vendor libraries (cdylibs).
+        // example driver, the fake vendor libraries and the C client library (cdylibs).
         cmd.args([
             "build",
             "--quiet",
@@ -36,6 +36,8 @@ pub fn bin_dir() -> &'static Path {
             "fake-dhd",
             "-p",
             "fake-hd",
+            "-p",
+            "hrrtc-c",
             "--lib",
             "--bins",
             "--example",

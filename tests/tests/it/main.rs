@@ -8,6 +8,7 @@ static ALLOCATOR: CountingAllocator = CountingAllocator;
 
 mod alloc;
 mod devices;
+mod external_c;
 mod issue_16;
 mod rt_deps;
 mod two_process;
