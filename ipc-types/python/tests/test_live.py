@@ -126,3 +126,39 @@ def test_python_guidance_is_rendered_and_malformed_guidance_is_rejected(loop):
     # The loop's relay hands on only the newest sample; one replaced within a relay
     # wake-up (1 ms) is never seen, so at most all and, 50 ms apart, nearly all count.
     assert len(bad) // 2 <= report["guidance_rejected"] <= len(bad), report
+
+
+def test_the_planners_path_and_roadmap_reach_python(loop):
+    ns, summary, proc = loop
+    exe = BIN_DIR / "planner"
+    assert exe.exists(), f"{exe} is missing: build it with `cargo build -p planner`"
+    node = hrrtc.create_node()
+    # Subscribe before the planner starts: the roadmap has no history.
+    paths = hrrtc.PathSubscriber(node, ns)
+    roadmap = hrrtc.RoadmapSubscriber(node, ns)
+    guidance = hrrtc.GuidanceSubscriber(node, ns)
+    # The wall-hole's loop is running; the `free` scene's planner solves at once.
+    planner = subprocess.Popen(
+        [str(exe), "serve", "--namespace", ns, "--scene", "free"],
+        stdout=subprocess.DEVNULL,
+    )
+    try:
+        path = wait_for("a solution path", 30, paths.newest)
+        assert path.len >= 2 and path.length > 0.0
+        for w in path.waypoints[: path.len]:
+            q = w.orientation_xyzw
+            assert abs(math.sqrt(sum(v * v for v in q)) - 1.0) < 1e-6
+        increments = wait_for("roadmap increments", 30, lambda: roadmap.receive_all() or None)
+        assert any(r.nodes_len > 0 and r.total_nodes > 0 for r in increments)
+        def solved_guidance():
+            g = guidance.newest()
+            return g if g is not None and g.solved == 1 else None
+
+        g = wait_for("guidance of the solved planner", 30, solved_guidance)
+        assert g.header.writer_pid == planner.pid
+        # Once solved, the guidance leads along the solution path.
+        assert g.mode == hrrtc.GuidanceMode.PATH, hrrtc.GuidanceMode.name_of(g.mode)
+    finally:
+        planner.terminate()
+        assert planner.wait(timeout=20) == 0
+    stop(proc)
