@@ -55,7 +55,7 @@ pub enum Error {
         /// Scene name.
         scene: String,
         /// Why.
-        error: ContactError,
+        error: Box<ContactError>,
     },
     /// A thread could not be started or died during its set-up.
     #[error("cannot start the {thread} thread: {reason}")]

@@ -210,7 +210,21 @@ pub struct ContactModel {
 
 impl ContactModel {
     /// Builds the voxmap of `scene.obstacles` and the pointshell of `scene.moving_object`.
+    /// Refuses a scene with a mesh that is not closed and wound outward
+    /// ([`ContactError::Mesh`]).
     pub fn from_scene(scene: &Scene, voxmap: &VoxmapConfig) -> Result<Self, ContactError> {
+        if let Some(c) = scene.mesh_checks().into_iter().find(|c| !c.is_ok()) {
+            let t = c.topology;
+            return Err(ContactError::Mesh {
+                field: c.field,
+                source_file: c.source,
+                kind: t.kind().name(),
+                boundary_edges: t.boundary_edges,
+                misoriented_edges: t.misoriented_edges,
+                duplicate_triangles: t.duplicate_triangles,
+                hint: scene::topology::REPAIR_HINT,
+            });
+        }
         let obstacles = scene::shapes::part_shapes(&scene.obstacles);
         let object = scene::shapes::part_shapes(&scene.moving_object);
         Self::build(&obstacles, &object, voxmap)

@@ -519,3 +519,52 @@ fn coherent_search_finds_exactly_what_a_full_search_finds() {
     }
     assert!(touching > 500, "touched in only {touching} ticks");
 }
+
+/// Issue 20: a mesh that is open, double-sided or wound inward would give the voxmap wrong
+/// containment; contact refuses it with a message that names the file and how to repair
+/// it, and takes the same box closed and outward.
+#[test]
+fn issue_20_contact_refuses_meshes_that_are_not_closed_and_outward() {
+    use scene::{MeshData, Primitive};
+    let closed = MeshData::cuboid("plate.obj", [0.05, 0.2, 0.2]);
+    let variants: [(&str, Vec<[u32; 3]>); 3] = [
+        ("open", closed.triangles[..10].to_vec()),
+        ("double-sided", {
+            let mut t = closed.triangles.clone();
+            t.extend(closed.triangles.iter().map(|&[a, b, c]| [a, c, b]));
+            t
+        }),
+        (
+            "closed but wound inward",
+            closed
+                .triangles
+                .iter()
+                .map(|&[a, b, c]| [a, c, b])
+                .collect(),
+        ),
+    ];
+    let with_obstacle = |mesh: MeshData| {
+        let mut s = Scene::wall_with_hole();
+        s.obstacles[0].primitive = Primitive::Mesh {
+            mesh: Arc::new(mesh),
+        };
+        s
+    };
+    let config = VoxmapConfig {
+        voxel_m: 0.004,
+        ..VoxmapConfig::default()
+    };
+    for (kind, triangles) in variants {
+        let mesh = MeshData::new("plate.obj", closed.vertices_m.clone(), triangles).unwrap();
+        let e = ContactModel::from_scene(&with_obstacle(mesh), &config)
+            .err()
+            .unwrap_or_else(|| panic!("{kind}: accepted"))
+            .to_string();
+        assert!(
+            e.contains("plate.obj") && e.contains("obstacles[0]") && e.contains(kind),
+            "{e}"
+        );
+        assert!(e.contains("--no-contact") && e.contains("outward"), "{e}");
+    }
+    assert!(ContactModel::from_scene(&with_obstacle(closed), &config).is_ok());
+}

@@ -56,7 +56,7 @@ impl LoopSetup {
         };
         let contact_error = |source| Error::Contact {
             scene: self.scene.name.clone(),
-            error: source,
+            error: Box::new(source),
         };
         config.validate().map_err(contact_error)?;
         let model = ContactModel::from_scene(&self.scene, &config.voxmap).map_err(contact_error)?;

@@ -13,7 +13,8 @@
 //! - `file` / `mesh`: the TOML format (`planner/scenes/README.md`) and OBJ / STL meshes;
 //! - `builtin`: the papers' scenes, built in code ([`BUILTIN_NAMES`]); `export` writes
 //!   them as TOML + OBJ;
-//! - [`shapes`]: parry shapes of parts, the one conversion both processes use.
+//! - [`shapes`]: parry shapes of parts, the one conversion both processes use;
+//! - [`topology`]: whether a mesh is closed and wound outward ([`Scene::mesh_checks`]).
 //!
 //! Validation here covers numbers, sizes and bounds; whether start and goal are collision
 //! free is checked by the caller that owns a collision checker (`Planner::new` does it).
@@ -26,6 +27,7 @@ mod file;
 mod mesh;
 pub mod pose;
 pub mod shapes;
+pub mod topology;
 
 pub use builtin::BUILTIN_NAMES;
 pub use mesh::{MeshData, MeshError};
@@ -188,6 +190,30 @@ pub enum SceneError {
     },
 }
 
+/// The topology of one mesh part of a scene (see [`Scene::mesh_checks`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshCheck {
+    /// The part, e.g. `obstacles[2]` or `moving_object[0]`.
+    pub field: String,
+    /// Where the mesh came from (its file).
+    pub source: String,
+    /// What its triangles bound.
+    pub topology: topology::Topology,
+}
+
+impl MeshCheck {
+    /// True when containment and signed distances are right for it (closed, outward).
+    pub fn is_ok(&self) -> bool {
+        self.topology.is_closed_outward()
+    }
+}
+
+impl std::fmt::Display for MeshCheck {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} ({}): {}", self.source, self.field, self.topology)
+    }
+}
+
 impl Scene {
     /// The embedded default scene, I-RRT §5.3 "Simple 6D case".
     ///
@@ -264,6 +290,29 @@ impl Scene {
     /// Parses and validates TOML scene text; `origin` names it in errors (a path).
     pub fn from_toml_str(text: &str, origin: &str) -> Result<Scene, SceneError> {
         file::parse(text, origin)
+    }
+
+    /// The topology of every mesh part, obstacles then object. Planning works on any
+    /// triangles; contact rendering needs each mesh closed and wound outward
+    /// ([`MeshCheck::is_ok`]); callers warn about the others at load.
+    pub fn mesh_checks(&self) -> Vec<MeshCheck> {
+        let lists = [
+            ("obstacles", &self.obstacles),
+            ("moving_object", &self.moving_object),
+        ];
+        let mut out = Vec::new();
+        for (list, parts) in lists {
+            for (i, part) in parts.iter().enumerate() {
+                if let Primitive::Mesh { mesh } = &part.primitive {
+                    out.push(MeshCheck {
+                        field: format!("{list}[{i}]"),
+                        source: mesh.source.clone(),
+                        topology: topology::Topology::of(mesh),
+                    });
+                }
+            }
+        }
+        out
     }
 
     /// Largest distance from the reference point to any point of the object (m).
@@ -375,6 +424,16 @@ mod tests {
         let err = Scene::by_name_or_path("/nonexistent/x.toml").unwrap_err();
         assert!(matches!(err, SceneError::Io { .. }));
         assert!(err.to_string().contains("/nonexistent/x.toml"));
+    }
+
+    #[test]
+    fn every_builtin_mesh_is_closed_and_outward() {
+        for name in BUILTIN_NAMES {
+            let s = Scene::builtin(name).expect("builtin");
+            for c in s.mesh_checks() {
+                assert!(c.is_ok(), "{name}: {c}");
+            }
+        }
     }
 
     #[test]

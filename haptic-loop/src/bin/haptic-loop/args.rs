@@ -184,6 +184,11 @@ impl LoopArgs {
     /// Validates the arguments into a [`LoopSetup`].
     pub fn to_setup(&self) -> anyhow::Result<LoopSetup> {
         let scene = Scene::by_name_or_path(&self.scene)?;
+        for c in scene.mesh_checks().iter().filter(|c| !c.is_ok()) {
+            tracing::warn!(
+                "mesh {c}; contact rendering needs it closed and wound outward (see `planner scenes check`)"
+            );
+        }
         if !(self.rate_hz.is_finite() && (500.0..=4000.0).contains(&self.rate_hz)) {
             bail!("--rate-hz must be within 500–4000, got {}", self.rate_hz);
         }

@@ -49,6 +49,11 @@ impl CoreArgs {
     /// Loads the scene and validates the tree parameters.
     pub fn load(&self) -> anyhow::Result<(Scene, PlannerParams)> {
         let scene = Scene::by_name_or_path(&self.scene)?;
+        for c in scene.mesh_checks().iter().filter(|c| !c.is_ok()) {
+            tracing::warn!(
+                "mesh {c}; contact rendering needs it closed and wound outward (see `planner scenes check`)"
+            );
+        }
         let params = PlannerParams {
             step: self.step,
             edge_resolution: self.edge_resolution,

@@ -180,4 +180,46 @@ mod tests {
         let e = main_with_args(bad).unwrap_err().to_string();
         assert!(e.contains("/nonexistent.toml"), "{e}");
     }
+
+    /// Issue 20: `planner scenes check` names an open mesh, its boundary edges and the
+    /// repair, with exit code 1; the shipped silencer (a closed mesh body) passes.
+    #[test]
+    fn issue_20_scenes_check_tells_an_open_mesh_from_a_closed_one() {
+        let dir = std::env::temp_dir().join(format!("planner-check-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let closed = scene::MeshData::cuboid("plate", [0.05, 0.2, 0.2]);
+        let open = scene::MeshData::new(
+            "plate",
+            closed.vertices_m.clone(),
+            closed.triangles[..10].to_vec(),
+        )
+        .expect("mesh");
+        std::fs::write(dir.join("open.obj"), open.to_obj()).expect("obj");
+        let toml = dir.join("open.toml");
+        let text = std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/free.toml"),
+        )
+        .expect("free.toml")
+            + "\n[[obstacles]]\nshape = \"mesh\"\nfile = \"open.obj\"\nposition_m = [0.1, 0.0, 0.0]\n";
+        std::fs::write(&toml, text).expect("toml");
+        let path = toml.display().to_string();
+        assert_eq!(
+            main_with_args(["planner", "scenes", "check", &path]).expect("runs"),
+            1
+        );
+        let silencer =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/silencer.toml");
+        let silencer = silencer.display().to_string();
+        assert_eq!(
+            main_with_args(["planner", "scenes", "check", &silencer]).expect("runs"),
+            0
+        );
+        let checks = planner::Scene::load(&toml).expect("loads").mesh_checks();
+        assert_eq!(checks.len(), 1);
+        let line = checks[0].to_string();
+        assert!(
+            line.contains("open.obj") && line.contains("4 boundary edges"),
+            "{line}"
+        );
+    }
 }
