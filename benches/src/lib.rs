@@ -2,9 +2,11 @@
 //! `src/bin/`).
 
 pub mod contact_fixture;
+pub mod edges;
 mod error;
 pub mod harness;
 pub mod ipc;
+pub mod mesh_checks;
 pub mod scaling;
 
 pub use error::BenchError;

@@ -84,7 +84,8 @@ fn main() {
         }
         let el = t0.elapsed().as_secs_f64();
         // Re-validate the solution at 1 mm / 0.01 rad with a fresh checker.
-        let fine = planner::CollisionChecker::with_params(&scene, params.weights, 0.001);
+        let fine = planner::CollisionChecker::with_params(&scene, params.weights, 0.001)
+            .with_edge_check(planner::EdgeCheck::Discrete);
         if let Some(path) = p.solution() {
             let bad: Vec<_> = path
                 .windows(2)

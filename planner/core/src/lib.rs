@@ -30,7 +30,7 @@ pub mod sampling;
 pub mod space;
 pub mod tree;
 
-pub use collision::CollisionChecker;
+pub use collision::{CollisionChecker, EdgeCheck};
 pub use params::{Algorithm, ExtendA, PlannerError, PlannerParams};
 pub use rrt::{Extend, IterReport, Planner, Source, Stats};
 pub use sampling::{Contact, Sampling, SamplingError, UserInput};

@@ -37,6 +37,8 @@ pub struct PlannerParams {
     pub step: f64,
     /// Edge validation resolution (weighted m, default 0.005).
     pub edge_resolution: f64,
+    /// Whether edges are also certified free between the checked configurations.
+    pub edge_check: crate::collision::EdgeCheck,
     /// `p`, the number of nearest nodes in F_a's barycenter (I-RRT: 5).
     pub neighbours: usize,
     /// `ε` of the barycenter weight `1/(ε + distance label)` (weighted m, default 0.05).
@@ -75,6 +77,7 @@ impl Default for PlannerParams {
             weights: Weights::default(),
             step: 0.05,
             edge_resolution: crate::collision::DEFAULT_EDGE_RESOLUTION,
+            edge_check: crate::collision::EdgeCheck::default(),
             neighbours: 5,
             label_epsilon: 0.05,
             lookahead: 0.05,

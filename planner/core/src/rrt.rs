@@ -94,6 +94,8 @@ pub struct Stats {
     pub trees: usize,
     /// Geometric collision checks performed.
     pub collision_checks: u64,
+    /// Clearance (distance) queries of certified edge checks.
+    pub clearance_queries: u64,
     /// Smallest distance label in the start tree (weighted m); 0 once solved.
     pub best_distance_to_goal: f64,
     /// Local trees merged so far.
@@ -137,7 +139,8 @@ impl Planner {
     pub fn new(scene: &Scene, params: PlannerParams, seed: u64) -> Result<Self, PlannerError> {
         params.validate()?;
         scene.validate(&scene.name)?;
-        let checker = CollisionChecker::with_params(scene, params.weights, params.edge_resolution);
+        let checker = CollisionChecker::with_params(scene, params.weights, params.edge_resolution)
+            .with_edge_check(params.edge_check);
         if !checker.is_free(&scene.start) {
             return Err(PlannerError::StartInCollision(scene.name.clone()));
         }
@@ -516,6 +519,7 @@ impl Planner {
             nodes: self.trees.iter().map(Tree::len).sum(),
             trees: self.trees.len(),
             collision_checks: self.checker.collision_checks(),
+            clearance_queries: self.checker.clearance_queries(),
             best_distance_to_goal: best,
             merges: self.merges,
         }

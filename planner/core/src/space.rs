@@ -228,6 +228,19 @@ impl Geodesic {
         }
     }
 
+    /// Upper bound on how far any point within `radius_m` of the reference point moves
+    /// (m) per unit of `t`: `|b − a| + radius_m·θ`, θ the total rotation angle (rad). Both
+    /// parts are traversed at constant rate (straight position, a fixed rotation axis), and
+    /// a point at distance r from the axis through the reference point moves at most
+    /// `r·Δθ`, so between `t0` and `t1` no point moves more than `|t1 − t0|` times this.
+    pub fn sweep_m(&self, radius_m: f64) -> f64 {
+        let theta = match &self.rot {
+            GeodesicRot::Se3 { rel, .. } => rel.norm(),
+            GeodesicRot::Planar { dt, .. } => dt.abs(),
+        };
+        (self.b - self.a).norm() + radius_m * theta
+    }
+
     /// The configuration at fraction `t ∈ [0, 1]`.
     pub fn at(&self, t: f64) -> Se3 {
         let pos = self.a.lerp(&self.b, t);
@@ -405,6 +418,47 @@ mod tests {
 
     fn space() -> Se3Space {
         Se3Space::new(Scene::wall_with_hole().bounds, Weights::default())
+    }
+
+    #[test]
+    fn sweep_bounds_how_far_object_points_move() {
+        // Between any two fractions of an edge, no point within r of the reference point
+        // moves more than |t1 − t0|·sweep_m(r); and the bound is nearly reached.
+        let bounds = Bounds {
+            min_m: Vector3::repeat(-1.0),
+            max_m: Vector3::repeat(1.0),
+        };
+        let spaces = [
+            Space::Se3(Se3Space::new(bounds, Weights::default())),
+            Space::Planar(PlanarSpace::new(
+                bounds,
+                Weights::default(),
+                &Se3::new(
+                    Vector3::new(0.0, 0.0, 0.1),
+                    UnitQuaternion::from_euler_angles(0.3, 0.2, 0.0),
+                ),
+            )),
+        ];
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        let r = 0.3;
+        for space in &spaces {
+            let mut tightest: f64 = 0.0;
+            for _ in 0..300 {
+                let (a, b) = (
+                    space.sample_uniform(&mut rng),
+                    space.sample_uniform(&mut rng),
+                );
+                let g = space.geodesic(&a, &b);
+                let (t0, t1): (f64, f64) = (rng.random(), rng.random());
+                let p = Vector3::new(rng.random(), rng.random(), rng.random()).normalize() * r;
+                let (q0, q1) = (g.at(t0), g.at(t1));
+                let moved = (q1.transform_point(&p) - q0.transform_point(&p)).norm();
+                let bound = (t1 - t0).abs() * g.sweep_m(r);
+                assert!(moved <= bound + 1e-12, "{moved} > {bound}");
+                tightest = tightest.max(moved / bound);
+            }
+            assert!(tightest > 0.5, "{tightest}");
+        }
     }
 
     #[test]

@@ -55,6 +55,8 @@ pub struct SolveReport {
     pub nodes: u64,
     /// Collision checks.
     pub collision_checks: u64,
+    /// Clearance (distance) queries of certified edges (0 with discrete edges).
+    pub clearance_queries: u64,
     /// Weighted length of the solution path (I-RRT eq. 2), if solved.
     pub path_length: Option<f64>,
     /// Waypoints of the solution path, if solved.
@@ -112,6 +114,7 @@ pub fn solve(config: &SolveConfig) -> Result<SolveReport, LabError> {
         iterations: s.iterations,
         nodes: s.nodes as u64,
         collision_checks: s.collision_checks,
+        clearance_queries: s.clearance_queries,
         path_length,
         path_waypoints: planner.solution().map(<[_]>::len),
     })

@@ -23,6 +23,11 @@ pub struct CoreArgs {
     /// Edge validation resolution, weighted m.
     #[arg(long, default_value_t = 0.005)]
     pub edge_resolution: f64,
+    /// Edge validation: `discrete` (configurations every --edge-resolution) or
+    /// `certified` (those, then a proof from clearances that no configuration between
+    /// them collides: a solved path is free everywhere).
+    #[arg(long, default_value = "certified", value_parser = ["discrete", "certified"])]
+    pub edges: String,
     /// p: nearest nodes in F_a's barycenter (I-RRT uses 5).
     #[arg(long, default_value_t = 5)]
     pub neighbours: usize,
@@ -57,6 +62,8 @@ impl CoreArgs {
         let params = PlannerParams {
             step: self.step,
             edge_resolution: self.edge_resolution,
+            edge_check: planner::EdgeCheck::parse(&self.edges)
+                .with_context(|| format!("--edges: unknown `{}`", self.edges))?,
             neighbours: self.neighbours,
             algorithm: if self.algorithm == "rrt" {
                 planner::Algorithm::Rrt

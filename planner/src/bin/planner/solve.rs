@@ -18,7 +18,7 @@ pub struct SolveArgs {
     #[arg(long, default_value_t = 60.0)]
     pub time_limit: f64,
     /// Write the result as JSON here: solved, time_s, iterations, nodes,
-    /// collision_checks, path_length (weighted m), path_waypoints.
+    /// collision_checks, clearance_queries, path_length (weighted m), path_waypoints.
     #[arg(long)]
     pub json: Option<PathBuf>,
     /// Write the (smoothed) solution path here as CSV: x_m,y_m,z_m,qw,qx,qy,qz,arc_length.
@@ -68,13 +68,14 @@ impl SolveArgs {
 pub fn run(args: &SolveArgs) -> anyhow::Result<i32> {
     let report = lab::solve::solve(&args.to_config()?)?;
     println!(
-        "{}: solved {} in {:.3} s, {} iterations, {} nodes, {} collision checks",
+        "{}: solved {} in {:.3} s, {} iterations, {} nodes, {} collision checks, {} clearance queries",
         report.scene,
         report.solved,
         report.time_s,
         report.iterations,
         report.nodes,
-        report.collision_checks
+        report.collision_checks,
+        report.clearance_queries
     );
     if let Some(p) = &args.json {
         crate::write_json(p, &report)?;

@@ -1,0 +1,169 @@
+//! Per-check cost against triangle count for the `mesh-checks` harness: a bumpy closed
+//! sphere (non-convex, star-shaped) as the moving object against another as the obstacle,
+//! at random poses around contact, both meshes of about the same triangle count.
+
+use planner::{CollisionChecker, Scene, Se3, Weights};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use scene::{Bounds, MeshData, Part, Primitive, SpaceKind};
+use serde::Serialize;
+use std::f64::consts::PI;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Radius of both spheres before their bumps (m).
+pub const RADIUS_M: f64 = 0.05;
+
+/// A closed, outward-wound sphere of radius `r` (m) with bumps of ±10 % (5 per half turn in
+/// latitude and longitude): `rings` latitude bands of `segments` triangles pairs, poles as
+/// fans, `2·segments·(rings − 1)` triangles.
+pub fn bumpy_sphere(r: f64, rings: u32, segments: u32) -> MeshData {
+    let at = |theta: f64, phi: f64| {
+        let rho = r * (1.0 + 0.1 * (5.0 * theta).sin() * (5.0 * phi).sin());
+        nalgebra::Vector3::new(
+            rho * theta.sin() * phi.cos(),
+            rho * theta.sin() * phi.sin(),
+            rho * theta.cos(),
+        )
+    };
+    let mut v = vec![nalgebra::Vector3::new(0.0, 0.0, r)];
+    for i in 1..rings {
+        for j in 0..segments {
+            v.push(at(
+                PI * f64::from(i) / f64::from(rings),
+                2.0 * PI * f64::from(j) / f64::from(segments),
+            ));
+        }
+    }
+    v.push(nalgebra::Vector3::new(0.0, 0.0, -r));
+    let south = v.len() as u32 - 1;
+    let ring = |i: u32, j: u32| 1 + (i - 1) * segments + j % segments;
+    let mut t = Vec::new();
+    for j in 0..segments {
+        t.push([0, ring(1, j), ring(1, j + 1)]);
+        for i in 1..rings - 1 {
+            t.push([ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)]);
+            t.push([ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)]);
+        }
+        t.push([south, ring(rings - 1, j + 1), ring(rings - 1, j)]);
+    }
+    MeshData::new("bumpy sphere", v, t).expect("a generated sphere is a valid mesh")
+}
+
+/// The bumpy sphere with about `triangles` triangles (at least 2·8·3 = 48).
+pub fn bumpy_sphere_of(triangles: usize) -> MeshData {
+    // 2·s·(s/2 − 1) ≈ s² triangles for `s` segments and `s/2` rings.
+    let s = ((triangles as f64).sqrt().round() as u32).max(8);
+    bumpy_sphere(RADIUS_M, s / 2, s)
+}
+
+/// The two-sphere scene at about `triangles` triangles per mesh.
+pub fn two_spheres(triangles: usize) -> Scene {
+    let part = |mesh: MeshData| Part {
+        primitive: Primitive::Mesh {
+            mesh: Arc::new(mesh),
+        },
+        pose: Se3::identity(),
+    };
+    Scene {
+        name: format!("bumpy-spheres-{triangles}"),
+        obstacles: vec![part(bumpy_sphere_of(triangles))],
+        moving_object: vec![part(bumpy_sphere_of(triangles))],
+        bounds: Bounds {
+            min_m: nalgebra::Vector3::repeat(-0.5),
+            max_m: nalgebra::Vector3::repeat(0.5),
+        },
+        start: Se3::from_xyz(0.3, 0.0, 0.0),
+        goal: Se3::from_xyz(-0.3, 0.0, 0.0),
+        space: SpaceKind::Se3,
+    }
+}
+
+/// Per-check cost at one mesh size.
+#[derive(Debug, Clone, Serialize)]
+pub struct MeshPoint {
+    /// Triangles per mesh.
+    pub triangles: usize,
+    /// Poses checked (each timed `repeats` times).
+    pub poses: usize,
+    /// Share of those poses in collision.
+    pub colliding: f64,
+    /// Mean `is_free` time, µs.
+    pub is_free_us: f64,
+    /// Mean clearance query time capped at 5 mm (what certification asks), µs.
+    pub clearance_us: f64,
+}
+
+/// `poses` random poses with the centres 0.085–0.115 m apart (the spheres' radii sum to
+/// 0.1 m ± their bumps: about half collide), random orientations, seed fixed.
+pub fn poses(poses: usize) -> Vec<Se3> {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    (0..poses)
+        .map(|_| {
+            let dir = loop {
+                let d = nalgebra::Vector3::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                );
+                let n: f64 = d.norm();
+                if n > 0.1 && n <= 1.0 {
+                    break d / n;
+                }
+            };
+            let rot = nalgebra::UnitQuaternion::from_scaled_axis(
+                nalgebra::Vector3::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                ) * PI,
+            );
+            Se3::new(dir * rng.random_range(0.085..0.115), rot)
+        })
+        .collect()
+}
+
+/// Times `is_free` and the capped clearance over `poses` at about `triangles` triangles.
+pub fn measure(triangles: usize, poses: &[Se3], repeats: usize) -> MeshPoint {
+    let scene = two_spheres(triangles);
+    let c = CollisionChecker::with_params(&scene, Weights::default(), 0.005);
+    let colliding = poses.iter().filter(|q| !c.is_free(q)).count();
+    let time = |f: &dyn Fn(&Se3) -> bool| {
+        let t = Instant::now();
+        for _ in 0..repeats {
+            for q in poses {
+                std::hint::black_box(f(std::hint::black_box(q)));
+            }
+        }
+        t.elapsed().as_secs_f64() * 1e6 / (repeats * poses.len()).max(1) as f64
+    };
+    MeshPoint {
+        triangles: bumpy_sphere_of(triangles).triangles.len(),
+        poses: poses.len(),
+        colliding: colliding as f64 / poses.len().max(1) as f64,
+        is_free_us: time(&|q| c.is_free(q)),
+        clearance_us: time(&|q| c.clearance_up_to_m(q, 0.005) > 0.0),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use scene::topology::{MeshKind, Topology};
+
+    #[test]
+    fn the_bumpy_sphere_is_closed_outward_with_the_stated_count() {
+        let m = bumpy_sphere(RADIUS_M, 6, 12);
+        assert_eq!(m.triangles.len(), 2 * 12 * 5);
+        assert_eq!(Topology::of(&m).kind(), MeshKind::ClosedOutward);
+        let n = bumpy_sphere_of(2000).triangles.len();
+        assert!((1800..=2200).contains(&n), "{n}");
+    }
+
+    #[test]
+    fn about_half_the_poses_collide() {
+        let p = measure(500, &poses(200), 1);
+        assert!((0.2..0.8).contains(&p.colliding), "{}", p.colliding);
+        assert!(p.is_free_us > 0.0 && p.clearance_us > 0.0);
+    }
+}
