@@ -14,47 +14,11 @@ use std::time::Instant;
 /// Radius of both spheres before their bumps (m).
 pub const RADIUS_M: f64 = 0.05;
 
-/// A closed, outward-wound sphere of radius `r` (m) with bumps of ±10 % (5 per half turn in
-/// latitude and longitude): `rings` latitude bands of `segments` triangles pairs, poles as
-/// fans, `2·segments·(rings − 1)` triangles.
-pub fn bumpy_sphere(r: f64, rings: u32, segments: u32) -> MeshData {
-    let at = |theta: f64, phi: f64| {
-        let rho = r * (1.0 + 0.1 * (5.0 * theta).sin() * (5.0 * phi).sin());
-        nalgebra::Vector3::new(
-            rho * theta.sin() * phi.cos(),
-            rho * theta.sin() * phi.sin(),
-            rho * theta.cos(),
-        )
-    };
-    let mut v = vec![nalgebra::Vector3::new(0.0, 0.0, r)];
-    for i in 1..rings {
-        for j in 0..segments {
-            v.push(at(
-                PI * f64::from(i) / f64::from(rings),
-                2.0 * PI * f64::from(j) / f64::from(segments),
-            ));
-        }
-    }
-    v.push(nalgebra::Vector3::new(0.0, 0.0, -r));
-    let south = v.len() as u32 - 1;
-    let ring = |i: u32, j: u32| 1 + (i - 1) * segments + j % segments;
-    let mut t = Vec::new();
-    for j in 0..segments {
-        t.push([0, ring(1, j), ring(1, j + 1)]);
-        for i in 1..rings - 1 {
-            t.push([ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)]);
-            t.push([ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)]);
-        }
-        t.push([south, ring(rings - 1, j + 1), ring(rings - 1, j)]);
-    }
-    MeshData::new("bumpy sphere", v, t).expect("a generated sphere is a valid mesh")
-}
-
 /// The bumpy sphere with about `triangles` triangles (at least 2·8·3 = 48).
 pub fn bumpy_sphere_of(triangles: usize) -> MeshData {
     // 2·s·(s/2 − 1) ≈ s² triangles for `s` segments and `s/2` rings.
     let s = ((triangles as f64).sqrt().round() as u32).max(8);
-    bumpy_sphere(RADIUS_M, s / 2, s)
+    MeshData::bumpy_sphere("bumpy sphere", RADIUS_M, s / 2, s)
 }
 
 /// The two-sphere scene at about `triangles` triangles per mesh.
@@ -88,8 +52,10 @@ pub struct MeshPoint {
     pub poses: usize,
     /// Share of those poses in collision.
     pub colliding: f64,
-    /// Mean `is_free` time, µs.
+    /// Mean `is_free` time, µs (meshes by the simultaneous traversal).
     pub is_free_us: f64,
+    /// Mean time of the same check by parry's composite test, µs.
+    pub parry_us: f64,
     /// Mean clearance query time capped at 5 mm (what certification asks), µs.
     pub clearance_us: f64,
 }
@@ -123,11 +89,17 @@ pub fn poses(poses: usize) -> Vec<Se3> {
         .collect()
 }
 
-/// Times `is_free` and the capped clearance over `poses` at about `triangles` triangles.
+/// Times `is_free` (and parry's test of the same) and the capped clearance over `poses` at
+/// about `triangles` triangles. Panics if the two tests disagree on a pose: a wrong fast
+/// test must not report a time.
 pub fn measure(triangles: usize, poses: &[Se3], repeats: usize) -> MeshPoint {
     let scene = two_spheres(triangles);
     let c = CollisionChecker::with_params(&scene, Weights::default(), 0.005);
     let colliding = poses.iter().filter(|q| !c.is_free(q)).count();
+    assert!(
+        poses.iter().all(|q| c.is_free(q) == c.is_free_by_parry(q)),
+        "the two mesh tests disagree"
+    );
     let time = |f: &dyn Fn(&Se3) -> bool| {
         let t = Instant::now();
         for _ in 0..repeats {
@@ -142,6 +114,7 @@ pub fn measure(triangles: usize, poses: &[Se3], repeats: usize) -> MeshPoint {
         poses: poses.len(),
         colliding: colliding as f64 / poses.len().max(1) as f64,
         is_free_us: time(&|q| c.is_free(q)),
+        parry_us: time(&|q| c.is_free_by_parry(q)),
         clearance_us: time(&|q| c.clearance_up_to_m(q, 0.005) > 0.0),
     }
 }
@@ -153,7 +126,7 @@ mod tests {
 
     #[test]
     fn the_bumpy_sphere_is_closed_outward_with_the_stated_count() {
-        let m = bumpy_sphere(RADIUS_M, 6, 12);
+        let m = MeshData::bumpy_sphere("test", RADIUS_M, 6, 12);
         assert_eq!(m.triangles.len(), 2 * 12 * 5);
         assert_eq!(Topology::of(&m).kind(), MeshKind::ClosedOutward);
         let n = bumpy_sphere_of(2000).triangles.len();

@@ -32,6 +32,29 @@ struct Args {
     /// Draw the log–log plot here.
     #[arg(long)]
     png: Option<PathBuf>,
+    /// Write the meshes (OBJ), the poses and our verdicts and times here (`cases.json`),
+    /// for a reference library to check and time the same cases (`benches/coal/run.py`).
+    #[arg(long, value_name = "DIR")]
+    export: Option<PathBuf>,
+}
+
+/// `cases.json` of `--export`.
+#[derive(serde::Serialize)]
+struct Cases {
+    /// Object poses in the obstacle's frame: x, y, z (m), qw, qx, qy, qz.
+    poses: Vec<[f64; 7]>,
+    sizes: Vec<Case>,
+}
+
+#[derive(serde::Serialize)]
+struct Case {
+    triangles: usize,
+    obstacle_obj: String,
+    object_obj: String,
+    /// Our verdict per pose.
+    colliding: Vec<bool>,
+    is_free_us: f64,
+    parry_us: f64,
 }
 
 fn main() -> anyhow::Result<()> {
@@ -52,14 +75,18 @@ fn main() -> anyhow::Result<()> {
         .iter()
         .map(|&n| mesh_checks::measure(n, &poses, args.repeats))
         .collect();
-    println!("| triangles per mesh | colliding | is_free µs | clearance (≤ 5 mm) µs |");
-    println!("|---|---|---|---|");
+    println!(
+        "| triangles per mesh | colliding | is_free µs | parry's mesh test µs | speed-up | clearance (≤ 5 mm) µs |"
+    );
+    println!("|---|---|---|---|---|---|");
     for p in &points {
         println!(
-            "| {} | {:.0} % | {:.2} | {:.2} |",
+            "| {} | {:.0} % | {:.2} | {:.2} | {:.1}× | {:.2} |",
             p.triangles,
             100.0 * p.colliding,
             p.is_free_us,
+            p.parry_us,
+            p.parry_us / p.is_free_us,
             p.clearance_us
         );
     }
@@ -70,6 +97,13 @@ fn main() -> anyhow::Result<()> {
                 .iter()
                 .map(|p| (p.triangles as f64, p.is_free_us))
                 .collect::<Vec<_>>(),
+        ),
+        (
+            "is_free by parry's mesh test".to_string(),
+            points
+                .iter()
+                .map(|p| (p.triangles as f64, p.parry_us))
+                .collect(),
         ),
         (
             "clearance up to 5 mm".to_string(),
@@ -99,6 +133,49 @@ fn main() -> anyhow::Result<()> {
             &series,
         )
         .map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
+    }
+    if let Some(dir) = &args.export {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        let mut sizes = Vec::new();
+        for (p, &asked) in points.iter().zip(&args.triangles) {
+            let scene = mesh_checks::two_spheres(asked);
+            let checker = planner::CollisionChecker::new(&scene);
+            let mut names = Vec::new();
+            for (role, part) in [
+                ("obstacle", &scene.obstacles[0]),
+                ("object", &scene.moving_object[0]),
+            ] {
+                let scene::Primitive::Mesh { mesh } = &part.primitive else {
+                    bail!("the fixture's parts are meshes");
+                };
+                let name = format!("{role}-{}.obj", p.triangles);
+                std::fs::write(dir.join(&name), mesh.to_obj())
+                    .with_context(|| format!("writing {}", dir.join(&name).display()))?;
+                names.push(name);
+            }
+            sizes.push(Case {
+                triangles: p.triangles,
+                obstacle_obj: names[0].clone(),
+                object_obj: names[1].clone(),
+                colliding: poses.iter().map(|q| !checker.is_free(q)).collect(),
+                is_free_us: p.is_free_us,
+                parry_us: p.parry_us,
+            });
+        }
+        let cases = Cases {
+            poses: poses
+                .iter()
+                .map(|q| {
+                    [
+                        q.pos.x, q.pos.y, q.pos.z, q.rot.w, q.rot.i, q.rot.j, q.rot.k,
+                    ]
+                })
+                .collect(),
+            sizes,
+        };
+        let file = dir.join("cases.json");
+        std::fs::write(&file, serde_json::to_string(&cases)?)
+            .with_context(|| format!("writing {}", file.display()))?;
     }
     if let Some(p) = &args.json {
         std::fs::write(p, serde_json::to_string_pretty(&points)?)

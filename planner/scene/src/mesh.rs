@@ -144,6 +144,49 @@ impl MeshData {
             triangles: t,
         }
     }
+
+    /// A closed, outward-wound sphere of radius `r` (m) with bumps of ±10 % (5 per half
+    /// turn in latitude and longitude, so it is not convex): `rings` ≥ 2 latitude bands of
+    /// `segments` ≥ 3, poles as fans, `2·segments·(rings − 1)` triangles. Dense meshes for
+    /// tests and benchmarks.
+    pub fn bumpy_sphere(source: &str, r: f64, rings: u32, segments: u32) -> Self {
+        let (rings, segments) = (rings.max(2), segments.max(3));
+        let at = |theta: f64, phi: f64| {
+            let rho = r * (1.0 + 0.1 * (5.0 * theta).sin() * (5.0 * phi).sin());
+            Vector3::new(
+                rho * theta.sin() * phi.cos(),
+                rho * theta.sin() * phi.sin(),
+                rho * theta.cos(),
+            )
+        };
+        let mut v = vec![Vector3::new(0.0, 0.0, r)];
+        for i in 1..rings {
+            for j in 0..segments {
+                let theta = std::f64::consts::PI * f64::from(i) / f64::from(rings);
+                v.push(at(
+                    theta,
+                    std::f64::consts::TAU * f64::from(j) / f64::from(segments),
+                ));
+            }
+        }
+        v.push(Vector3::new(0.0, 0.0, -r));
+        let south = v.len() as u32 - 1;
+        let ring = |i: u32, j: u32| 1 + (i - 1) * segments + j % segments;
+        let mut t = Vec::with_capacity(2 * (segments * (rings - 1)) as usize);
+        for j in 0..segments {
+            t.push([0, ring(1, j), ring(1, j + 1)]);
+            for i in 1..rings - 1 {
+                t.push([ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)]);
+                t.push([ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)]);
+            }
+            t.push([south, ring(rings - 1, j + 1), ring(rings - 1, j)]);
+        }
+        MeshData {
+            source: source.to_owned(),
+            vertices_m: v,
+            triangles: t,
+        }
+    }
 }
 
 /// Vertices (file units) and triangles as read, before scaling and validation.
