@@ -888,6 +888,34 @@ mod tests {
         let rolled = UnitQuaternion::from_euler_angles(35f64.to_radians(), 0.0, 0.0);
         assert!(c.is_free(&Se3::new(Vector3::new(0.15, 0.0, 0.0), rolled)));
         assert!(!c.is_free(&Se3::from_xyz(0.15, 0.0, 0.0)));
+        // Bug trap: level through the inner slot, rolled by 60° through the outer one,
+        // and a hand-made way out that is certified free: in, roll inside the neck, out.
+        let bt = Scene::bug_trap();
+        let c = CollisionChecker::new(&bt);
+        let roll = |deg: f64| UnitQuaternion::from_euler_angles(deg.to_radians(), 0.0, 0.0);
+        assert!(c.is_free(&Se3::from_xyz(0.02, 0.0, 0.0)));
+        assert!(!c.is_free(&Se3::new(Vector3::new(0.02, 0.0, 0.0), roll(60.0))));
+        assert!(!c.is_free(&Se3::from_xyz(0.125, 0.0, 0.0)));
+        assert!(c.is_free(&Se3::new(Vector3::new(0.125, 0.0, 0.0), roll(60.0))));
+        assert!(
+            !c.is_free(&Se3::from_xyz(0.02, 0.006, 0.0)),
+            "4 mm to spare in y"
+        );
+        let way = [
+            bt.start,
+            Se3::from_xyz(0.073, 0.0, 0.0),
+            Se3::new(Vector3::new(0.073, 0.0, 0.0), roll(60.0)),
+            Se3::new(Vector3::new(0.2, 0.0, 0.0), roll(60.0)),
+            bt.goal,
+        ];
+        for w in way.windows(2) {
+            assert!(
+                c.edge_free(&w[0], &w[1]),
+                "bug trap: {:?} → {:?}",
+                w[0],
+                w[1]
+            );
+        }
         // Silencer: it cannot drop straight out (crossmember), but can beside it.
         let sil = Scene::silencer();
         let c = CollisionChecker::new(&sil);

@@ -27,6 +27,37 @@ pub enum ExtendA {
     Step,
 }
 
+/// How samples without an operator ("machine" samples: automatic planning, the uniform
+/// share of the +CS methods and H-RRT-C's machine mode) are drawn.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MachineSampler {
+    /// Uniform over the bounded space.
+    Uniform,
+    /// The bridge test of Hsu, Jiang, Reif and Sun ("The bridge test for sampling narrow
+    /// passages with probabilistic roadmap planners", ICRA 2003), mixed with uniform
+    /// samples: with probability `share`, draw q1 uniformly and q2 from a Gaussian of
+    /// per-axis σ `sigma` (weighted m) around it; when both collide and their midpoint is
+    /// free, the midpoint is the sample (it lies in a passage narrower than about σ).
+    /// After [`crate::rrt::BRIDGE_TRIES`] failed tries the sample is uniform.
+    Bridge {
+        /// Probability of a bridge sample, in [0, 1].
+        share: f64,
+        /// σ of the bridge's second end (weighted m, > 0).
+        sigma: f64,
+    },
+}
+
+impl MachineSampler {
+    /// `uniform` or `bridge` (with `share` and `sigma`).
+    pub fn parse(name: &str, share: f64, sigma: f64) -> Option<Self> {
+        match name {
+            "uniform" => Some(MachineSampler::Uniform),
+            "bridge" => Some(MachineSampler::Bridge { share, sigma }),
+            _ => None,
+        }
+    }
+}
+
 /// Tuning of [`crate::rrt::Planner`]. Distances are weighted distances (weighted m, see
 /// [`crate::space`]); with the default weights 0.01 weighted m is 1 cm or 0.1 rad.
 #[derive(Clone, Debug, PartialEq)]
@@ -52,6 +83,8 @@ pub struct PlannerParams {
     pub extend_a: ExtendA,
     /// Sampling method (default uniform: automatic planning). See [`crate::sampling`].
     pub sampling: Sampling,
+    /// How machine samples are drawn (default uniform).
+    pub machine_sampler: MachineSampler,
     /// σ, per-axis standard deviation of the Gaussians of POS and PATH (weighted m,
     /// default 0.03: 3 cm, 0.3 rad).
     pub user_sigma: f64,
@@ -84,6 +117,7 @@ impl Default for PlannerParams {
             algorithm: Algorithm::RrtConnect,
             extend_a: ExtendA::Greedy,
             sampling: Sampling::Uniform,
+            machine_sampler: MachineSampler::Uniform,
             user_sigma: 0.03,
             fr_alpha: 0.5,
             local_trees: false,
@@ -112,6 +146,15 @@ impl PlannerParams {
         pos("weights.rotation", self.weights.rotation)?;
         pos("step", self.step)?;
         pos("edge_resolution", self.edge_resolution)?;
+        if let MachineSampler::Bridge { share, sigma } = self.machine_sampler {
+            if !(0.0..=1.0).contains(&share) {
+                return Err(PlannerError::InvalidParam {
+                    name: "machine_sampler.share",
+                    reason: format!("must be in [0, 1], got {share}"),
+                });
+            }
+            pos("machine_sampler.sigma", sigma)?;
+        }
         pos("label_epsilon", self.label_epsilon)?;
         pos("user_sigma", self.user_sigma)?;
         if !(self.lookahead.is_finite() && self.lookahead >= 0.0) {

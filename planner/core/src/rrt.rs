@@ -23,7 +23,7 @@
 
 use crate::collision::CollisionChecker;
 use crate::guidance::{PathGuide, barycenter_force};
-use crate::params::{Algorithm, ExtendA, PlannerError, PlannerParams};
+use crate::params::{Algorithm, ExtendA, MachineSampler, PlannerError, PlannerParams};
 use crate::sampling::{Sampling, UserInput, apply_delta, contact_sample};
 use crate::space::{ConfigSpace, Space};
 use crate::tree::{NodeId, Tree};
@@ -56,7 +56,12 @@ pub enum Source {
     User,
     /// H-RRT-C HapticSampling on the contact plane.
     Contact,
+    /// A machine sample of the bridge test ([`MachineSampler::Bridge`]).
+    Bridge,
 }
+
+/// Bridge tests tried for one bridge sample before it falls back to a uniform one.
+pub const BRIDGE_TRIES: u32 = 32;
 
 /// What one iteration did.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -237,7 +242,7 @@ impl Planner {
             return (self.goal, Source::Uniform);
         }
         let Some(u) = input else {
-            return (self.space.sample_uniform(&mut self.rng), Source::Uniform);
+            return self.machine_sample();
         };
         if let (Sampling::Hrrtc { .. }, Some(c)) = (sampling, &u.contact) {
             // Contact mode (Algorithm 2, line 3): always HapticSampling.
@@ -246,11 +251,12 @@ impl Planner {
             }
         }
         if self.rng.random::<f64>() >= sampling.user_share() {
-            return (self.space.sample_uniform(&mut self.rng), Source::Uniform);
+            return self.machine_sample();
         }
         let sigma = self.params.user_sigma;
         let q = match sampling {
-            Sampling::Uniform => self.space.sample_uniform(&mut self.rng),
+            // Its user share is 0: the draw above always returns a machine sample.
+            Sampling::Uniform => return self.machine_sample(),
             Sampling::Pos { .. } => {
                 let prev = self.prev_user.unwrap_or(u.q_user);
                 let fr = self.resulting_force(&prev, &u.q_user);
@@ -265,6 +271,30 @@ impl Planner {
             Sampling::Hrrtc { .. } => u.q_user,
         };
         (q, Source::User)
+    }
+
+    /// A sample without the operator, by [`PlannerParams::machine_sampler`].
+    fn machine_sample(&mut self) -> (Se3, Source) {
+        let MachineSampler::Bridge { share, sigma } = self.params.machine_sampler else {
+            return (self.space.sample_uniform(&mut self.rng), Source::Uniform);
+        };
+        if self.rng.random::<f64>() < share {
+            for _ in 0..BRIDGE_TRIES {
+                let q1 = self.space.sample_uniform(&mut self.rng);
+                if self.checker.is_free(&q1) {
+                    continue;
+                }
+                let q2 = self.space.sample_near(&q1, sigma, &mut self.rng);
+                if self.checker.is_free(&q2) {
+                    continue;
+                }
+                let mid = self.space.interpolate(&q1, &q2, 0.5);
+                if self.checker.is_free(&mid) {
+                    return (mid, Source::Bridge);
+                }
+            }
+        }
+        (self.space.sample_uniform(&mut self.rng), Source::Uniform)
     }
 
     /// Single-tree RRT: one step from the nearest start-tree node.
@@ -322,6 +352,8 @@ impl Planner {
             }
         }
         if self.params.local_trees {
+            // Operator and bridge samples that the main trees missed root local trees
+            // (narrow passages, as in Strandberg's local trees, ICRA 2004).
             let user_missed = source != Source::Uniform && ext != Extend::Success;
             if user_missed && self.checker.is_free(q_rand) {
                 report.nodes_added += self.grow_local(q_rand);

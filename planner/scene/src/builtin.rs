@@ -14,7 +14,7 @@ use std::sync::Arc;
 
 /// Built-in scene names accepted by [`Scene::by_name_or_path`] (`default` is
 /// `wall-hole`).
-pub const BUILTIN_NAMES: [&str; 9] = [
+pub const BUILTIN_NAMES: [&str; 10] = [
     "wall-hole",
     "default",
     "maze",
@@ -23,6 +23,7 @@ pub const BUILTIN_NAMES: [&str; 9] = [
     "tunnels-2axes",
     "crossing-planes",
     "silencer",
+    "bug-trap",
     "free",
 ];
 
@@ -79,6 +80,7 @@ impl Scene {
             "tunnels-2axes" => Scene::tunnels(2, 2),
             "crossing-planes" => Scene::crossing_planes(),
             "silencer" => Scene::silencer(),
+            "bug-trap" => Scene::bug_trap(),
             "free" => Scene::free(),
             _ => return None,
         })
@@ -269,6 +271,73 @@ impl Scene {
             },
             start: Se3::from_xyz(0.0, 0.0, 0.06),
             goal: Se3::from_xyz(0.0, 0.0, 0.35),
+            space: SpaceKind::Se3,
+        }
+    }
+
+    /// A bug trap (a narrow-passage benchmark of our own, after the 2-D "bug trap" of the
+    /// sampling literature): a closed 240 mm box holds an 80 × 36 × 10 mm bar. The only way
+    /// out is a neck pointing *inward*, as in a lobster pot: a 60 mm square tube from the
+    /// +x wall 100 mm into the box, closed at both ends by 4 mm plates with a 44 × 16 mm
+    /// slot. The bar passes a slot only along x with 4 mm and 3 mm to spare and within
+    /// about 0.1 rad; the inner slot is level, the outer one rolled by 60°, so the bar
+    /// must roll inside the tube. Start in the box at x = −0.06, goal outside at x = 0.25,
+    /// both level. The reference point may also roam outside the box (bounds to ±0.2 m in
+    /// y and z), where the goal tree grows freely.
+    pub fn bug_trap() -> Scene {
+        let (inner, wall) = (0.12, 0.005); // box inside half size, wall half thickness
+        let (neck, neck_wall) = (0.03, 0.003); // tube inside half size, wall half thickness
+        let slot = [0.022, 0.008];
+        let outer = inner + 2.0 * wall;
+        let mut obstacles = vec![
+            boxed(
+                [wall, outer, outer],
+                Se3::from_xyz(-(inner + wall), 0.0, 0.0),
+            ),
+            boxed([outer, wall, outer], Se3::from_xyz(0.0, inner + wall, 0.0)),
+            boxed(
+                [outer, wall, outer],
+                Se3::from_xyz(0.0, -(inner + wall), 0.0),
+            ),
+            boxed([outer, outer, wall], Se3::from_xyz(0.0, 0.0, inner + wall)),
+            boxed(
+                [outer, outer, wall],
+                Se3::from_xyz(0.0, 0.0, -(inner + wall)),
+            ),
+        ];
+        // The +x wall with the tube's mouth, and the tube into the box.
+        obstacles.extend(slotted_plate(
+            wall,
+            outer,
+            [neck, neck],
+            &Se3::from_xyz(inner + wall, 0.0, 0.0),
+        ));
+        obstacles.extend(tube_x(neck, neck_wall, 0.02, inner));
+        // The slotted plates: level at the inner end, rolled by 60° in the mouth. Their
+        // half size reaches the tube's corners at any roll.
+        let plate = (neck + 2.0 * neck_wall) * std::f64::consts::SQRT_2;
+        obstacles.extend(slotted_plate(
+            0.002,
+            plate,
+            slot,
+            &Se3::from_xyz(0.02, 0.0, 0.0),
+        ));
+        obstacles.extend(slotted_plate(
+            0.002,
+            plate,
+            slot,
+            &Se3::from_rpy(Vector3::new(inner + wall, 0.0, 0.0), PI / 3.0, 0.0, 0.0),
+        ));
+        Scene {
+            name: "bug-trap".into(),
+            obstacles,
+            moving_object: vec![boxed([0.04, 0.018, 0.005], Se3::identity())],
+            bounds: Bounds {
+                min_m: Vector3::new(-0.11, -0.2, -0.2),
+                max_m: Vector3::new(0.33, 0.2, 0.2),
+            },
+            start: Se3::from_xyz(-0.06, 0.0, 0.0),
+            goal: Se3::from_xyz(0.25, 0.0, 0.0),
             space: SpaceKind::Se3,
         }
     }

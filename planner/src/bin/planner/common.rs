@@ -43,6 +43,16 @@ pub struct CoreArgs {
     /// RRTConnect); the other tree always connects greedily.
     #[arg(long, default_value = "greedy", value_parser = ["greedy", "step"])]
     pub extend: String,
+    /// Machine (operator-free) samples: `uniform`, or `bridge` (the bridge test of Hsu et
+    /// al. 2003 for narrow passages, one sample in --bridge-share; uniform otherwise).
+    #[arg(long, default_value = "uniform", value_parser = ["uniform", "bridge"])]
+    pub machine_sampler: String,
+    /// Share of bridge samples among machine samples, in [0, 1].
+    #[arg(long, default_value_t = 0.5)]
+    pub bridge_share: f64,
+    /// σ of the bridge's second end around the first, weighted m (m, or rad × 0.1).
+    #[arg(long, default_value_t = 0.01)]
+    pub bridge_sigma: f64,
     /// How the distance (used for nearest nodes, steps and edge resolution) combines
     /// translation and rotation: `euclidean` (I-RRT eq. 2, √(|Δp|² + (0.1 m·θ)²)) or
     /// `sum` (|Δp| + 0.1 m·θ, as OMPL's SE(2)/SE(3) spaces).
@@ -71,6 +81,12 @@ impl CoreArgs {
                 planner::Algorithm::RrtConnect
             },
             shortcut_attempts: self.shortcut_attempts,
+            machine_sampler: planner::MachineSampler::parse(
+                &self.machine_sampler,
+                self.bridge_share,
+                self.bridge_sigma,
+            )
+            .with_context(|| format!("--machine-sampler: unknown `{}`", self.machine_sampler))?,
             extend_a: if self.extend == "step" {
                 planner::ExtendA::Step
             } else {
@@ -113,7 +129,7 @@ pub struct SamplingArgs {
     /// α of I-RRT eq. 1, F_r = α·F_u + (1−α)·F_a, in [0, 1].
     #[arg(long, default_value_t = 0.5)]
     pub fr_alpha: f64,
-    /// Grow I-RRT local trees at operator samples the main trees cannot reach.
+    /// Grow I-RRT local trees at operator and bridge samples the main trees cannot reach.
     #[arg(long)]
     pub local_trees: bool,
 }

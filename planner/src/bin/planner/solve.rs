@@ -17,6 +17,10 @@ pub struct SolveArgs {
     /// Give up after this many seconds (wall clock).
     #[arg(long, default_value_t = 60.0)]
     pub time_limit: f64,
+    /// Grow local trees at bridge samples the two main trees cannot reach (with
+    /// `--machine-sampler bridge`: the narrow-passage samples seed trees of their own).
+    #[arg(long)]
+    pub local_trees: bool,
     /// Write the result as JSON here: solved, time_s, iterations, nodes,
     /// collision_checks, clearance_queries, path_length (weighted m), path_waypoints.
     #[arg(long)]
@@ -42,7 +46,8 @@ pub struct SolveArgs {
 impl SolveArgs {
     /// Validates the arguments into a [`SolveConfig`] (loads the scene).
     pub fn to_config(&self) -> anyhow::Result<SolveConfig> {
-        let (scene, params) = self.core.load()?;
+        let (scene, mut params) = self.core.load()?;
+        params.local_trees = self.local_trees;
         let time_limit_s = positive("time-limit", self.time_limit)?;
         let color_by = ColorBy::parse(&self.png_color)
             .with_context(|| format!("--png-color: unknown `{}`", self.png_color))?;
