@@ -8,10 +8,17 @@
 //! never wrong); leaf pairs get Möller's triangle–triangle test ("A fast triangle-triangle
 //! intersection test", J. Graphics Tools 2(2), 1997), with the coplanar case done in 2D.
 //! Surfaces are tested, as parry does for meshes: touching counts as intersecting.
+//!
+//! Distances use the same traversal: node pairs whose boxes are at least the nearest
+//! distance found so far apart (their gap along the six face axes, a lower bound) are
+//! pruned; leaf pairs take the exact triangle–triangle distance (0 when they intersect,
+//! else the least of the six corner–triangle and nine edge–edge distances, Ericson,
+//! "Real-Time Collision Detection", 2005, §5.1).
 
 use parry3d_f64::bounding_volume::Aabb;
 use parry3d_f64::math::{Matrix, Pose, Vector};
 use parry3d_f64::shape::TriMesh;
+use std::cell::Cell;
 
 /// `m1` and `m2` intersect, with `m2` at `pose12` in `m1`'s frame.
 pub fn trimeshes_intersect(pose12: &Pose, m1: &TriMesh, m2: &TriMesh) -> bool {
@@ -32,6 +39,158 @@ pub fn trimeshes_intersect(pose12: &Pose, m1: &TriMesh, m2: &TriMesh) -> bool {
             let tb = i2[b as usize].map(|i| frames.r * v2[i as usize] + frames.t);
             triangles_intersect(&ta, &tb)
         })
+}
+
+/// Below this product of the two meshes' triangle counts parry's closest points answer a
+/// capped distance faster than [`trimeshes_distance_up_to`] (`mesh-checks`: 21 against
+/// 15 µs at 80 triangles a side, 59 against 121 µs at 1 890; the crossing is near 500).
+pub const OWN_DISTANCE_MIN_TRIANGLE_PAIRS: usize = 500 * 500;
+
+/// `min(distance between m1's and m2's surfaces, cap_m)` (m), `m2` at `pose12` in `m1`'s
+/// frame; 0 when they intersect.
+pub fn trimeshes_distance_up_to(pose12: &Pose, m1: &TriMesh, m2: &TriMesh, cap_m: f64) -> f64 {
+    let r = Matrix::from_quat(pose12.rotation);
+    let frames = Frames {
+        r,
+        abs_r: abs(&r),
+        t: pose12.translation,
+    };
+    // Intersecting meshes (the common case near contact) are found faster by the
+    // intersection test, which stops at the first crossing pair.
+    if trimeshes_intersect(pose12, m1, m2) {
+        return 0.0;
+    }
+    let (v1, v2) = (m1.vertices(), m2.vertices());
+    let (i1, i2) = (m1.indices(), m2.indices());
+    let nearest = Cell::new(cap_m);
+    let pairs = m1.bvh().leaf_pairs(m2.bvh(), |n1, n2| {
+        frames.box_gap(&n1.aabb(), &n2.aabb()) < nearest.get()
+    });
+    for (a, b) in pairs {
+        let ta = i1[a as usize].map(|i| v1[i as usize]);
+        let tb = i2[b as usize].map(|i| frames.r * v2[i as usize] + frames.t);
+        // The meshes are disjoint, so no pair intersects: skip that test.
+        let d = disjoint_triangle_distance(&ta, &tb);
+        if d < nearest.get() {
+            if d <= 0.0 {
+                return 0.0;
+            }
+            nearest.set(d);
+        }
+    }
+    nearest.get()
+}
+
+/// Distance between the closed triangles `a` and `b` (m, 0 when they intersect).
+#[cfg(test)]
+fn triangle_distance(a: &[Vector; 3], b: &[Vector; 3]) -> f64 {
+    if triangles_intersect(a, b) {
+        return 0.0;
+    }
+    disjoint_triangle_distance(a, b)
+}
+
+/// [`triangle_distance`] of triangles known not to intersect: they are nearest at a
+/// corner of one or between two edges.
+fn disjoint_triangle_distance(a: &[Vector; 3], b: &[Vector; 3]) -> f64 {
+    let mut d2 = f64::INFINITY;
+    for p in a {
+        d2 = d2.min((*p - closest_on_triangle(*p, b)).length_squared());
+    }
+    for p in b {
+        d2 = d2.min((*p - closest_on_triangle(*p, a)).length_squared());
+    }
+    for i in 0..3 {
+        for j in 0..3 {
+            d2 = d2.min(segments_distance_squared(
+                a[i],
+                a[(i + 1) % 3],
+                b[j],
+                b[(j + 1) % 3],
+            ));
+        }
+    }
+    d2.sqrt()
+}
+
+/// The point of triangle `t` nearest to `p` (Ericson §5.1.5, by Voronoi regions).
+fn closest_on_triangle(p: Vector, t: &[Vector; 3]) -> Vector {
+    let [a, b, c] = *t;
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = va + vb + vc;
+    if denom.is_nan() || denom == 0.0 {
+        // A degenerate triangle: its nearest corner (its edges are tested too).
+        return [a, b, c]
+            .into_iter()
+            .min_by(|x, y| {
+                (p - *x)
+                    .length_squared()
+                    .total_cmp(&(p - *y).length_squared())
+            })
+            .unwrap_or(a);
+    }
+    a + ab * (vb / denom) + ac * (vc / denom)
+}
+
+/// Squared distance between the segments `p1 q1` and `p2 q2` (Ericson §5.1.9).
+fn segments_distance_squared(p1: Vector, q1: Vector, p2: Vector, q2: Vector) -> f64 {
+    let (d1, d2, r) = (q1 - p1, q2 - p2, p1 - p2);
+    let (a, e, f) = (d1.length_squared(), d2.length_squared(), d2.dot(r));
+    const TINY: f64 = 1e-30;
+    let (s, t) = if a <= TINY && e <= TINY {
+        (0.0, 0.0)
+    } else if a <= TINY {
+        (0.0, (f / e).clamp(0.0, 1.0))
+    } else {
+        let c = d1.dot(r);
+        if e <= TINY {
+            ((-c / a).clamp(0.0, 1.0), 0.0)
+        } else {
+            let b = d1.dot(d2);
+            let denom = a * e - b * b;
+            let mut s = if denom > TINY {
+                ((b * f - c * e) / denom).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let mut t = (b * s + f) / e;
+            if t < 0.0 {
+                t = 0.0;
+                s = (-c / a).clamp(0.0, 1.0);
+            } else if t > 1.0 {
+                t = 1.0;
+                s = ((b - c) / a).clamp(0.0, 1.0);
+            }
+            (s, t)
+        }
+    };
+    ((p1 + d1 * s) - (p2 + d2 * t)).length_squared()
 }
 
 fn abs(m: &Matrix) -> Matrix {
@@ -66,6 +225,18 @@ impl Frames {
         let d2 = self.r.transpose() * d;
         let e1 = self.abs_r.transpose() * h1;
         d2.x.abs() <= h2.x + e1.x && d2.y.abs() <= h2.y + e1.y && d2.z.abs() <= h2.z + e1.z
+    }
+
+    /// A lower bound of the distance between the boxes: their largest gap along the six
+    /// face axes (0 when every axis overlaps).
+    fn box_gap(&self, b1: &Aabb, b2: &Aabb) -> f64 {
+        let (c1, h1) = (b1.center(), b1.half_extents());
+        let (c2, h2) = (b2.center(), b2.half_extents());
+        let d = self.r * c2 + self.t - c1;
+        let g1 = d.abs() - h1 - self.abs_r * h2;
+        let d2 = self.r.transpose() * d;
+        let g2 = d2.abs() - h2 - self.abs_r.transpose() * h1;
+        g1.max_element().max(g2.max_element()).max(0.0)
     }
 }
 
@@ -221,6 +392,38 @@ mod tests {
             hits += usize::from(ours);
         }
         assert!((2_000..18_000).contains(&hits), "{hits}");
+    }
+
+    #[test]
+    fn triangle_distances_agree_with_gjk() {
+        use parry3d_f64::query::distance;
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        let tri =
+            |rng: &mut ChaCha8Rng| [0; 3].map(|_| v(rng.random(), rng.random(), rng.random()));
+        let mut apart = 0;
+        for _ in 0..20_000 {
+            let (a, b) = (tri(&mut rng), tri(&mut rng));
+            let ours = triangle_distance(&a, &b);
+            let gjk = distance(
+                &Pose::IDENTITY,
+                &Triangle::new(a[0], a[1], a[2]),
+                &Pose::IDENTITY,
+                &Triangle::new(b[0], b[1], b[2]),
+            )
+            .expect("supported")
+            .distance;
+            assert!((ours - gjk).abs() < 1e-9, "{ours} vs {gjk}: {a:?} {b:?}");
+            apart += usize::from(ours > 0.0);
+        }
+        assert!(apart > 2_000, "{apart}");
+        // Parallel edges and a degenerate (point) triangle.
+        let a = [v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(0.0, 1.0, 0.0)];
+        let above = a.map(|p| p + v(0.0, 0.0, 0.25));
+        assert!((triangle_distance(&a, &above) - 0.25).abs() < 1e-12);
+        let shifted = a.map(|p| p + v(2.0, 0.0, 0.0));
+        assert!((triangle_distance(&a, &shifted) - 1.0).abs() < 1e-12);
+        let point = [v(0.25, 0.25, 0.5); 3];
+        assert!((triangle_distance(&a, &point) - 0.5).abs() < 1e-12);
     }
 
     #[test]
