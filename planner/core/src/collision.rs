@@ -132,6 +132,22 @@ fn pair_intersects(
     parry_intersects(obj_pose, obj, obs_pose, obs)
 }
 
+/// `min(distance, cap_m)` of two pieces by parry's GJK closest points (m); an unsupported
+/// pair counts as touching (never certified).
+fn parry_clearance(
+    obj_pose: &Pose,
+    obj: &dyn parry3d_f64::shape::Shape,
+    obs_pose: &Pose,
+    obs: &dyn parry3d_f64::shape::Shape,
+    cap_m: f64,
+) -> f64 {
+    match closest_points(obj_pose, obj, obs_pose, obs, cap_m) {
+        Ok(ClosestPoints::WithinMargin(p1, p2)) => (p1 - p2).length(),
+        Ok(ClosestPoints::Disjoint) => cap_m,
+        Ok(ClosestPoints::Intersecting) | Err(_) => 0.0,
+    }
+}
+
 /// parry's intersection test, the object first (see module docs); an unsupported pair
 /// counts as a collision.
 fn parry_intersects(
@@ -236,12 +252,13 @@ impl CollisionChecker {
         let mut nearest = cap_m;
         for (obj_pose, obj) in self.object.pieces() {
             for (obs_pose, obs) in self.obstacles.pieces() {
-                let d = match closest_points(&(at * obj_pose), obj, &obs_pose, obs, nearest) {
-                    Ok(ClosestPoints::WithinMargin(p1, p2)) => (p1 - p2).length(),
-                    Ok(ClosestPoints::Disjoint) => nearest,
-                    Ok(ClosestPoints::Intersecting) | Err(_) => 0.0,
-                };
-                nearest = nearest.min(d);
+                nearest = nearest.min(parry_clearance(
+                    &(at * obj_pose),
+                    obj,
+                    &obs_pose,
+                    obs,
+                    nearest,
+                ));
             }
         }
         nearest.max(0.0)
@@ -283,12 +300,7 @@ impl CollisionChecker {
                     continue;
                 }
                 // Searching only below the nearest so far prunes the later pairs too.
-                let d = match closest_points(&obj_pose, obj, &obs_pose, obs, nearest) {
-                    Ok(ClosestPoints::WithinMargin(p1, p2)) => (p1 - p2).length(),
-                    Ok(ClosestPoints::Disjoint) => nearest,
-                    // An unsupported pair is treated as touching (never certified).
-                    Ok(ClosestPoints::Intersecting) | Err(_) => 0.0,
-                };
+                let d = parry_clearance(&obj_pose, obj, &obs_pose, obs, nearest);
                 if d.is_nan() || d <= 0.0 {
                     return 0.0;
                 }
