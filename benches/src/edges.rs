@@ -78,17 +78,10 @@ pub fn run(
     })
 }
 
+/// The median of `v`, `None` when empty (the experiments' median, which gives NaN).
 fn median(mut v: Vec<f64>) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    })
+    let m = lab::experiment::report::median(&mut v);
+    (!m.is_nan()).then_some(m)
 }
 
 /// A Markdown table, one row per scene and edge check in the order first seen: solved

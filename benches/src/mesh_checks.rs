@@ -97,11 +97,18 @@ pub fn poses(poses: usize) -> Vec<Se3> {
 pub fn measure(triangles: usize, poses: &[Se3], repeats: usize) -> MeshPoint {
     let scene = two_spheres(triangles);
     let c = CollisionChecker::with_params(&scene, Weights::default(), 0.005);
-    let colliding = poses.iter().filter(|q| !c.is_free(q)).count();
+    let free: Vec<bool> = poses.iter().map(|q| c.is_free(q)).collect();
     assert!(
-        poses.iter().all(|q| c.is_free(q) == c.is_free_by_parry(q)),
+        poses
+            .iter()
+            .zip(&free)
+            .all(|(q, f)| *f == c.is_free_by_parry(q)),
         "the two mesh tests disagree"
     );
+    let colliding = free.iter().filter(|f| !**f).count();
+    let Primitive::Mesh { mesh } = &scene.obstacles[0].primitive else {
+        unreachable!("two_spheres makes mesh parts")
+    };
     let time = |f: &dyn Fn(&Se3) -> bool| {
         let t = Instant::now();
         for _ in 0..repeats {
@@ -112,7 +119,7 @@ pub fn measure(triangles: usize, poses: &[Se3], repeats: usize) -> MeshPoint {
         t.elapsed().as_secs_f64() * 1e6 / (repeats * poses.len()).max(1) as f64
     };
     MeshPoint {
-        triangles: bumpy_sphere_of(triangles).triangles.len(),
+        triangles: mesh.triangles.len(),
         poses: poses.len(),
         colliding: colliding as f64 / poses.len().max(1) as f64,
         is_free_us: time(&|q| c.is_free(q)),

@@ -118,29 +118,31 @@ impl Side {
     }
 }
 
+type Shape = dyn parry3d_f64::shape::Shape;
+
 /// The object piece `obj` at `obj_pose` meets the obstacle piece `obs` at `obs_pose`.
 /// Two meshes take the simultaneous tree traversal of [`mesh_pair`]; the rest parry.
-fn pair_intersects(
-    obj_pose: &Pose,
-    obj: &dyn parry3d_f64::shape::Shape,
-    obs_pose: &Pose,
-    obs: &dyn parry3d_f64::shape::Shape,
-) -> bool {
+fn pair_intersects(obj_pose: &Pose, obj: &Shape, obs_pose: &Pose, obs: &Shape) -> bool {
     if let (Some(m1), Some(m2)) = (obj.as_trimesh(), obs.as_trimesh()) {
         return mesh_pair::trimeshes_intersect(&obj_pose.inv_mul(obs_pose), m1, m2);
     }
     parry_intersects(obj_pose, obj, obs_pose, obs)
 }
 
+/// `min(distance, cap_m)` of two pieces (m). Two meshes of enough triangles take
+/// [`mesh_pair`]'s traversal; the rest parry's closest points.
+fn pair_clearance(obj_pose: &Pose, obj: &Shape, obs_pose: &Pose, obs: &Shape, cap_m: f64) -> f64 {
+    if let (Some(m1), Some(m2)) = (obj.as_trimesh(), obs.as_trimesh())
+        && m1.indices().len() * m2.indices().len() >= mesh_pair::OWN_DISTANCE_MIN_TRIANGLE_PAIRS
+    {
+        return mesh_pair::trimeshes_distance_up_to(&obj_pose.inv_mul(obs_pose), m1, m2, cap_m);
+    }
+    parry_clearance(obj_pose, obj, obs_pose, obs, cap_m)
+}
+
 /// `min(distance, cap_m)` of two pieces by parry's GJK closest points (m); an unsupported
 /// pair counts as touching (never certified).
-fn parry_clearance(
-    obj_pose: &Pose,
-    obj: &dyn parry3d_f64::shape::Shape,
-    obs_pose: &Pose,
-    obs: &dyn parry3d_f64::shape::Shape,
-    cap_m: f64,
-) -> f64 {
+fn parry_clearance(obj_pose: &Pose, obj: &Shape, obs_pose: &Pose, obs: &Shape, cap_m: f64) -> f64 {
     match closest_points(obj_pose, obj, obs_pose, obs, cap_m) {
         Ok(ClosestPoints::WithinMargin(p1, p2)) => (p1 - p2).length(),
         Ok(ClosestPoints::Disjoint) => cap_m,
@@ -150,12 +152,7 @@ fn parry_clearance(
 
 /// parry's intersection test, the object first (see module docs); an unsupported pair
 /// counts as a collision.
-fn parry_intersects(
-    obj_pose: &Pose,
-    obj: &dyn parry3d_f64::shape::Shape,
-    obs_pose: &Pose,
-    obs: &dyn parry3d_f64::shape::Shape,
-) -> bool {
+fn parry_intersects(obj_pose: &Pose, obj: &Shape, obs_pose: &Pose, obs: &Shape) -> bool {
     intersection_test(obj_pose, obj, obs_pose, obs)
         .map(|r| r.intersecting)
         .unwrap_or(true)
@@ -248,20 +245,7 @@ impl CollisionChecker {
     /// [`Self::clearance_up_to_m`] by parry's closest points for every pair, meshes too:
     /// the reference the mesh distance is checked and measured against. Not counted.
     pub fn clearance_up_to_m_by_parry(&self, q: &Se3, cap_m: f64) -> f64 {
-        let at = to_parry(q);
-        let mut nearest = cap_m;
-        for (obj_pose, obj) in self.object.pieces() {
-            for (obs_pose, obs) in self.obstacles.pieces() {
-                nearest = nearest.min(parry_clearance(
-                    &(at * obj_pose),
-                    obj,
-                    &obs_pose,
-                    obs,
-                    nearest,
-                ));
-            }
-        }
-        nearest.max(0.0)
+        self.nearest_pair(q, cap_m, parry_clearance)
     }
 
     /// Distance from the object at `q` to the nearest obstacle (m, 0 when touching or
@@ -278,36 +262,7 @@ impl CollisionChecker {
     /// more than it can use. Counted in [`Self::clearance_queries`].
     pub fn clearance_up_to_m(&self, q: &Se3, cap_m: f64) -> f64 {
         self.clearance_queries.set(self.clearance_queries.get() + 1);
-        let at = to_parry(q);
-        let mut nearest = cap_m;
-        for (obj_pose, obj) in self.object.pieces() {
-            let obj_pose = at * obj_pose;
-            for (obs_pose, obs) in self.obstacles.pieces() {
-                if let (Some(m1), Some(m2)) = (obj.as_trimesh(), obs.as_trimesh())
-                    && m1.indices().len() * m2.indices().len()
-                        >= mesh_pair::OWN_DISTANCE_MIN_TRIANGLE_PAIRS
-                {
-                    let d = mesh_pair::trimeshes_distance_up_to(
-                        &obj_pose.inv_mul(&obs_pose),
-                        m1,
-                        m2,
-                        nearest,
-                    );
-                    if d <= 0.0 {
-                        return 0.0;
-                    }
-                    nearest = nearest.min(d);
-                    continue;
-                }
-                // Searching only below the nearest so far prunes the later pairs too.
-                let d = parry_clearance(&obj_pose, obj, &obs_pose, obs, nearest);
-                if d.is_nan() || d <= 0.0 {
-                    return 0.0;
-                }
-                nearest = nearest.min(d);
-            }
-        }
-        nearest
+        self.nearest_pair(q, cap_m, pair_clearance)
     }
 
     /// True when `q` is inside the bounds and the object does not touch any obstacle.
@@ -319,16 +274,7 @@ impl CollisionChecker {
             return true;
         }
         self.checks.set(self.checks.get() + 1);
-        let at = to_parry(q);
-        for (obj_pose, obj) in self.object.pieces() {
-            let obj_pose = at * obj_pose;
-            for (obs_pose, obs) in self.obstacles.pieces() {
-                if pair_intersects(&obj_pose, obj, &obs_pose, obs) {
-                    return false;
-                }
-            }
-        }
-        true
+        !self.any_pair(q, pair_intersects)
     }
 
     /// [`Self::is_free`] with parry's own mesh-against-mesh test instead of
@@ -337,12 +283,42 @@ impl CollisionChecker {
         if !q.is_finite() || !self.space.contains(q) {
             return false;
         }
+        !self.any_pair(q, parry_intersects)
+    }
+
+    /// Some object piece, the object at `q`, and some obstacle piece `meet`.
+    fn any_pair(&self, q: &Se3, meet: impl Fn(&Pose, &Shape, &Pose, &Shape) -> bool) -> bool {
         let at = to_parry(q);
-        !self.object.pieces().any(|(obj_pose, obj)| {
+        self.object.pieces().any(|(obj_pose, obj)| {
+            let obj_pose = at * obj_pose;
             self.obstacles
                 .pieces()
-                .any(|(obs_pose, obs)| parry_intersects(&(at * obj_pose), obj, &obs_pose, obs))
+                .any(|(obs_pose, obs)| meet(&obj_pose, obj, &obs_pose, obs))
         })
+    }
+
+    /// The least `clearance` (capped at the nearest so far, starting at `cap_m`) over the
+    /// pairs of object and obstacle pieces, the object at `q`; 0 as soon as one touches.
+    fn nearest_pair(
+        &self,
+        q: &Se3,
+        cap_m: f64,
+        clearance: impl Fn(&Pose, &Shape, &Pose, &Shape, f64) -> f64,
+    ) -> f64 {
+        let at = to_parry(q);
+        let mut nearest = cap_m;
+        for (obj_pose, obj) in self.object.pieces() {
+            let obj_pose = at * obj_pose;
+            for (obs_pose, obs) in self.obstacles.pieces() {
+                // Searching only below the nearest so far prunes the later pairs too.
+                let d = clearance(&obj_pose, obj, &obs_pose, obs, nearest);
+                if d.is_nan() || d <= 0.0 {
+                    return 0.0;
+                }
+                nearest = nearest.min(d);
+            }
+        }
+        nearest
     }
 
     /// Deepest penetration of the object into an obstacle at `q` (m, ≥ 0; 0 when

@@ -22,23 +22,7 @@ use std::cell::Cell;
 
 /// `m1` and `m2` intersect, with `m2` at `pose12` in `m1`'s frame.
 pub fn trimeshes_intersect(pose12: &Pose, m1: &TriMesh, m2: &TriMesh) -> bool {
-    let r = Matrix::from_quat(pose12.rotation);
-    let frames = Frames {
-        r,
-        abs_r: abs(&r),
-        t: pose12.translation,
-    };
-    let (v1, v2) = (m1.vertices(), m2.vertices());
-    let (i1, i2) = (m1.indices(), m2.indices());
-    m1.bvh()
-        .leaf_pairs(m2.bvh(), |n1, n2| {
-            frames.boxes_overlap(&n1.aabb(), &n2.aabb())
-        })
-        .any(|(a, b)| {
-            let ta = i1[a as usize].map(|i| v1[i as usize]);
-            let tb = i2[b as usize].map(|i| frames.r * v2[i as usize] + frames.t);
-            triangles_intersect(&ta, &tb)
-        })
+    Frames::new(pose12).meshes_intersect(m1, m2)
 }
 
 /// Below this product of the two meshes' triangle counts parry's closest points answer a
@@ -49,26 +33,18 @@ pub const OWN_DISTANCE_MIN_TRIANGLE_PAIRS: usize = 500 * 500;
 /// `min(distance between m1's and m2's surfaces, cap_m)` (m), `m2` at `pose12` in `m1`'s
 /// frame; 0 when they intersect.
 pub fn trimeshes_distance_up_to(pose12: &Pose, m1: &TriMesh, m2: &TriMesh, cap_m: f64) -> f64 {
-    let r = Matrix::from_quat(pose12.rotation);
-    let frames = Frames {
-        r,
-        abs_r: abs(&r),
-        t: pose12.translation,
-    };
+    let frames = Frames::new(pose12);
     // Intersecting meshes (the common case near contact) are found faster by the
     // intersection test, which stops at the first crossing pair.
-    if trimeshes_intersect(pose12, m1, m2) {
+    if frames.meshes_intersect(m1, m2) {
         return 0.0;
     }
-    let (v1, v2) = (m1.vertices(), m2.vertices());
-    let (i1, i2) = (m1.indices(), m2.indices());
     let nearest = Cell::new(cap_m);
     let pairs = m1.bvh().leaf_pairs(m2.bvh(), |n1, n2| {
         frames.box_gap(&n1.aabb(), &n2.aabb()) < nearest.get()
     });
     for (a, b) in pairs {
-        let ta = i1[a as usize].map(|i| v1[i as usize]);
-        let tb = i2[b as usize].map(|i| frames.r * v2[i as usize] + frames.t);
+        let (ta, tb) = frames.triangles(m1, a, m2, b);
         // The meshes are disjoint, so no pair intersects: skip that test.
         let d = disjoint_triangle_distance(&ta, &tb);
         if d < nearest.get() {
@@ -210,6 +186,35 @@ struct Frames {
 }
 
 impl Frames {
+    fn new(pose12: &Pose) -> Self {
+        let r = Matrix::from_quat(pose12.rotation);
+        Frames {
+            r,
+            abs_r: abs(&r),
+            t: pose12.translation,
+        }
+    }
+
+    /// Triangle `a` of `m1` and triangle `b` of `m2`, both in frame 1.
+    fn triangles(&self, m1: &TriMesh, a: u32, m2: &TriMesh, b: u32) -> ([Vector; 3], [Vector; 3]) {
+        let (v1, v2) = (m1.vertices(), m2.vertices());
+        let ta = m1.indices()[a as usize].map(|i| v1[i as usize]);
+        let tb = m2.indices()[b as usize].map(|i| self.r * v2[i as usize] + self.t);
+        (ta, tb)
+    }
+
+    /// `m1` (frame 1) and `m2` (frame 2) intersect.
+    fn meshes_intersect(&self, m1: &TriMesh, m2: &TriMesh) -> bool {
+        m1.bvh()
+            .leaf_pairs(m2.bvh(), |n1, n2| {
+                self.boxes_overlap(&n1.aabb(), &n2.aabb())
+            })
+            .any(|(a, b)| {
+                let (ta, tb) = self.triangles(m1, a, m2, b);
+                triangles_intersect(&ta, &tb)
+            })
+    }
+
     /// The box `b1` (frame 1) and the box `b2` (frame 2) overlap along all six face axes.
     fn boxes_overlap(&self, b1: &Aabb, b2: &Aabb) -> bool {
         let (c1, h1) = (b1.center(), b1.half_extents());
@@ -370,15 +375,18 @@ mod tests {
         Vector::new(x, y, z)
     }
 
+    /// A triangle with corners uniform in the unit cube.
+    fn random_triangle(rng: &mut ChaCha8Rng) -> [Vector; 3] {
+        [0; 3].map(|_| v(rng.random(), rng.random(), rng.random()))
+    }
+
     #[test]
     fn triangle_pairs_agree_with_gjk() {
         // Random triangles in a unit cube, about half of the pairs intersecting.
         let mut rng = ChaCha8Rng::seed_from_u64(3);
-        let tri =
-            |rng: &mut ChaCha8Rng| [0; 3].map(|_| v(rng.random(), rng.random(), rng.random()));
         let mut hits = 0;
         for _ in 0..20_000 {
-            let (a, b) = (tri(&mut rng), tri(&mut rng));
+            let (a, b) = (random_triangle(&mut rng), random_triangle(&mut rng));
             let ours = triangles_intersect(&a, &b);
             let gjk = intersection_test(
                 &Pose::IDENTITY,
@@ -398,11 +406,9 @@ mod tests {
     fn triangle_distances_agree_with_gjk() {
         use parry3d_f64::query::distance;
         let mut rng = ChaCha8Rng::seed_from_u64(4);
-        let tri =
-            |rng: &mut ChaCha8Rng| [0; 3].map(|_| v(rng.random(), rng.random(), rng.random()));
         let mut apart = 0;
         for _ in 0..20_000 {
-            let (a, b) = (tri(&mut rng), tri(&mut rng));
+            let (a, b) = (random_triangle(&mut rng), random_triangle(&mut rng));
             let ours = triangle_distance(&a, &b);
             let gjk = distance(
                 &Pose::IDENTITY,
@@ -464,12 +470,7 @@ mod tests {
                 v(rng.random(), rng.random(), rng.random()) * 3.0,
             );
             let pose12 = Pose::from_parts(v(rng.random(), rng.random(), rng.random()), rot);
-            let r = Matrix::from_quat(rot);
-            let f = Frames {
-                r,
-                abs_r: abs(&r),
-                t: pose12.translation,
-            };
+            let f = Frames::new(&pose12);
             let (b1, b2) = (Aabb::new(c1 - h1, c1 + h1), Aabb::new(c2 - h2, c2 + h2));
             let exact = intersection_test(
                 &Pose::from_translation(c1),
