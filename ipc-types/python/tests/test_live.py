@@ -76,7 +76,16 @@ def test_states_arrive_at_the_loops_rate_and_decode(loop):
             q = pose.orientation_xyzw
             assert abs(math.sqrt(sum(v * v for v in q)) - 1.0) < 1e-6, list(q)
             assert all(math.isfinite(v) for v in pose.position_m)
-        assert s.fault in (hrrtc.FaultCode.NONE, hrrtc.FaultCode.STARTUP)
+        # Without real-time rights on a shared machine the loop can be stalled for five
+        # ticks in a row; it then latches OVERRUN_STREAK, which must come with its cause
+        # (the deadline misses) and zero force, like every fault.
+        assert s.fault in (hrrtc.FaultCode.NONE, hrrtc.FaultCode.STARTUP,
+                           hrrtc.FaultCode.OVERRUN_STREAK), hrrtc.FaultCode.name_of(s.fault)
+        if s.fault == hrrtc.FaultCode.OVERRUN_STREAK:
+            assert s.deadline_misses >= 5, s.deadline_misses
+        if s.fault != hrrtc.FaultCode.NONE:
+            assert list(s.commanded_wrench.force_n) == [0.0] * 3
+            assert list(s.commanded_wrench.torque_nm) == [0.0] * 3
         assert s.header.writer_pid == proc.pid
     last = reader.read()
     # The loop's own rate over the same window: without real-time rights on a shared
