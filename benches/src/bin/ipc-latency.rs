@@ -12,7 +12,7 @@
 //!    real `planner serve` process. State: the loop's stamp just before its blackboard
 //!    write (`HapticState::published_ns`; the bare writers stamp just before theirs) → the
 //!    planner's receiver thread reading the blackboard, phase-locked to the ticks with a
-//!    `--state-spin-us` spin window (`planner::shell::pacing`; `state_latency_us` of the planner's
+//!    `--state-spin-us` watch after each early wake-up (`planner::shell::pacing`; `state_latency_us` of the planner's
 //!    JSON report; from the tick's wake-up instead: `state_age_us`). Guidance: the planner's stamp just before `send_copy` → wake-up of the
 //!    first tick rendering it, through the loop's relay thread (woken by the planner's
 //!    guidance event) and triple buffer
@@ -64,9 +64,9 @@ struct Args {
     /// --poll-hz`), and the bare polled blackboard's rate.
     #[arg(long, default_value_t = 2000.0)]
     poll_hz: f64,
-    /// The planner receiver's spin window around each predicted state, µs (`planner serve
-    /// --state-spin-us`; 0: it only sleeps).
-    #[arg(long, default_value_t = 10.0)]
+    /// The planner receiver's longest watch for each predicted state after it wakes, µs
+    /// (`planner serve --state-spin-us`; 0: it only sleeps).
+    #[arg(long, default_value_t = 100.0)]
     state_spin_us: f64,
     /// SCHED_FIFO priority of the planner's state receiver (`planner serve
     /// --state-priority`) and, for a like-for-like baseline, of the bare state readers
@@ -526,7 +526,7 @@ fn print_table(r: &Report) {
     };
     let s = &r.state;
     println!(
-        "HapticState at {} Hz, loop publish → planner receiver phase-locked to the ticks, spinning ±{} µs around each ({} received, {} skipped)",
+        "HapticState at {} Hz, loop publish → planner receiver phase-locked to the ticks, waking before each write and spinning for it (at most {} µs) ({} received, {} skipped)",
         r.rate_hz, r.state_spin_us, s.states_received, s.states_skipped
     );
     println!("| µs | p50 | p90 | p99 | p99.9 | max | n |");

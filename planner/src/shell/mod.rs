@@ -5,8 +5,8 @@
 //!
 //! Threads:
 //! - *receiver*: polls the [`ipc_types::HapticState`] blackboard phase-locked to the loop's ticks
-//!   ([`pacing::StatePacer`]: about one absolute-deadline wake-up per tick, just after
-//!   the state is written; `state_poll_hz` until it has locked on), counts every new tick it
+//!   ([`pacing::StatePacer`]: about one absolute-deadline wake-up per tick, just before
+//!   the state is written, then a short spin until it is; `state_poll_hz` until it has locked on), counts every new tick it
 //!   sees (and those it skipped, from sequence gaps), and keeps the newest operator pose for
 //!   the planning thread. Polling rather than an event: the haptic loop must not call
 //!   `notify()` from its RT thread (see `ipc_types::services`).
@@ -16,6 +16,10 @@
 //!   [`roadmap::RoadmapFeed`]: O(1024) nodes per sample whatever the roadmap's
 //!   size) at `roadmap_rate_hz`. Never waits for the haptic loop or a viewer: a roadmap
 //!   sample that cannot be loaned is skipped, and a full viewer queue overflows safely.
+
+/// How long after a state is read the planner publishes guidance (when one is due): the
+/// receiver reads nine states in ten within this of their write (`ipc-latency`).
+const GUIDANCE_AFTER_STATE: Duration = Duration::from_micros(50);
 
 pub mod convert;
 mod error;
@@ -58,8 +62,8 @@ pub struct ShellConfig {
     /// How often the receiver thread polls the haptic state before it has locked onto the
     /// loop's ticks, and while no new state comes, Hz.
     pub state_poll_hz: f64,
-    /// Half-width of the window around each predicted state in which the receiver spins
-    /// instead of sleeping, µs (0: never spins).
+    /// Longest time the receiver spins for a predicted state after waking before it, µs
+    /// (0: never spins; see [`pacing`]).
     pub state_spin_us: f64,
     /// SCHED_FIFO priority of the state receiver thread (0: the normal scheduler).
     pub state_priority: u8,
@@ -191,7 +195,6 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> Result<ShellReport, S
         let fresh = op
             .seen_at
             .is_some_and(|t| t.elapsed().as_secs_f64() < config.state_timeout_s);
-        let q_user = op.state.filter(|_| fresh).and_then(|s| se3(&s.user_pose));
         if fresh != announced_operator {
             if fresh {
                 tracing::info!("haptic loop present: following the operator");
@@ -238,7 +241,25 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> Result<ShellReport, S
 
         let now = Instant::now();
         if now >= next_guidance {
-            next_guidance += guidance_period;
+            // The newest state, not the one this iteration started with.
+            let op = *lock(&operator);
+            let seen_at = op.seen_at.filter(|t| {
+                now.saturating_duration_since(*t).as_secs_f64() < config.state_timeout_s
+            });
+            let q_user = op
+                .state
+                .filter(|_| seen_at.is_some())
+                .and_then(|s| se3(&s.user_pose));
+            next_guidance = match seen_at {
+                // Phase-locked to the loop's ticks: a little after a state comes, so that
+                // each sample is computed from a tick's state as soon as it is read and
+                // reaches the next tick with most of a period to spare for the relay. (A
+                // free-running timer keeps whatever phase it started with, as the guidance
+                // period is a whole number of ticks: just before a tick, the relay misses
+                // it and the sample is rendered a tick later.)
+                Some(t) => t + guidance_period + GUIDANCE_AFTER_STATE,
+                None => next_guidance + guidance_period,
+            };
             if next_guidance < now {
                 next_guidance = now + guidance_period;
             }

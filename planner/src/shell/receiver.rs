@@ -2,7 +2,7 @@
 //! ([`super::pacing::StatePacer`]) and keeps the newest operator state for the planning
 //! thread, with what it counted and measured on the way.
 
-use super::pacing::StatePacer;
+use super::pacing::{Seen, StatePacer};
 use ipc_types::HapticState;
 use ipc_types::services;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -49,7 +49,13 @@ pub(super) fn receive_states(
     };
     let mut last_seq = 0u64;
     let mut last_pid = 0u32;
-    let mut pacer = StatePacer::new(poll_ns);
+    let mut pacer = if spin_ns > 0 {
+        StatePacer::spinning(poll_ns)
+    } else {
+        StatePacer::sleeping(poll_ns)
+    };
+    // The state now read came while the thread watched for it (woke before the write).
+    let mut came = false;
     // The pacer aims within microseconds; the default 50 µs timer slack would blur that.
     if !ipc_types::set_thread_timer_slack_ns(1_000) {
         tracing::debug!("cannot set the receiver's timer slack; its polls may be up to 50 µs late");
@@ -95,19 +101,29 @@ pub(super) fn receive_states(
             last_seq = seq;
             last_pid = s.header.writer_pid;
         }
-        let stamp = new_state.then_some((seq, s.header.timestamp_ns));
-        let next = pacer.next_poll(ipc_types::monotonic_ns(), stamp);
-        if spin_ns > 0 && pacer.predicted() {
-            // Wake a little early and watch the entry until the state comes or the window
-            // closes: the state is read within a microsecond of its write, for about
-            // 2 × `spin_ns` of CPU per tick.
-            ipc_types::sleep_until_ns(next.saturating_sub(spin_ns));
-            let end = next + spin_ns;
+        let seen = match (new_state, came) {
+            (false, _) => Seen::Nothing,
+            (true, false) => Seen::Found {
+                sequence: seq,
+                stamp_ns: s.header.timestamp_ns,
+            },
+            (true, true) => Seen::Came {
+                sequence: seq,
+                stamp_ns: s.header.timestamp_ns,
+            },
+        };
+        let next = pacer.next_poll(ipc_types::monotonic_ns(), seen);
+        ipc_types::sleep_until_ns(next);
+        came = false;
+        if spin_ns > 0 && pacer.predicted() && source.get().header.sequence == seq {
+            // Woken before the write (the pacer aims so four times in five): watch the
+            // entry until the state comes or the window closes, and read it within about a
+            // microsecond of its write.
+            let end = ipc_types::monotonic_ns() + spin_ns;
             while source.get().header.sequence == seq && ipc_types::monotonic_ns() < end {
                 std::hint::spin_loop();
             }
-        } else {
-            ipc_types::sleep_until_ns(next);
+            came = true;
         }
     }
     latency

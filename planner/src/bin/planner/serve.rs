@@ -39,10 +39,12 @@ pub struct ServeArgs {
     /// new state comes, Hz.
     #[arg(long, default_value_t = 2000.0)]
     pub poll_hz: f64,
-    /// Spin this long before and after each state's predicted time instead of sleeping, µs
-    /// (reads the state within ~1 µs of its write for ~2 × this much CPU per tick; 0: only
-    /// sleep, adding the thread's wake-up latency, ~5–20 µs).
-    #[arg(long, default_value_t = 10.0)]
+    /// Longest watch for each state after waking before its predicted write, µs: the
+    /// receiver learns to wake before four writes in five and spins until the state comes,
+    /// reading it within ~1 µs of its write for about the spread of its own wake-ups in CPU
+    /// per tick (this window only bounds a late tick's cost). 0: it only sleeps, reading
+    /// each state its wake-up latency after the write (~5–40 µs).
+    #[arg(long, default_value_t = 100.0)]
     pub state_spin_us: f64,
     /// SCHED_FIFO priority of the thread that receives the haptic state (below the haptic
     /// loop's, 80 by default), so that it wakes on time on a busy machine and catches each
