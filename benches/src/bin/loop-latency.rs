@@ -1,7 +1,8 @@
 //! Latency of the real haptic loop next to the machine's own floor, measured in the same
 //! run at the same priority and interval.
 //!
-//! Two phases, one after the other (interleaved, so they do not compete for the 2 cores):
+//! Two phases, one after the other (so they do not compete for the 2 cores), repeated
+//! `--rounds` times:
 //! 1. **floor**: `cyclictest` (Debian `rt-tests`) with one thread at `--priority` and a
 //!    `--rate-hz` interval, histogram mode; when it is not installed, a built-in bare
 //!    absolute-deadline sleeper thread (the same `clock_nanosleep(TIMER_ABSTIME)` loop the RT
@@ -11,7 +12,9 @@
 //!    hole and sliding it, and optionally a planner process attached over iceoryx2.
 //!
 //! Prints a table (p50 / p90 / p99 / p99.9 / max, µs) with the loop/floor ratios, and writes
-//! JSON with `--json`.
+//! JSON with `--json`. The ratios are the medians over the rounds of each round's ratio,
+//! and the tables show the round whose p99 ratio is that median: on a shared VM the floor
+//! alone moves 3× between two consecutive phases, so one pair decides nothing.
 //!
 //! `cargo build --release -p planner -p benches && target/release/loop-latency --seconds 30 --json out.json`
 
@@ -36,6 +39,10 @@ struct Args {
     /// Seconds of each phase (floor, then loop).
     #[arg(long, default_value_t = 20.0)]
     seconds: f64,
+    /// Rounds of (floor, loop), one after the other; the ratios are the medians of the
+    /// rounds' ratios.
+    #[arg(long, default_value_t = 3)]
+    rounds: u32,
     /// Tick rate and floor interval, Hz.
     #[arg(long, default_value_t = 1000.0)]
     rate_hz: f64,
@@ -109,9 +116,80 @@ struct Report {
     floor: Floor,
     #[serde(rename = "loop")]
     loop_: LoopFigures,
-    /// Loop wake-up latency / floor wake-up latency, per percentile.
+    /// Loop wake-up latency / floor wake-up latency, per percentile: the median over the
+    /// rounds of each round's ratio.
     wake_ratio: Ratios,
+    /// Each round's ratios, in the order run.
+    round_ratios: Vec<Ratios>,
+    /// The round whose figures `floor` and `loop` are (0-based): the one with the median
+    /// p99 ratio.
+    shown_round: usize,
     allocations_per_tick: Option<f64>,
+}
+
+impl Ratios {
+    /// `loop_ / floor` per percentile (NaN where the floor's figure is 0).
+    fn of(loop_: &Percentiles, floor: &Percentiles) -> Self {
+        let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { f64::NAN };
+        Self {
+            p50: ratio(loop_.p50, floor.p50),
+            p90: ratio(loop_.p90, floor.p90),
+            p99: ratio(loop_.p99, floor.p99),
+            p999: ratio(loop_.p999, floor.p999),
+            max: ratio(loop_.max, floor.max),
+        }
+    }
+}
+
+/// One round's figures: the floor, then the loop.
+struct Round {
+    floor: Floor,
+    loop_: LoopFigures,
+    report: LoopReport,
+}
+
+fn measure_round(
+    args: &Args,
+    ns: &str,
+    rt: RtOptions,
+    period_ns: u64,
+    phase: Duration,
+    use_cyclictest: bool,
+) -> anyhow::Result<Round> {
+    let floor = if use_cyclictest {
+        let (wake_latency_us, distribution) = cyclictest(args, period_ns, phase)?;
+        Floor {
+            tool: "cyclictest".into(),
+            wake_latency_us,
+            distribution,
+        }
+    } else {
+        let (wake_latency_us, distribution) = builtin_floor(rt, period_ns, phase)?;
+        Floor {
+            tool: "builtin-sleeper".into(),
+            wake_latency_us,
+            distribution,
+        }
+    };
+    let (report, contact, planner) = run_loop(args, ns, rt, phase)?;
+    let loop_ = LoopFigures {
+        ticks: report.ticks,
+        deadline_misses: report.deadline_misses,
+        wake_latency_us: report.wake_latency_us,
+        period_us: report.period_us,
+        compute_us: report.compute_us,
+        guidance_age_us: report.guidance_age_us,
+        fifo: report.fifo,
+        pinned: report.pinned,
+        memory_locked: report.memory_locked,
+        contact,
+        planner,
+    };
+    Ok(Round {
+        floor,
+        loop_,
+        report,
+    })
 }
 
 fn main() -> anyhow::Result<()> {
@@ -121,6 +199,9 @@ fn main() -> anyhow::Result<()> {
     }
     if !(args.rate_hz.is_finite() && (500.0..=4000.0).contains(&args.rate_hz)) {
         bail!("--rate-hz must be within 500–4000, got {}", args.rate_hz);
+    }
+    if !(1..=50).contains(&args.rounds) {
+        bail!("--rounds must be within 1–50, got {}", args.rounds);
     }
     if args.priority > 99 {
         bail!("--priority must be 0–99, got {}", args.priority);
@@ -155,66 +236,67 @@ fn main() -> anyhow::Result<()> {
         "cyclictest" => true,
         _ => cyclictest_available(),
     };
-    eprintln!(
-        "floor: {} for {:.0} s at {} Hz, priority {}",
-        if use_cyclictest {
-            "cyclictest"
-        } else {
-            "built-in sleeper"
-        },
-        args.seconds,
-        args.rate_hz,
-        args.priority
-    );
-    let floor = if use_cyclictest {
-        let (wake_latency_us, distribution) = cyclictest(&args, period_ns, phase)?;
-        Floor {
-            tool: "cyclictest".into(),
-            wake_latency_us,
-            distribution,
-        }
-    } else {
-        let (wake_latency_us, distribution) = builtin_floor(rt, period_ns, phase)?;
-        Floor {
-            tool: "builtin-sleeper".into(),
-            wake_latency_us,
-            distribution,
-        }
+    let mut rounds = Vec::new();
+    for round in 0..args.rounds {
+        eprintln!(
+            "round {}/{}: floor ({}) {:.0} s, then the loop {:.0} s, at {} Hz, priority {}",
+            round + 1,
+            args.rounds,
+            if use_cyclictest {
+                "cyclictest"
+            } else {
+                "built-in sleeper"
+            },
+            args.seconds,
+            args.seconds,
+            args.rate_hz,
+            args.priority
+        );
+        rounds.push(measure_round(
+            &args,
+            &ns,
+            rt,
+            period_ns,
+            phase,
+            use_cyclictest,
+        )?);
+    }
+    let round_ratios: Vec<Ratios> = rounds
+        .iter()
+        .map(|r| Ratios::of(&r.loop_.wake_latency_us, &r.floor.wake_latency_us))
+        .collect();
+    let median_of = |f: fn(&Ratios) -> f64| {
+        let mut v: Vec<f64> = round_ratios.iter().map(f).collect();
+        lab::experiment::report::median(&mut v)
     };
-
-    eprintln!("loop: {:.0} s", args.seconds);
-    let (report, contact, planner) = run_loop(&args, &ns, rt, phase)?;
-    let loop_ = LoopFigures {
-        ticks: report.ticks,
-        deadline_misses: report.deadline_misses,
-        wake_latency_us: report.wake_latency_us,
-        period_us: report.period_us,
-        compute_us: report.compute_us,
-        guidance_age_us: report.guidance_age_us,
-        fifo: report.fifo,
-        pinned: report.pinned,
-        memory_locked: report.memory_locked,
-        contact,
-        planner,
+    let wake_ratio = Ratios {
+        p50: median_of(|r| r.p50),
+        p90: median_of(|r| r.p90),
+        p99: median_of(|r| r.p99),
+        p999: median_of(|r| r.p999),
+        max: median_of(|r| r.max),
     };
-    let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { f64::NAN };
-    let (l, f) = (&loop_.wake_latency_us, &floor.wake_latency_us);
+    // The round whose p99 ratio is nearest the median (the median itself when odd).
+    let shown_round = (0..rounds.len())
+        .min_by(|&a, &b| {
+            let d = |i: usize| (round_ratios[i].p99 - wake_ratio.p99).abs();
+            d(a).total_cmp(&d(b))
+        })
+        .unwrap_or(0);
+    let shown = rounds.swap_remove(shown_round);
     let out = Report {
         rate_hz: args.rate_hz,
         priority: args.priority,
         cpu: args.cpu,
         seconds_per_phase: args.seconds,
-        wake_ratio: Ratios {
-            p50: ratio(l.p50, f.p50),
-            p90: ratio(l.p90, f.p90),
-            p99: ratio(l.p99, f.p99),
-            p999: ratio(l.p999, f.p999),
-            max: ratio(l.max, f.max),
-        },
-        allocations_per_tick: report.allocations_per_tick,
-        floor,
-        loop_,
+        wake_ratio,
+        round_ratios,
+        shown_round,
+        allocations_per_tick: shown.report.allocations_per_tick,
+        floor: shown.floor,
+        loop_: shown.loop_,
     };
+    let report = shown.report;
     print_table(&out);
     if let Some(p) = &args.png {
         if lab::register_font() {
@@ -377,12 +459,29 @@ fn print_table(r: &Report) {
     row("loop wake-up", &r.loop_.wake_latency_us);
     let w = &r.wake_ratio;
     println!(
-        "| loop / floor | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
-        w.p50, w.p90, w.p99, w.p999, w.max
+        "| loop / floor, median of {} rounds | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
+        r.round_ratios.len(),
+        w.p50,
+        w.p90,
+        w.p99,
+        w.p999,
+        w.max
     );
     row("loop period", &r.loop_.period_us);
     row("loop compute", &r.loop_.compute_us);
     row("guidance age", &r.loop_.guidance_age_us);
+    println!("(wake-ups, period, compute: round {})", r.shown_round + 1);
+    for (i, w) in r.round_ratios.iter().enumerate() {
+        println!(
+            "round {}: loop / floor p50 {:.2}, p90 {:.2}, p99 {:.2}, p99.9 {:.2}, max {:.2}",
+            i + 1,
+            w.p50,
+            w.p90,
+            w.p99,
+            w.p999,
+            w.max
+        );
+    }
 }
 
 /// Percentiles and (µs, count) distribution of the floor's wake-up latency.
