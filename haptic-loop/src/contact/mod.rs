@@ -56,8 +56,9 @@ use nalgebra::{
     Isometry3, Matrix3, Matrix6, Point3, Translation3, UnitQuaternion, Vector3, Vector6,
 };
 use near::{ClusterBudget, Found, PassParams, Scratch, SearchParams, ShellColumns};
+use parry3d_f64::mass_properties::MassProperties;
 use parry3d_f64::math::Pose;
-use parry3d_f64::shape::{Compound, Shape, SharedShape};
+use parry3d_f64::shape::SharedShape;
 use scene::Scene;
 use std::sync::Arc;
 use std::time::Instant;
@@ -241,7 +242,12 @@ impl ContactModel {
         let started = Instant::now();
         let shell = Pointshell::build(object, voxmap.voxel_m())?;
         let shell_build_s = started.elapsed().as_secs_f64();
-        let mp = Compound::new(object.to_vec()).mass_properties(1.0);
+        // Summed part by part: parry's `Compound` refuses a mesh among its parts (it
+        // panics on nested composite shapes), as the silencer's body is.
+        let mp: MassProperties = object
+            .iter()
+            .map(|(pose, shape)| shape.mass_properties(1.0).transform_by(pose))
+            .sum();
         let volume = mp.mass();
         if !(volume.is_finite() && volume > 0.0) {
             return Err(ContactError::NoVolume);

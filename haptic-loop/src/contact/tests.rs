@@ -568,3 +568,19 @@ fn issue_20_contact_refuses_meshes_that_are_not_closed_and_outward() {
     }
     assert!(ContactModel::from_scene(&with_obstacle(closed), &config).is_ok());
 }
+
+#[test]
+fn an_object_with_a_mesh_among_its_parts_has_the_mass_properties_of_their_union() {
+    // The silencer: an octagonal prism mesh (circumradius 80 mm, 400 mm long, centred)
+    // and a 300 × 30 × 30 mm pipe box centred at (−0.35, 0, 0.03) m, apart. parry's
+    // `Compound` would panic on the mesh part.
+    let scene = scene::Scene::silencer();
+    let model = ContactModel::from_scene(&scene, &ContactConfig::with_voxel_m(0.005).voxmap)
+        .expect("the silencer's contact model");
+    let body = 2.0 * 2f64.sqrt() * 0.08 * 0.08 * 0.4;
+    let pipe = 0.3 * 0.03 * 0.03;
+    let share = pipe / (body + pipe);
+    let c = model.com_local();
+    let expected = Vector3::new(-0.35 * share, 0.0, 0.03 * share);
+    assert!((c - expected).norm() < 1e-9, "{c} against {expected}");
+}
