@@ -25,6 +25,9 @@ pub enum BenchError {
     /// The simulated arm or its operator rejected their configuration.
     #[error("simulated arm: {0}")]
     Device(#[from] devices::DeviceError),
+    /// No box face of the scene admits its object's largest face (`face_contact`).
+    #[error("scene '{0}': no box obstacle face admits the object's largest face")]
+    NoFace(String),
     /// A bare iceoryx2 call of the baseline measurements failed.
     #[error("{what}: {reason}")]
     Iceoryx {

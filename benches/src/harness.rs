@@ -187,7 +187,7 @@ fn device(x: f64, y: f64, z: f64) -> Waypoint {
 
 /// The simulated arm whose scripted operator follows `route` at 5 cm/s with up to the arm's
 /// maximum force, and a tick at `rate_hz` mapping the device 1:1 onto `origin`.
-fn scripted_arm(
+pub(crate) fn scripted_arm(
     route: Vec<Waypoint>,
     origin: Isometry3<f64>,
     rate_hz: f64,

@@ -4,6 +4,7 @@
 pub mod contact_fixture;
 pub mod edges;
 mod error;
+pub mod face_contact;
 pub mod harness;
 pub mod ipc;
 pub mod mesh_checks;
