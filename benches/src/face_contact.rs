@@ -2,9 +2,9 @@
 //! with its largest flat face onto the largest obstacle face it fits against, and slid
 //! along that face (issue 21's "every contact configuration").
 //!
-//! * The object's face: the most common outward normal of its pointshell (normals binned
-//!   to 0.05 of a unit vector's components), object frame; its centre is the mean of those
-//!   points.
+//! * The object's face: of its pointshell's outward normals, binned to 0.05 of a unit
+//!   vector's components, the bin with the most points on its supporting plane, object
+//!   frame; its centre is the mean of those points.
 //! * The obstacle face: the faces of the scene's box obstacles by area, largest first; the
 //!   first whose placement is collision-free 2 mm off the face (the planner's own checker),
 //!   trying the object turned by 0° and 90° about the face normal. The object's face
@@ -42,6 +42,8 @@ pub struct Placement {
     pub face_area_m2: f64,
     /// Pointshell points on the object's face.
     pub face_points: usize,
+    /// Unit vector along the obstacle face's longer side, scene frame: where it slides.
+    pub slide_direction: Vector3<f64>,
 }
 
 /// The object's largest flat face: outward unit normal, centre (object frame) and the
@@ -123,7 +125,7 @@ fn box_faces(scene: &Scene) -> Vec<Face> {
 
 /// The placement of [`largest_face`] on the largest box face where the object fits (see
 /// the module docs), or `None` when no face admits it.
-pub fn place(scene: &Scene, shell: &Pointshell) -> Option<(Placement, Vector3<f64>)> {
+pub fn place(scene: &Scene, shell: &Pointshell) -> Option<Placement> {
     let (u, c, face_points) = largest_face(shell)?;
     let checker = CollisionChecker::new(scene);
     for Face {
@@ -143,13 +145,13 @@ pub fn place(scene: &Scene, shell: &Pointshell) -> Option<(Placement, Vector3<f6
             let q = Se3 { pos, rot };
             if checker.is_free(&q) {
                 let pose = Isometry3::from_parts(Translation3::from(pos), rot);
-                let placement = Placement {
+                return Some(Placement {
                     pose,
                     face_normal: n,
                     face_area_m2: area,
                     face_points,
-                };
-                return Some((placement, long));
+                    slide_direction: long,
+                });
             }
         }
     }
@@ -176,13 +178,13 @@ pub fn face_setup(
 ) -> Result<(SimulatedArm, TickConfig, ContactStage, Placement), BenchError> {
     let contact = ContactConfig::with_voxel_m(voxel_m);
     let model = ContactModel::from_scene(scene, &contact.voxmap)?;
-    let Some((placement, long)) = place(scene, model.pointshell()) else {
+    let Some(placement) = place(scene, model.pointshell()) else {
         return Err(BenchError::NoFace(scene.name.clone()));
     };
     // Device displacements are turned by the placement's rotation into the scene.
     let inv = placement.pose.rotation.inverse();
     let push = inv * (-placement.face_normal * PUSH_M);
-    let slide = inv * (long * SLIDE_M);
+    let slide = inv * (placement.slide_direction * SLIDE_M);
     let at = |d: Vector3<f64>| Waypoint::new(Isometry3::translation(d.x, d.y, d.z));
     let mut route = vec![at(Vector3::zeros()), at(push)];
     for _ in 0..((seconds / 4.0).ceil() as usize).max(1) {
@@ -212,7 +214,7 @@ mod tests {
             let model =
                 ContactModel::from_scene(&scene, &ContactConfig::with_voxel_m(0.002).voxmap)
                     .unwrap();
-            let (p, _) = place(&scene, model.pointshell()).unwrap_or_else(|| panic!("{name}"));
+            let p = place(&scene, model.pointshell()).unwrap_or_else(|| panic!("{name}"));
             // Free at the placement, touching 2 mm further in.
             let checker = CollisionChecker::new(&scene);
             let q = |d: f64| Se3 {

@@ -193,8 +193,8 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> Result<ShellReport, S
         }
         let op = *lock(&operator);
         let fresh = op
-            .seen_at
-            .is_some_and(|t| t.elapsed().as_secs_f64() < config.state_timeout_s);
+            .fresh_seen_at(Instant::now(), config.state_timeout_s)
+            .is_some();
         if fresh != announced_operator {
             if fresh {
                 tracing::info!("haptic loop present: following the operator");
@@ -243,9 +243,7 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> Result<ShellReport, S
         if now >= next_guidance {
             // The newest state, not the one this iteration started with.
             let op = *lock(&operator);
-            let seen_at = op.seen_at.filter(|t| {
-                now.saturating_duration_since(*t).as_secs_f64() < config.state_timeout_s
-            });
+            let seen_at = op.fresh_seen_at(now, config.state_timeout_s);
             let q_user = op
                 .state
                 .filter(|_| seen_at.is_some())

@@ -24,6 +24,15 @@ pub(super) struct Operator {
     pub(super) loop_generations: u64,
 }
 
+impl Operator {
+    /// When the newest state came, if less than `timeout_s` before `now`: else there is no
+    /// operator to follow.
+    pub(super) fn fresh_seen_at(&self, now: Instant, timeout_s: f64) -> Option<Instant> {
+        self.seen_at
+            .filter(|t| now.saturating_duration_since(*t).as_secs_f64() < timeout_s)
+    }
+}
+
 pub(super) fn lock(m: &Mutex<Operator>) -> std::sync::MutexGuard<'_, Operator> {
     // The receiver never panics while holding the lock; recover the data if it ever did.
     m.lock().unwrap_or_else(|p| p.into_inner())
