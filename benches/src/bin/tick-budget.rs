@@ -13,12 +13,17 @@
 //! pressed with its largest flat face onto the largest box obstacle face it fits against
 //! and slid along it (`benches::face_contact`): the scene's worst steady contact.
 //!
-//! `cargo run --release -p benches --bin tick-budget -- --seconds 20 [--voxel-mm 1] [--cube-points N | --scene NAME] [--json F]`
+//! The contact stage renders at the default point budget (`Resolution::DEFAULT`, scaled
+//! by the tick period) unless `--level L` fixes a level of detail or `--points-per-ms P`
+//! sets another budget; the report says how many ticks each level rendered.
+//!
+//! `cargo run --release -p benches --bin tick-budget -- --seconds 20 [--voxel-mm 1] [--rate-hz 1000] [--level L | --points-per-ms P] [--cube-points N | --scene NAME] [--json F]`
 
 use anyhow::{Context, bail};
 use benches::face_contact::face_setup;
 use benches::harness::{cube_setup, wall_setup};
 use clap::Parser;
+use haptic_loop::contact::{LEVELS, Resolution};
 use haptic_loop::tick::{NoGuidance, NoSink, PrevTiming, Tick};
 use hdrhistogram::Histogram;
 use ipc_types::ContactCode;
@@ -29,9 +34,18 @@ use std::time::Instant;
 /// Tick compute budget with contact rendering (lockstep, simulated arm).
 #[derive(Debug, Parser)]
 struct Args {
-    /// Simulated seconds to run (1000 ticks each).
+    /// Simulated seconds to run.
     #[arg(long, default_value_t = 20.0)]
     seconds: f64,
+    /// Tick rate, Hz (100–10000).
+    #[arg(long, default_value_t = 1000.0)]
+    rate_hz: f64,
+    /// Render this level of detail always (0 = every point).
+    #[arg(long, conflicts_with = "points_per_ms")]
+    level: Option<u8>,
+    /// Point budget per millisecond of tick period, instead of the default.
+    #[arg(long)]
+    points_per_ms: Option<f64>,
     /// Voxel size and pointshell spacing, mm.
     #[arg(long, default_value_t = 1.0)]
     voxel_mm: f64,
@@ -53,8 +67,13 @@ struct Report {
     /// What was timed.
     scenario: String,
     ticks: u64,
+    rate_hz: f64,
     points: usize,
     voxel_mm: f64,
+    /// How the level of detail was chosen.
+    resolution: String,
+    /// Share of ticks rendered at each level.
+    level_fraction: Vec<f64>,
     contact_fraction: f64,
     max_penetration_mm: f64,
     compute_us: Percentiles,
@@ -79,7 +98,27 @@ fn main() -> anyhow::Result<()> {
     if !(args.voxel_mm.is_finite() && (0.25..=20.0).contains(&args.voxel_mm)) {
         bail!("--voxel-mm must be within 0.25–20, got {}", args.voxel_mm);
     }
-    let ticks = (args.seconds * 1000.0) as u64;
+    if !(args.rate_hz.is_finite() && (100.0..=10_000.0).contains(&args.rate_hz)) {
+        bail!("--rate-hz must be within 100–10000, got {}", args.rate_hz);
+    }
+    let resolution = match (args.level, args.points_per_ms) {
+        (Some(l), _) => Resolution::Level(l),
+        (None, Some(points_per_ms)) => match Resolution::DEFAULT {
+            Resolution::Budget {
+                coarsest_spacing_m, ..
+            } => Resolution::Budget {
+                points_per_ms,
+                coarsest_spacing_m,
+            },
+            fixed => fixed,
+        },
+        (None, None) => Resolution::DEFAULT,
+    };
+    resolution
+        .validate()
+        .map_err(|e| anyhow::anyhow!("--level / --points-per-ms: {e}"))?;
+    let ticks = (args.seconds * args.rate_hz) as u64;
+    let period_ns = (1e9 / args.rate_hz).round() as u64;
     let mut hist = Histogram::<u64>::new_with_bounds(1, 1_000_000_000, 3).context("histogram")?;
     let mut in_contact = 0u64;
     let mut tested_max = 0u32;
@@ -91,14 +130,14 @@ fn main() -> anyhow::Result<()> {
     let voxel_m = args.voxel_mm / 1000.0;
     let (arm, tick_config, stage, scenario) = match (args.cube_points, &args.scene) {
         (Some(n), _) => {
-            let (arm, config, stage) = cube_setup(n, 1000.0, args.seconds, voxel_m)?;
+            let (arm, config, stage) = cube_setup(n, args.rate_hz, args.seconds, voxel_m)?;
             let what = "full tick: cube pressed onto a plate and slid".to_string();
             (arm, config, stage, what)
         }
         (None, Some(name)) => {
             let scene =
                 scene::Scene::by_name_or_path(name).with_context(|| format!("--scene {name}"))?;
-            let (arm, config, stage, p) = face_setup(&scene, 1000.0, args.seconds, voxel_m)?;
+            let (arm, config, stage, p) = face_setup(&scene, args.rate_hz, args.seconds, voxel_m)?;
             let what = format!(
                 "full tick: {}'s object, {} points on its largest face, pressed onto a {:.0} cm² face (outward normal {:.2} {:.2} {:.2}) and slid",
                 scene.name,
@@ -111,22 +150,26 @@ fn main() -> anyhow::Result<()> {
             (arm, config, stage, what)
         }
         (None, None) => {
-            let (arm, config, stage) = wall_setup(1000.0, args.seconds, Some(voxel_m))?;
+            let (arm, config, stage) = wall_setup(args.rate_hz, args.seconds, Some(voxel_m))?;
             let what = "full tick: wall-hole S pushed along the wall".to_string();
             (arm, config, stage.context("contact stage")?, what)
         }
     };
+    let mut stage = stage;
+    stage.set_resolution(resolution)?;
     let points = stage.model().pointshell().len();
+    let mut at_level = [0u64; LEVELS];
     let mut tick = Tick::new(arm, &tick_config, NoGuidance, NoSink)
         .context("open the simulated arm")?
         .with_contact(stage);
     for i in 1..=ticks {
         let t0 = Instant::now();
-        let s = *tick.step(i * 1_000_000, PrevTiming::default());
+        let s = *tick.step(i * period_ns, PrevTiming::default());
         hist.saturating_record((t0.elapsed().as_nanos() as u64).max(1));
         in_contact += u64::from(s.contact == ContactCode::CONTACT);
         if let Some(c) = tick.contact() {
             tested_max = tested_max.max(c.last_points_tested());
+            at_level[c.level()] += 1;
         }
     }
     let max_penetration_m = tick.max_penetration_m();
@@ -134,8 +177,11 @@ fn main() -> anyhow::Result<()> {
     let report = Report {
         scenario,
         ticks,
+        rate_hz: args.rate_hz,
         points,
         voxel_mm: args.voxel_mm,
+        resolution: format!("{resolution:?}"),
+        level_fraction: at_level.iter().map(|&n| n as f64 / ticks as f64).collect(),
         contact_fraction: in_contact as f64 / ticks as f64,
         max_penetration_mm: max_penetration_m * 1e3,
         compute_us: Percentiles {
@@ -150,15 +196,24 @@ fn main() -> anyhow::Result<()> {
     };
     let c = &report.compute_us;
     println!(
-        "{}: {} ticks, {} points at {} mm, in contact {:.0} % of ticks, max penetration {:.3} mm, up to {} points tested per tick",
+        "{}: {} ticks at {} Hz, {} points at {} mm, in contact {:.0} % of ticks, max penetration {:.3} mm, up to {} points tested per tick",
         report.scenario,
         report.ticks,
+        report.rate_hz,
         report.points,
         report.voxel_mm,
         report.contact_fraction * 100.0,
         report.max_penetration_mm,
         report.points_tested_max
     );
+    let levels: Vec<String> = report
+        .level_fraction
+        .iter()
+        .enumerate()
+        .filter(|(_, f)| **f > 0.0)
+        .map(|(l, f)| format!("level {l} {:.1} %", f * 100.0))
+        .collect();
+    println!("{}: {}", report.resolution, levels.join(", "));
     println!("| p50 | p90 | p99 | p99.9 | p99.99 | max |");
     println!("|---|---|---|---|---|---|");
     println!(

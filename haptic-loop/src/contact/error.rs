@@ -27,6 +27,10 @@ pub enum ContactError {
         /// Stored layers outside minus one, voxels.
         layer_voxels: f64,
     },
+    /// The resolution (level of detail or point budget) is out of range; the message says
+    /// which value.
+    #[error("contact: {0}")]
+    Resolution(String),
     /// The voxmap of the obstacles could not be built.
     #[error(transparent)]
     Voxmap(#[from] VoxmapError),

@@ -14,6 +14,16 @@ pub(super) struct JtJ {
 }
 
 impl JtJ {
+    /// `(1 − t)·self + t·other`, entry by entry.
+    pub(super) fn lerp(&self, other: &Self, t: f64) -> Self {
+        let mix = |a: f64, b: f64| a + t * (b - a);
+        Self {
+            nn: std::array::from_fn(|i| mix(self.nn[i], other.nn[i])),
+            mn: std::array::from_fn(|i| mix(self.mn[i], other.mn[i])),
+            mm: std::array::from_fn(|i| mix(self.mm[i], other.mm[i])),
+        }
+    }
+
     /// `scale · Σ w JJᵀ` as a 6×6 matrix ([force; torque] order).
     // Inline: in its own module it is no longer in the contact step's codegen unit, and a
     // call returns the 288-byte matrix through memory (measured with callgrind).

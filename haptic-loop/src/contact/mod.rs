@@ -40,6 +40,7 @@
 mod error;
 mod jtj;
 mod lanes;
+mod level;
 mod near;
 mod pointshell;
 #[cfg(test)]
@@ -47,11 +48,13 @@ mod tests;
 mod voxmap;
 
 pub use error::ContactError;
-pub use pointshell::{Cluster, Pointshell};
+pub use level::Resolution;
+pub use pointshell::{Cluster, LEVELS, Pointshell};
 pub use voxmap::{Sample, Voxmap, VoxmapConfig, VoxmapError, VoxmapReport};
 
 use devices::DeviceSpec;
 use ipc_types::ContactCode;
+use level::{LevelChooser, Plan};
 use nalgebra::{
     Isometry3, Matrix3, Matrix6, Point3, Translation3, UnitQuaternion, Vector3, Vector6,
 };
@@ -85,6 +88,9 @@ pub struct ContactConfig {
     /// Contact is released only when no point is closer than this to the surface, in
     /// voxels (hysteresis against chatter of the contact flag).
     pub release_voxels: f64,
+    /// Which of the pointshell's levels of detail is rendered: a fixed one, or the finest
+    /// that fits a per-tick point budget (see [`Resolution`]).
+    pub resolution: Resolution,
 }
 
 impl Default for ContactConfig {
@@ -98,6 +104,7 @@ impl Default for ContactConfig {
             proxy_mass_kg: 0.05,
             coupling_fraction: 0.75,
             release_voxels: 0.25,
+            resolution: Resolution::DEFAULT,
         }
     }
 }
@@ -152,6 +159,9 @@ impl ContactConfig {
                 value: self.coupling_fraction,
             });
         }
+        self.resolution
+            .validate()
+            .map_err(ContactError::Resolution)?;
         let layer = f64::from(self.voxmap.layers_out) - 1.0;
         if self.proximity_voxels > layer || self.release_voxels > layer {
             return Err(ContactError::Layers {
@@ -340,8 +350,11 @@ pub struct ContactOutput {
     pub penetration_m: f64,
     /// Points that penetrate.
     pub contacts: u32,
-    /// Points tested against the voxmap (after cluster culling).
+    /// Points tested against the voxmap (after cluster culling), over both levels while
+    /// a change of level is blended.
     pub points_tested: u32,
+    /// Level of detail rendered (0 = every point; the new level while blending).
+    pub level: u8,
 }
 
 /// The scene's wrench on an object held still at a pose (see [`ContactStage::probe`]).
@@ -371,16 +384,20 @@ struct Coherence {
     /// Pose at the last search.
     last: Option<Isometry3<f64>>,
     object: f64,
+    groups: Vec<ClusterBudget>,
     clusters: Vec<ClusterBudget>,
     points: Vec<f64>,
 }
 
 impl Coherence {
-    fn new(clusters: usize, points: usize) -> Self {
+    fn new(shell: &Pointshell) -> Self {
+        let (groups, clusters, points) =
+            (shell.groups().len(), shell.clusters().len(), shell.len());
         Self {
             motion_m: 0.0,
             last: None,
             object: 0.0,
+            groups: vec![ClusterBudget::default(); groups],
             clusters: vec![ClusterBudget::default(); clusters],
             points: vec![0.0; points],
         }
@@ -391,6 +408,7 @@ impl Coherence {
         self.motion_m = 0.0;
         self.last = None;
         self.object = 0.0;
+        self.groups.fill(ClusterBudget::default());
         self.clusters.fill(ClusterBudget::default());
         self.points.fill(0.0);
     }
@@ -433,6 +451,10 @@ pub struct ContactStage {
     previous_contacts: u32,
     previous_braking: u32,
     last_tested: u32,
+    /// Level of detail in use, and a change of level being blended.
+    levels: LevelChooser,
+    /// The coarsest level the resolution allows at the model's spacing.
+    coarsest_level: usize,
     cache: Coherence,
     /// The search's scratch (preallocated).
     scratch: Scratch,
@@ -442,8 +464,13 @@ impl ContactStage {
     /// A proxy for `model`; it is placed at the first anchor it sees.
     pub fn new(model: Arc<ContactModel>, config: ContactConfig, coupling: Coupling) -> Self {
         Self {
-            cache: Coherence::new(model.shell.clusters().len(), model.shell.len()),
-            scratch: Scratch::with_capacity(model.shell.len()),
+            cache: Coherence::new(&model.shell),
+            scratch: Scratch::with_capacity(model.shell.clusters().len(), model.shell.len()),
+            levels: LevelChooser::at(match config.resolution {
+                Resolution::Level(l) => usize::from(l).min(LEVELS - 1),
+                Resolution::Budget { .. } => 0,
+            }),
+            coarsest_level: config.resolution.coarsest_level(model.shell.spacing_m()),
             model,
             config,
             coupling,
@@ -484,6 +511,24 @@ impl ContactStage {
         self.last_tested
     }
 
+    /// Renders at `resolution` from the next step on (a fixed level starts at once, a
+    /// budget from level 0). Fails, changing nothing, on an invalid resolution.
+    pub fn set_resolution(&mut self, resolution: Resolution) -> Result<(), ContactError> {
+        resolution.validate().map_err(ContactError::Resolution)?;
+        self.config.resolution = resolution;
+        self.levels = LevelChooser::at(match resolution {
+            Resolution::Level(l) => usize::from(l),
+            Resolution::Budget { .. } => 0,
+        });
+        self.coarsest_level = resolution.coarsest_level(self.model.shell.spacing_m());
+        Ok(())
+    }
+
+    /// Level of detail rendered in the last step (the new one while a change is blended).
+    pub fn level(&self) -> usize {
+        self.levels.level()
+    }
+
     /// The model.
     pub fn model(&self) -> &ContactModel {
         &self.model
@@ -521,8 +566,9 @@ impl ContactStage {
         mm
     }
 
-    /// Total energy of proxy and coupling towards a fixed `anchor` plus the contact springs,
-    /// J: ½uᵀMu + ½k|Δx|² + ½k_r|Δθ|² + Σ½k_p d². For the passivity test.
+    /// Total energy of proxy and coupling towards a fixed `anchor` plus the contact springs
+    /// of the level in use (each point's spring times its weight), J: ½uᵀMu + ½k|Δx|² +
+    /// ½k_r|Δθ|² + Σ½w·k_p d². For the passivity test.
     pub fn energy(&self, anchor: &Isometry3<f64>) -> f64 {
         let u = stack(&self.velocity, &self.angular_velocity);
         let kinetic = 0.5 * u.dot(&(self.mass_matrix() * u));
@@ -535,14 +581,16 @@ impl ContactStage {
         let contact: f64 = shell
             .points()
             .iter()
-            .map(|p| {
+            .zip(shell.weights(self.levels.level()))
+            .filter(|(_, w)| **w > 0.0)
+            .map(|(p, w)| {
                 match self
                     .model
                     .voxmap
                     .sample(&self.pose.transform_point(&Point3::from(*p)).coords)
                 {
                     Sample::Near { distance_m, .. } if distance_m < 0.0 => {
-                        0.5 * self.config.point_stiffness_n_per_m * distance_m * distance_m
+                        0.5 * w * self.config.point_stiffness_n_per_m * distance_m * distance_m
                     }
                     _ => 0.0,
                 }
@@ -551,13 +599,16 @@ impl ContactStage {
         kinetic + coupling + contact
     }
 
-    /// The scene's wrench on the object held still at `pose` (reference point, scene frame):
-    /// force (N), torque about the reference point (N·m), deepest penetration (m) and the
-    /// number of penetrating points. Does not move the proxy.
+    /// The scene's wrench on the object held still at `pose` (reference point, scene frame)
+    /// at the level of detail in use: force (N), torque about the reference point (N·m),
+    /// deepest penetration (m) and the number of penetrating points. Does not move the
+    /// proxy.
     pub fn probe(&self, pose: &Isometry3<f64>) -> Probe {
         // A fresh cache: a full search. (Allocates: a diagnostic, not for the RT thread.)
-        let mut cache = Coherence::new(self.model.shell.clusters().len(), self.model.shell.len());
-        let mut scratch = Scratch::with_capacity(self.model.shell.len());
+        let shell = &self.model.shell;
+        let mut cache = Coherence::new(shell);
+        let mut scratch = Scratch::with_capacity(shell.clusters().len(), shell.len());
+        let level = self.levels.level();
         let s = self
             .sum_contacts(
                 pose,
@@ -565,6 +616,7 @@ impl ContactStage {
                 &Vector3::zeros(),
                 &mut cache,
                 &mut scratch,
+                |_| Plan::at(level),
             )
             .totals;
         let force: Vector3<f64> = s.wrench.fixed_rows::<3>(0).into_owned();
@@ -600,11 +652,13 @@ impl ContactStage {
     }
 
     /// The scene's wrench on the object at `pose` moving with `velocity` (centre of mass,
-    /// m/s) and `angular_velocity` (rad/s). Points and clusters whose motion budget in
-    /// `cache` is not used up are skipped (see [`Coherence`]) and the budgets are renewed.
+    /// m/s) and `angular_velocity` (rad/s), at the levels `plan` chooses from the near
+    /// clusters' point counts per level. Points and clusters whose motion budget in `cache`
+    /// is not used up are skipped (see [`Coherence`]) and the budgets are renewed.
     ///
     /// This is the hot loop of the tick: after the object-level check it runs in
-    /// [`ShellColumns::search`] (see the `near` module).
+    /// [`ShellColumns::near_clusters`] and [`ShellColumns::search`] (see the `near`
+    /// module).
     fn sum_contacts(
         &self,
         pose: &Isometry3<f64>,
@@ -612,6 +666,7 @@ impl ContactStage {
         angular_velocity: &Vector3<f64>,
         cache: &mut Coherence,
         scratch: &mut Scratch,
+        plan: impl FnOnce(&[u32; LEVELS]) -> Plan,
     ) -> Found {
         let model = &*self.model;
         let vox = &model.voxmap;
@@ -629,28 +684,42 @@ impl ContactStage {
             return Found::default();
         }
         let (b_contact, b_brake) = self.shared_damping();
-        model.columns.search(
-            &mut cache.clusters,
-            &mut cache.points,
-            &SearchParams {
-                rotation: pose.rotation.to_rotation_matrix().into_inner(),
-                translation: pose.translation.vector,
-                reach_m: reach,
-                moved_m: moved,
-            },
-            &PassParams {
-                com,
-                velocity: *velocity,
-                angular_velocity: *angular_velocity,
-                point_stiffness_n_per_m: self.config.point_stiffness_n_per_m,
-                contact_damping_n_s_per_m: b_contact,
-                braking_n_s_per_m: b_brake,
-                proximity_m: prox,
-                release_m: release,
-            },
-            vox,
-            scratch,
-        )
+        let k = SearchParams {
+            rotation: pose.rotation.to_rotation_matrix().into_inner(),
+            translation: pose.translation.vector,
+            reach_m: reach,
+            moved_m: moved,
+        };
+        let pass = PassParams {
+            com,
+            velocity: *velocity,
+            angular_velocity: *angular_velocity,
+            point_stiffness_n_per_m: self.config.point_stiffness_n_per_m,
+            contact_damping_n_s_per_m: b_contact,
+            braking_n_s_per_m: b_brake,
+            proximity_m: prox,
+            release_m: release,
+        };
+        let near =
+            model
+                .columns
+                .near_clusters(&mut cache.groups, &mut cache.clusters, &k, vox, scratch);
+        let plan = plan(&near);
+        let mut search = |level| {
+            model
+                .columns
+                .search(level, &mut cache.points, &k, &pass, vox, scratch)
+        };
+        let from = search(plan.from);
+        if plan.to == plan.from {
+            return from;
+        }
+        let to = search(plan.to);
+        Found {
+            totals: from.totals.lerp(&to.totals, plan.alpha),
+            tested: from.tested + to.tested,
+            near: from.near.max(to.near),
+        }
     }
 
     /// One step of `dt_s` towards `anchor`. Allocation-free.
@@ -662,13 +731,25 @@ impl ContactStage {
         let mut cache = std::mem::take(&mut self.cache);
         cache.advance(&self.pose, &self.model.com_local, self.model.radius_m);
         let mut scratch = std::mem::take(&mut self.scratch);
+        let mut levels = self.levels;
+        let (resolution, coarsest) = (self.config.resolution, self.coarsest_level);
         let found = self.sum_contacts(
             &self.pose,
             &self.velocity,
             &self.angular_velocity,
             &mut cache,
             &mut scratch,
+            |near| match resolution {
+                Resolution::Level(_) => Plan::at(levels.level()),
+                Resolution::Budget { points_per_ms, .. } => levels.plan(
+                    near,
+                    points_per_ms * dt_s * 1e3,
+                    coarsest,
+                    (Resolution::BLEND_S / dt_s).round().max(1.0) as u32,
+                ),
+            },
         );
+        self.levels = levels;
         self.cache = cache;
         self.scratch = scratch;
         let s = found.totals;
@@ -777,6 +858,7 @@ impl ContactStage {
             penetration_m: s.max_depth,
             contacts: s.contacts,
             points_tested: found.tested,
+            level: self.levels.level() as u8,
         }
     }
 }

@@ -1,12 +1,15 @@
 //! The contact search and force pass over the points that may be near the surface
 //! ([`ShellColumns::search`]).
 //!
-//! 1. *Candidates*: the clusters and points whose motion budget is used up (see
-//!    `Coherence`), as a list of point indices.
+//! 1. *Candidates*: the clusters that may be near the surface ([`ShellColumns::near_clusters`],
+//!    which also counts their points at every level of detail, so the caller can choose a
+//!    level that fits its budget), then those of their points at the chosen level whose
+//!    motion budget is used up (see `Coherence`), as a list of point indices.
 //! 2. *Look-up*: [`LANES`] candidates at a time are moved into the scene and looked up in
 //!    the voxmap; their budgets are renewed.
 //! 3. *Force pass* ([`force_chunk`]), in the same chunk, for those within reach of a
-//!    surface they face: penalty, braking and the implicit step's JᵀJ sums, without
+//!    surface they face: penalty, braking and the implicit step's JᵀJ sums, each point's
+//!    terms times its weight at the level (the level-0 points it stands for), without
 //!    branches.
 //!
 //! Steps 2 and 3 are written twice: lane by lane, each statement over all lanes and
@@ -20,7 +23,7 @@
 
 use super::jtj::JtJ;
 use super::lanes::{LANES, Lanes, axes, lanes};
-use super::pointshell::{Cluster, Pointshell};
+use super::pointshell::{Cluster, ClusterGroup, LEVELS, Pointshell};
 use super::voxmap::Voxmap;
 
 /// Calls `$m!($args; i: a b, ...)` with the 21 pairs (a, b) of J's rows whose products
@@ -68,13 +71,15 @@ const PAIRS: [(usize, usize); 21] = [
     (5, 5),
 ];
 
-/// The pointshell as the search reads it: object-frame points (m) and inward normals as
-/// `f32` columns, in the pointshell's order, and its clusters.
+/// The pointshell as the search reads it: object-frame points (m), inward normals and
+/// each level's weights as `f32` columns, in the pointshell's order, and its clusters.
 #[derive(Debug, Clone)]
 pub(super) struct ShellColumns {
     point: [Vec<f32>; 3],
     normal: [Vec<f32>; 3],
+    weight: [Vec<f32>; LEVELS],
     clusters: Vec<Cluster>,
+    groups: Vec<ClusterGroup>,
 }
 
 /// Where the search runs.
@@ -90,7 +95,7 @@ pub(super) struct SearchParams {
     pub moved_m: f64,
 }
 
-/// A cluster's motion budget (see `Coherence`): until the running motion total reaches
+/// A group's or cluster's motion budget (see `Coherence`): until the running motion total reaches
 /// `check_at` (m), a far cluster is skipped and a `near` one has its points looked at
 /// without a new clearance check.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -99,17 +104,21 @@ pub(super) struct ClusterBudget {
     pub near: bool,
 }
 
-/// The search's scratch: the candidate points' indices. Room for every point of the shell,
-/// allocated once, so the search never allocates.
+/// The search's scratch: the near clusters' and the candidate points' indices. Room for
+/// every cluster and point of the shell, allocated once, so the search never allocates.
 #[derive(Debug, Clone, Default)]
 pub(super) struct Scratch {
+    near: Vec<u32>,
+    near_count: usize,
     candidates: Vec<u32>,
 }
 
 impl Scratch {
-    /// Room for `points` points.
-    pub(super) fn with_capacity(points: usize) -> Self {
+    /// Room for `clusters` clusters and `points` points.
+    pub(super) fn with_capacity(clusters: usize, points: usize) -> Self {
         Self {
+            near: vec![0; clusters],
+            near_count: 0,
             candidates: vec![0; points.div_ceil(LANES) * LANES],
         }
     }
@@ -141,28 +150,69 @@ impl ShellColumns {
         Self {
             point: std::array::from_fn(|a| column(shell.points(), a)),
             normal: std::array::from_fn(|a| column(shell.normals(), a)),
+            // Weights are whole numbers below 2^24: exact in f32.
+            weight: std::array::from_fn(|l| shell.weights(l).iter().map(|&w| w as f32).collect()),
             clusters: shell.clusters().to_vec(),
+            groups: shell.groups().to_vec(),
         }
     }
 
-    /// The search and the force pass: each cluster whose budget in `cluster_budgets` is used
-    /// up is checked against the voxmap's clearance and its budget renewed; the points of
-    /// those that may be within reach whose own budget (`point_budgets`) is used up are
-    /// looked up in the voxmap and their budgets renewed; those within reach of a surface
-    /// they face go through the force pass ([`force_chunk`]) in the same chunk.
+    /// Step 1a: the groups, then the clusters of near groups, whose budgets in
+    /// `group_budgets` and `cluster_budgets` are used up are checked against the voxmap's
+    /// clearance and their budgets renewed; the clusters that may be within reach are
+    /// listed in `scratch`. Returns their number of points at each level: what a search at
+    /// that level would look at, at most.
+    pub(super) fn near_clusters(
+        &self,
+        group_budgets: &mut [ClusterBudget],
+        cluster_budgets: &mut [ClusterBudget],
+        k: &SearchParams,
+        vox: &Voxmap,
+        scratch: &mut Scratch,
+    ) -> [u32; LEVELS] {
+        let mut points = [0u32; LEVELS];
+        let mut count = 0;
+        for (group, budget) in self.groups.iter().zip(group_budgets.iter_mut()) {
+            if !renew(budget, &group.centre, group.radius_m, k, vox) {
+                continue;
+            }
+            let range = group.start as usize..group.end as usize;
+            let members = self.clusters[range.clone()]
+                .iter()
+                .zip(&mut cluster_budgets[range.clone()]);
+            for (index, (cl, budget)) in range.zip(members) {
+                if renew(budget, &cl.centre, cl.radius_m, k, vox) {
+                    scratch.near[count] = index as u32;
+                    count += 1;
+                    for (n, end) in points.iter_mut().zip(cl.level_ends) {
+                        *n += end - cl.start;
+                    }
+                }
+            }
+        }
+        scratch.near_count = count;
+        points
+    }
+
+    /// The search and the force pass at `level` (< [`LEVELS`]), over the near clusters
+    /// [`Self::near_clusters`] listed in `scratch`: their points at that level whose own
+    /// budget (`point_budgets`) is used up are looked up in the voxmap and their budgets
+    /// renewed; those within reach of a surface they face go through the force pass
+    /// ([`force_chunk`]) in the same chunk, with their weights at that level.
     pub(super) fn search(
         &self,
-        cluster_budgets: &mut [ClusterBudget],
+        level: usize,
         point_budgets: &mut [f64],
         k: &SearchParams,
         pass: &PassParams,
         vox: &Voxmap,
         scratch: &mut Scratch,
     ) -> Found {
-        let count = self.candidates(cluster_budgets, point_budgets, k, vox, scratch);
+        let count = self.candidates(level, point_budgets, k, scratch);
         let chunks = Chunks {
             candidates: &scratch.candidates[..count.div_ceil(LANES) * LANES],
             count,
+            weight: &self.weight[level],
             search: k,
             force: ForceConsts::new(pass),
             com: pass.com.map(|x| x as f32),
@@ -183,36 +233,25 @@ impl ShellColumns {
         }
     }
 
-    /// Step 1: lists the points of clusters that may be in reach whose budget is used up
-    /// (renewing the clusters' budgets), pads the list to whole chunks with copies of its
-    /// first entry, and returns the number of real candidates.
+    /// Step 1b: lists the points at `level` of the near clusters in `scratch` whose
+    /// budget is used up, pads the list to whole chunks with copies of its first entry, and
+    /// returns the number of real candidates.
     fn candidates(
         &self,
-        cluster_budgets: &mut [ClusterBudget],
+        level: usize,
         point_budgets: &[f64],
         k: &SearchParams,
-        vox: &Voxmap,
         scratch: &mut Scratch,
     ) -> usize {
         let moved = k.moved_m;
         let mut count = 0;
-        for (cl, budget) in self.clusters.iter().zip(cluster_budgets.iter_mut()) {
-            if moved >= budget.check_at {
-                let centre = k.rotation * cl.centre + k.translation;
-                let slack = vox.clearance(&centre) - cl.radius_m - k.reach_m;
-                budget.near = slack <= 0.0;
-                // A near cluster is checked again only after moving a reach: its points
-                // carry their own budgets, so a late check costs point compares, never a
-                // missed contact.
-                budget.check_at = moved + if budget.near { k.reach_m } else { slack };
-            }
-            if !budget.near {
-                continue;
-            }
+        for &c in &scratch.near[..scratch.near_count] {
+            let cl = &self.clusters[c as usize];
+            let end = cl.level_ends[level];
             // Branch-free: every index is written, and kept by advancing `count`
             // (`count` ≤ the points seen so far, so the write stays in the list).
-            let budgets = &point_budgets[cl.start as usize..cl.end as usize];
-            for (i, budget) in (cl.start..cl.end).zip(budgets) {
+            let budgets = &point_budgets[cl.start as usize..end as usize];
+            for (i, budget) in (cl.start..end).zip(budgets) {
                 scratch.candidates[count] = i;
                 count += usize::from(moved >= *budget);
             }
@@ -288,11 +327,34 @@ impl ShellColumns {
                         f32::INFINITY
                     }
                 });
-                force_chunk(&mut acc, &r, &g, &sd, &c.force);
+                let w = lanes(|l| c.weight[idx[l] as usize]);
+                force_chunk(&mut acc, &r, &g, &sd, &w, &c.force);
             }
         }
         (acc, kept)
     }
+}
+
+/// Whether a sphere of `radius_m` about `centre` (object frame) may be within reach, by its
+/// `budget`: when the budget is used up, checked against the voxmap's clearance and the
+/// budget renewed. A near sphere is checked again only after moving a reach: what it holds
+/// carries its own budgets, so a late check costs compares, never a missed contact.
+#[inline(always)]
+fn renew(
+    budget: &mut ClusterBudget,
+    centre: &Vector3<f64>,
+    radius_m: f64,
+    k: &SearchParams,
+    vox: &Voxmap,
+) -> bool {
+    let moved = k.moved_m;
+    if moved >= budget.check_at {
+        let centre = k.rotation * centre + k.translation;
+        let slack = vox.clearance(&centre) - radius_m - k.reach_m;
+        budget.near = slack <= 0.0;
+        budget.check_at = moved + if budget.near { k.reach_m } else { slack };
+    }
+    budget.near
 }
 
 /// What steps 2 and 3 work on.
@@ -301,6 +363,8 @@ struct Chunks<'a> {
     candidates: &'a [u32],
     /// Real candidates.
     count: usize,
+    /// The level's weights, one per point.
+    weight: &'a [f32],
     search: &'a SearchParams,
     force: ForceConsts,
     /// Centre of mass, scene frame, m.
@@ -338,7 +402,9 @@ pub(super) struct Totals {
     /// Σ b JJᵀ over penetrating (contact damping) and approaching (braking) points: the
     /// contact damping matrix, N·s/m.
     pub damping_jj: JtJ,
+    /// Penetrating points, counted in the level-0 points they stand for.
     pub contacts: u32,
+    /// Braking points, counted the same way.
     pub braking_points: u32,
     pub within_release: bool,
     /// Σ d·(surface point), m², with d the depth.
@@ -349,6 +415,28 @@ pub(super) struct Totals {
     pub normal_sum: Vector3<f64>,
     /// Deepest penetration, m.
     pub max_depth: f64,
+}
+
+impl Totals {
+    /// `(1 − t)·self + t·other`: the blend of two levels' sums while the rendered level
+    /// changes. Counts are blended and rounded, the release test holds for either, the
+    /// deepest penetration is the deeper.
+    pub fn lerp(&self, other: &Self, t: f64) -> Self {
+        let mix = |a: f64, b: f64| a + t * (b - a);
+        let count = |a: u32, b: u32| mix(f64::from(a), f64::from(b)).round() as u32;
+        Self {
+            wrench: self.wrench + (other.wrench - self.wrench) * t,
+            contact_jj: self.contact_jj.lerp(&other.contact_jj, t),
+            damping_jj: self.damping_jj.lerp(&other.damping_jj, t),
+            contacts: count(self.contacts, other.contacts),
+            braking_points: count(self.braking_points, other.braking_points),
+            within_release: self.within_release || other.within_release,
+            weighted_point: self.weighted_point + (other.weighted_point - self.weighted_point) * t,
+            weight: mix(self.weight, other.weight),
+            normal_sum: self.normal_sum + (other.normal_sum - self.normal_sum) * t,
+            max_depth: self.max_depth.max(other.max_depth),
+        }
+    }
 }
 
 /// Per-lane running sums of the force pass, one `T` holding [`LANES`] of each: [`Lanes`]
@@ -439,15 +527,18 @@ impl ForceConsts {
 }
 
 /// The force pass over one chunk: points at `r` from the centre of mass (m) with field
-/// gradient `g` and signed distance `sd` (m) add their penalty, braking and JJᵀ sums to
-/// `acc`. Every statement works on all lanes and choices are selections, so there are no
-/// branches; a lane with `sd` = +∞ and a unit gradient adds nothing.
+/// gradient `g`, signed distance `sd` (m) and weight `w` (level-0 points) add their
+/// penalty, braking and JJᵀ sums, each times its weight, to `acc`. Every statement works on
+/// all lanes and choices are selections, so there are no branches; a lane with `sd` = +∞
+/// and a unit gradient adds nothing. (Weight 1 multiplies exactly: level 0 gives the bits
+/// of an unweighted pass.)
 #[inline(always)]
 fn force_chunk(
     acc: &mut Accumulators,
     r: &[Lanes; 3],
     g: &[Lanes; 3],
     sd: &Lanes,
+    wt: &Lanes,
     k: &ForceConsts,
 ) {
     let ForceConsts {
@@ -477,15 +568,17 @@ fn force_chunk(
             + w.y * m[1][l]
             + w.z * m[2][l]
     });
-    let in_contact = lanes(|l| if sd[l] < 0.0 { 1.0 } else { 0.0 });
+    // The weight where the point penetrates, else 0.
+    let in_contact = lanes(|l| if sd[l] < 0.0 { wt[l] } else { 0.0 });
     let depth = lanes(|l| if sd[l] < 0.0 { -sd[l] } else { 0.0 });
+    let weighted_depth = lanes(|l| in_contact[l] * depth[l]);
     // Damping never pulls the point into the surface. (The implicit step keeps its
     // damping term also for a clamped point: numerical damping.)
     let push = lanes(|l| in_contact[l] * (kp * depth[l] - bc * vn[l]).max(0.0));
     // Pre-contact braking: opposes approach only, fading in over the layer.
     let brake_w = lanes(|l| {
         if sd[l] >= 0.0 && sd[l] < prox && vn[l] < 0.0 {
-            1.0 - sd[l] / prox
+            wt[l] * (1.0 - sd[l] / prox)
         } else {
             0.0
         }
@@ -514,15 +607,15 @@ fn force_chunk(
         for l in 0..LANES {
             // The point projected on the surface (relative to the centre of mass),
             // weighted by depth.
-            acc.point[a][l] += depth[l] * (r[a][l] + depth[l] * n[a][l]);
-            acc.normal[a][l] += depth[l] * n[a][l];
+            acc.point[a][l] += weighted_depth[l] * (r[a][l] + depth[l] * n[a][l]);
+            acc.normal[a][l] += weighted_depth[l] * n[a][l];
         }
     }
     for l in 0..LANES {
-        acc.weight[l] += depth[l];
+        acc.weight[l] += weighted_depth[l];
         acc.max_depth[l] = acc.max_depth[l].max(depth[l]);
         acc.contacts[l] += in_contact[l];
-        acc.braking[l] += if brake_w[l] > 0.0 { 1.0 } else { 0.0 };
+        acc.braking[l] += if brake_w[l] > 0.0 { wt[l] } else { 0.0 };
         acc.release[l] += if sd[l] < release { 1.0 } else { 0.0 };
     }
 }
@@ -550,7 +643,7 @@ impl Accumulators {
             wrench: Vector6::from_fn(|a, _| sum(&self.wrench[a])),
             contact_jj: jtj(1.0, 0.0),
             damping_jj: jtj(contact_damping, braking),
-            // Counts below 2^24, exact in f32.
+            // Counts in level-0 points (sums of whole weights) below 2^24, exact in f32.
             contacts: sum(&self.contacts) as u32,
             braking_points: sum(&self.braking) as u32,
             within_release: sum(&self.release) > 0.0,
@@ -566,27 +659,34 @@ impl Accumulators {
 mod tests {
     use super::*;
 
-    /// [`force_chunk`] over `points` (position, gradient, signed distance), chunk by chunk,
-    /// the last one padded as the search pads it.
-    fn force_pass(points: &[(Vector3<f64>, Vector3<f64>, f64)], k: &PassParams) -> Totals {
+    /// A point for the force pass: position, gradient, signed distance (m), weight.
+    type TestPoint = (Vector3<f64>, Vector3<f64>, f64, f64);
+
+    /// [`force_chunk`] over `points`, chunk by chunk, the last one padded as the search
+    /// pads it.
+    fn force_pass(points: &[TestPoint], k: &PassParams) -> Totals {
         let consts = ForceConsts::new(k);
         let mut acc = Accumulators::default();
         for chunk in points.chunks(LANES) {
             let at = |l: usize| chunk.get(l);
-            let r = axes(|a| lanes(|l| at(l).map_or(0.0, |(p, _, _)| (p[a] - k.com[a]) as f32)));
+            let r = axes(|a| lanes(|l| at(l).map_or(0.0, |(p, _, _, _)| (p[a] - k.com[a]) as f32)));
             let g = axes(|a| {
-                lanes(|l| at(l).map_or(if a == 0 { 1.0 } else { 0.0 }, |(_, g, _)| g[a] as f32))
+                lanes(|l| at(l).map_or(if a == 0 { 1.0 } else { 0.0 }, |(_, g, _, _)| g[a] as f32))
             });
-            let sd = lanes(|l| at(l).map_or(f32::INFINITY, |(_, _, sd)| *sd as f32));
-            force_chunk(&mut acc, &r, &g, &sd, &consts);
+            let sd = lanes(|l| at(l).map_or(f32::INFINITY, |(_, _, sd, _)| *sd as f32));
+            let w = lanes(|l| at(l).map_or(1.0, |(_, _, _, w)| *w as f32));
+            force_chunk(&mut acc, &r, &g, &sd, &w, &consts);
         }
         acc.reduce(k)
     }
 
-    /// The same sums point by point, written the obvious way.
-    fn reference(points: &[(Vector3<f64>, Vector3<f64>, f64)], k: &PassParams) -> Totals {
+    /// The same sums point by point, written the obvious way: each point's terms times its
+    /// weight.
+    fn reference(points: &[TestPoint], k: &PassParams) -> Totals {
         let mut t = Totals::default();
-        for (p, g, sd) in points {
+        let mut contacts = 0.0;
+        let mut braking = 0.0;
+        for &(ref p, ref g, ref sd, w) in points {
             let n = g.normalize();
             let m = (p - k.com).cross(&n);
             let vn = k.velocity.dot(&n) + k.angular_velocity.dot(&m);
@@ -605,22 +705,24 @@ mod tests {
                 let d = -sd;
                 let push =
                     (k.point_stiffness_n_per_m * d - k.contact_damping_n_s_per_m * vn).max(0.0);
-                t.wrench += jv * push;
-                add(&mut t.contact_jj, 1.0);
-                add(&mut t.damping_jj, k.contact_damping_n_s_per_m);
-                t.contacts += 1;
-                t.weighted_point += d * (p + d * n);
-                t.weight += d;
-                t.normal_sum += d * n;
+                t.wrench += jv * push * w;
+                add(&mut t.contact_jj, w);
+                add(&mut t.damping_jj, k.contact_damping_n_s_per_m * w);
+                contacts += w;
+                t.weighted_point += w * d * (p + d * n);
+                t.weight += w * d;
+                t.normal_sum += w * d * n;
                 t.max_depth = t.max_depth.max(d);
             } else if *sd < k.proximity_m && vn < 0.0 {
-                let w = 1.0 - sd / k.proximity_m;
-                t.wrench += jv * (-k.braking_n_s_per_m * w * vn);
-                add(&mut t.damping_jj, k.braking_n_s_per_m * w);
-                t.braking_points += 1;
+                let b = w * (1.0 - sd / k.proximity_m);
+                t.wrench += jv * (-k.braking_n_s_per_m * b * vn);
+                add(&mut t.damping_jj, k.braking_n_s_per_m * b);
+                braking += w;
             }
             t.within_release |= *sd < k.release_m;
         }
+        t.contacts = contacts as u32;
+        t.braking_points = braking as u32;
         t
     }
 
@@ -643,7 +745,9 @@ mod tests {
                 let p = k.com + Vector3::new(0.01 * f.sin(), 0.02 * f.cos(), 0.003 * f - 0.03);
                 let g = Vector3::new(0.3 + 0.1 * f, 1.0 - 0.05 * f, (0.7 * f).sin());
                 let sd = -0.001 + 0.00017 * f;
-                (p, g, sd)
+                // Weights as the levels give them: whole numbers of level-0 points.
+                let w = f64::from(1 + (i % 4) * 5);
+                (p, g, sd, w)
             })
             .collect();
         let got = force_pass(&points, &k);
@@ -782,13 +886,18 @@ mod tests {
                 proximity_m: 0.002,
                 release_m: 0.0005,
             };
-            let mut scratch = Scratch::with_capacity(points);
+            let mut scratch = Scratch::with_capacity(shell.clusters.len(), points);
+            let mut groups = vec![ClusterBudget::default(); shell.groups.len()];
             let mut clusters = vec![ClusterBudget::default(); shell.clusters.len()];
             let mut budgets = vec![0.0; points];
-            let count = shell.candidates(&mut clusters, &budgets, &k, &vox, &mut scratch);
+            shell.near_clusters(&mut groups, &mut clusters, &k, &vox, &mut scratch);
+            // Every level, weights and all.
+            let level = rng.random_range(0..LEVELS);
+            let count = shell.candidates(level, &budgets, &k, &mut scratch);
             let chunks = Chunks {
                 candidates: &scratch.candidates[..count.div_ceil(LANES) * LANES],
                 count,
+                weight: &shell.weight[level],
                 search: &k,
                 force: ForceConsts::new(&pass),
                 com: pass.com.map(|x| x as f32),

@@ -9,7 +9,22 @@
 //!
 //! Points are grouped into clusters (cells of `CLUSTER_CELLS` points' spacing) with a bounding
 //! sphere each, so that the contact stage can reject a whole cluster far from the scene with
-//! one voxmap look-up.
+//! one voxmap look-up, and clusters into groups (cells of `GROUP_CLUSTERS` clusters), so that
+//! a large object does not cost a look at each of its clusters per tick.
+//!
+//! # Levels of detail
+//!
+//! The points also form [`LEVELS`] nested pointshells, level L at about 2^L spacings
+//! (Barbič & James's multi-resolution pointshells, built here by clustering): level L
+//! groups the points of level L − 1 by cells of 2^L spacings and, within a cell, by normal
+//! (a point joins the first group whose normal is within 30° of its own, so the
+//! faces meeting at an edge and the edge points between them stay apart); each group is
+//! represented by its member nearest the group's weighted centroid, which carries the
+//! group's weight: the number of level-0 points it stands for, i.e. its share of the
+//! surface in point areas. Every level's weights sum to the point count, so a flat patch
+//! pressed uniformly gets the same total stiffness and force at every level. Within a
+//! cluster the points are ordered coarsest first, so level L's points of a cluster are a
+//! prefix of its range (`Cluster::level_ends`).
 
 use nalgebra::Vector3;
 use parry3d_f64::bounding_volume::{Aabb, BoundingVolume};
@@ -25,6 +40,16 @@ type PointNormal = (Vector3<f64>, Vector3<f64>);
 /// Cluster edge, in point spacings.
 const CLUSTER_CELLS: f64 = 3.0;
 
+/// Group edge, in clusters.
+const GROUP_CLUSTERS: i64 = 8;
+
+/// Number of levels of detail (level 0 is every point).
+pub const LEVELS: usize = 4;
+
+/// Points whose normals differ by more than this (30°, as its cosine) are never grouped
+/// into one coarser point.
+const GROUP_COS: f64 = 0.866;
+
 /// A group of consecutive points with a bounding sphere (object frame).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Cluster {
@@ -36,6 +61,22 @@ pub struct Cluster {
     pub start: u32,
     /// End of the range (exclusive).
     pub end: u32,
+    /// End of the prefix of the range that holds level L's points (`level_ends[0]` =
+    /// `end`).
+    pub level_ends: [u32; LEVELS],
+}
+
+/// Consecutive clusters with a sphere holding all their points (object frame).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ClusterGroup {
+    /// Centre of the bounding sphere, m.
+    pub centre: Vector3<f64>,
+    /// Radius, m.
+    pub radius_m: f64,
+    /// Range of the group's clusters in [`Pointshell::clusters`].
+    pub start: u32,
+    /// End of the range (exclusive).
+    pub end: u32,
 }
 
 /// Surface points with inward normals, object frame.
@@ -44,6 +85,10 @@ pub struct Pointshell {
     points: Vec<Vector3<f64>>,
     normals: Vec<Vector3<f64>>,
     clusters: Vec<Cluster>,
+    groups: Vec<ClusterGroup>,
+    /// Per level, per point: the number of level-0 points it stands for (0 where the point
+    /// is not at that level).
+    weights: [Vec<f64>; LEVELS],
     spacing_m: f64,
 }
 
@@ -144,39 +189,65 @@ impl Pointshell {
         // Group by cluster cell; points of a cluster are stored contiguously.
         let ck =
             |p: &Vector3<f64>| [p.x, p.y, p.z].map(|c| (c / (h * CLUSTER_CELLS)).floor() as i64);
-        let mut groups: BTreeMap<[i64; 3], Vec<PointNormal>> = BTreeMap::new();
+        // Keyed by (group cell, cluster cell): a group's clusters are consecutive.
+        let mut groups: BTreeMap<([i64; 3], [i64; 3]), Vec<PointNormal>> = BTreeMap::new();
         for (p, n) in cells.into_values() {
-            groups.entry(ck(&p)).or_default().push((p, n));
+            let c = ck(&p);
+            let g = c.map(|x| x.div_euclid(GROUP_CLUSTERS));
+            groups.entry((g, c)).or_default().push((p, n));
         }
+        let group_of: Vec<[i64; 3]> = groups.keys().map(|(g, _)| *g).collect();
+        let members: Vec<Vec<PointNormal>> = groups.into_values().collect();
+        let flat: Vec<PointNormal> = members.iter().flatten().copied().collect();
+        let (top, level_weights) = levels(&flat, h);
         let mut shell = Self {
-            points: Vec::new(),
-            normals: Vec::new(),
-            clusters: Vec::with_capacity(groups.len()),
+            points: Vec::with_capacity(flat.len()),
+            normals: Vec::with_capacity(flat.len()),
+            clusters: Vec::with_capacity(members.len()),
+            groups: Vec::new(),
+            weights: std::array::from_fn(|_| Vec::with_capacity(flat.len())),
             spacing_m: h,
         };
-        for members in groups.into_values() {
+        let mut first = 0;
+        for group in &members {
             let start = shell.points.len() as u32;
-            let (mut lo, mut hi) = (members[0].0, members[0].0);
-            for (p, _) in &members {
+            let (mut lo, mut hi) = (group[0].0, group[0].0);
+            for (p, _) in group {
                 lo = lo.inf(p);
                 hi = hi.sup(p);
             }
             let centre = (lo + hi) / 2.0;
-            let radius_m = members
+            let radius_m = group
                 .iter()
                 .map(|(p, _)| (p - centre).norm())
                 .fold(0.0, f64::max);
-            for (p, n) in members {
-                shell.points.push(p);
-                shell.normals.push(n);
+            // Coarsest first (stable), so each level is a prefix of the range.
+            let mut order: Vec<usize> = (first..first + group.len()).collect();
+            order.sort_by_key(|&i| std::cmp::Reverse(top[i]));
+            for &i in &order {
+                shell.points.push(flat[i].0);
+                shell.normals.push(flat[i].1);
+                for (w, lw) in shell.weights.iter_mut().zip(&level_weights) {
+                    w.push(lw[i]);
+                }
             }
+            let level_ends = std::array::from_fn(|level| {
+                start
+                    + order
+                        .iter()
+                        .filter(|&&i| usize::from(top[i]) >= level)
+                        .count() as u32
+            });
+            first += group.len();
             shell.clusters.push(Cluster {
                 centre,
                 radius_m,
                 start,
                 end: shell.points.len() as u32,
+                level_ends,
             });
         }
+        shell.groups = cluster_groups(&shell.clusters, &group_of);
         Ok(shell)
     }
 
@@ -193,6 +264,17 @@ impl Pointshell {
     /// Clusters of consecutive points.
     pub fn clusters(&self) -> &[Cluster] {
         &self.clusters
+    }
+
+    /// Groups of consecutive clusters.
+    pub fn groups(&self) -> &[ClusterGroup] {
+        &self.groups
+    }
+
+    /// Level `level`'s weights, one per point: the number of level-0 points each stands
+    /// for, 0 for points not at that level. Panics if `level` ≥ [`LEVELS`].
+    pub fn weights(&self, level: usize) -> &[f64] {
+        &self.weights[level]
     }
 
     /// Number of points.
@@ -217,6 +299,91 @@ impl Pointshell {
             .map(|p| (p - centre).norm())
             .fold(0.0, f64::max)
     }
+}
+
+/// The groups of `clusters`, where `group_of[i]` is cluster i's group cell (consecutive
+/// clusters of one cell form a group), each with a sphere holding its clusters' spheres.
+fn cluster_groups(clusters: &[Cluster], group_of: &[[i64; 3]]) -> Vec<ClusterGroup> {
+    let mut out = Vec::new();
+    let mut start = 0;
+    while start < clusters.len() {
+        let end = (start..clusters.len())
+            .find(|&i| group_of[i] != group_of[start])
+            .unwrap_or(clusters.len());
+        let members = &clusters[start..end];
+        let (mut lo, mut hi) = (members[0].centre, members[0].centre);
+        for c in members {
+            lo = lo.inf(&c.centre);
+            hi = hi.sup(&c.centre);
+        }
+        let centre = (lo + hi) / 2.0;
+        let radius_m = members
+            .iter()
+            .map(|c| (c.centre - centre).norm() + c.radius_m)
+            .fold(0.0, f64::max);
+        out.push(ClusterGroup {
+            centre,
+            radius_m,
+            start: start as u32,
+            end: end as u32,
+        });
+        start = end;
+    }
+    out
+}
+
+/// The levels of detail of `points` (spacing `h`; see the module docs): for each point the
+/// coarsest level it belongs to, and for each level the weight of every point (0 where it
+/// does not belong). Deterministic: cells are visited in key order, members in index order.
+fn levels(points: &[PointNormal], h: f64) -> (Vec<u8>, [Vec<f64>; LEVELS]) {
+    let n = points.len();
+    let mut top = vec![0u8; n];
+    let mut weights: [Vec<f64>; LEVELS] = std::array::from_fn(|_| vec![0.0; n]);
+    weights[0].fill(1.0);
+    let mut members: Vec<usize> = (0..n).collect();
+    for level in 1..LEVELS {
+        let cell = h * f64::from(1u32 << level);
+        // Per cell, groups of (member indices), each led by its first member's normal.
+        let mut cells: BTreeMap<[i64; 3], Vec<Vec<usize>>> = BTreeMap::new();
+        for &i in &members {
+            let (p, normal) = &points[i];
+            let key = [p.x, p.y, p.z].map(|c| (c / cell).floor() as i64);
+            let groups = cells.entry(key).or_default();
+            match groups
+                .iter_mut()
+                .find(|g| points[g[0]].1.dot(normal) >= GROUP_COS)
+            {
+                Some(g) => g.push(i),
+                None => groups.push(vec![i]),
+            }
+        }
+        let (finer, rest) = weights.split_at_mut(level);
+        let (finer, this) = (&finer[level - 1], &mut rest[0]);
+        let mut next = Vec::with_capacity(cells.len());
+        for group in cells.values().flatten() {
+            let total: f64 = group.iter().map(|&i| finer[i]).sum();
+            let centroid = group
+                .iter()
+                .map(|&i| points[i].0 * finer[i])
+                .sum::<Vector3<f64>>()
+                / total;
+            let rep = group
+                .iter()
+                .copied()
+                .min_by(|&a, &b| {
+                    let da = (points[a].0 - centroid).norm_squared();
+                    let db = (points[b].0 - centroid).norm_squared();
+                    da.total_cmp(&db).then(a.cmp(&b))
+                })
+                .expect("groups are not empty");
+            this[rep] = total;
+            top[rep] = level as u8;
+            next.push(rep);
+        }
+        next.sort_unstable();
+        members = next;
+    }
+    (top, weights)
 }
 
 /// Points on the 12 edges (corners included) of a box of half extents `he`, at most `h`
@@ -262,6 +429,19 @@ mod tests {
             assert!(q.amax() < 0.01, "{p:?} normal {n:?}");
             assert!((n.norm() - 1.0).abs() < 1e-9);
         }
+        // Groups partition the clusters and hold their points.
+        let mut next = 0;
+        for g in s.groups() {
+            assert_eq!(g.start, next);
+            assert!(g.end > g.start);
+            next = g.end;
+            for c in &s.clusters()[g.start as usize..g.end as usize] {
+                for p in &s.points()[c.start as usize..c.end as usize] {
+                    assert!((p - g.centre).norm() <= g.radius_m + 1e-12);
+                }
+            }
+        }
+        assert_eq!(next as usize, s.clusters().len());
         // Clusters partition the points.
         let covered: u32 = s.clusters().iter().map(|c| c.end - c.start).sum();
         assert_eq!(covered as usize, s.len());
@@ -269,6 +449,67 @@ mod tests {
             for p in &s.points()[c.start as usize..c.end as usize] {
                 assert!((p - c.centre).norm() <= c.radius_m + 1e-12);
             }
+        }
+    }
+
+    #[test]
+    fn levels_are_nested_prefixes_whose_weights_sum_to_the_point_count() {
+        let parts = vec![(Pose::IDENTITY, SharedShape::cuboid(0.02, 0.01, 0.015))];
+        let s = Pointshell::build(&parts, 0.001).unwrap();
+        let n = s.len() as f64;
+        let mut previous = s.len();
+        for level in 0..LEVELS {
+            let w = s.weights(level);
+            assert_eq!(w.iter().sum::<f64>(), n, "level {level}");
+            let count = w.iter().filter(|&&x| x > 0.0).count();
+            for c in s.clusters() {
+                let end = c.level_ends[level] as usize;
+                assert!(c.start as usize <= end && end <= c.end as usize);
+                // Exactly the prefix carries weight, and a coarser level's points are
+                // this level's too.
+                let range = c.start as usize..c.end as usize;
+                for (i, &wi) in range.clone().zip(&w[range]) {
+                    assert_eq!(wi > 0.0, i < end, "level {level} point {i}");
+                    if level > 0 {
+                        assert!(wi == 0.0 || s.weights(level - 1)[i] > 0.0);
+                    }
+                }
+            }
+            if level > 0 {
+                // Faces make up the box: about a quarter of the points per level.
+                let ratio = previous as f64 / count as f64;
+                assert!(
+                    (2.5..=4.5).contains(&ratio),
+                    "level {level}: {previous} → {count}"
+                );
+            }
+            previous = count;
+        }
+        assert_eq!(s.clusters()[0].level_ends[0], s.clusters()[0].end);
+    }
+
+    #[test]
+    fn coarse_points_never_merge_faces_of_a_box() {
+        // Faces, edges and corners of a box have normals at least 35° apart, more than a
+        // group spans: at every level the weight carried by points of each normal equals
+        // the number of level-0 points with that normal, so each face keeps its area.
+        let parts = vec![(Pose::IDENTITY, SharedShape::cuboid(0.01, 0.012, 0.008))];
+        let s = Pointshell::build(&parts, 0.001).unwrap();
+        let key = |n: &Vector3<f64>| n.map(|c| (c * 100.0).round() as i64);
+        let by_normal = |level: usize| {
+            let mut sums: BTreeMap<[i64; 3], f64> = BTreeMap::new();
+            for (n, w) in s.normals().iter().zip(s.weights(level)) {
+                let k = key(n);
+                *sums.entry([k.x, k.y, k.z]).or_default() += w;
+            }
+            sums.retain(|_, w| *w > 0.0);
+            sums
+        };
+        let finest = by_normal(0);
+        // 6 faces, 12 edges, 8 corners.
+        assert_eq!(finest.len(), 26, "{finest:?}");
+        for level in 1..LEVELS {
+            assert_eq!(by_normal(level), finest, "level {level}");
         }
     }
 

@@ -120,7 +120,12 @@ pub(super) fn chunks(
             let unit = [set(1.0), zero, zero];
             let g = [0, 1, 2].map(|a| _mm256_blendv_ps(unit[a], g[a], keep));
             let sd = _mm256_blendv_ps(set(f32::INFINITY), s.distance_m, keep);
-            force_chunk(&mut sums, &rel, &g, sd, &c.force);
+            // SAFETY: as the columns' gathers above; the weights have one entry per point.
+            let wt = unsafe {
+                let offsets = _mm256_loadu_si256(idx.as_ptr().cast());
+                _mm256_i32gather_ps::<4>(c.weight.as_ptr(), offsets)
+            };
+            force_chunk(&mut sums, &rel, &g, sd, wt, &c.force);
         }
     }
     (unload(&sums), kept)
@@ -134,6 +139,7 @@ fn force_chunk(
     r: &[__m256; 3],
     g: &[__m256; 3],
     sd: __m256,
+    wt: __m256,
     k: &super::ForceConsts,
 ) {
     let set = _mm256_set1_ps;
@@ -166,9 +172,10 @@ fn force_chunk(
         mul(set(w.z), m[2]),
     );
     let penetrating = _mm256_cmp_ps::<_CMP_LT_OQ>(sd, zero);
-    let in_contact = _mm256_and_ps(penetrating, one);
+    let in_contact = _mm256_and_ps(penetrating, wt);
     // -sd exactly: the sign bit flipped.
     let depth = _mm256_and_ps(penetrating, _mm256_xor_ps(sd, set(-0.0)));
+    let weighted_depth = mul(in_contact, depth);
     let push = mul(
         in_contact,
         _mm256_max_ps(sub(mul(set(k.kp), depth), mul(set(k.bc), vn)), zero),
@@ -180,7 +187,7 @@ fn force_chunk(
         ),
         _mm256_cmp_ps::<_CMP_LT_OQ>(vn, zero),
     );
-    let brake_w = _mm256_and_ps(braking, sub(one, _mm256_div_ps(sd, set(k.prox))));
+    let brake_w = _mm256_and_ps(braking, mul(wt, sub(one, _mm256_div_ps(sd, set(k.prox)))));
     let f = sub(push, mul(mul(set(k.bb), brake_w), vn));
     let j = [n[0], n[1], n[2], m[0], m[1], m[2]];
     for (s, ja) in acc.wrench.iter_mut().zip(&j) {
@@ -199,13 +206,16 @@ fn force_chunk(
         jj_pairs!(jj!(acc.b, brake_w));
     }
     for a in 0..3 {
-        acc.point[a] = add(acc.point[a], mul(depth, add(r[a], mul(depth, n[a]))));
-        acc.normal[a] = add(acc.normal[a], mul(depth, n[a]));
+        acc.point[a] = add(
+            acc.point[a],
+            mul(weighted_depth, add(r[a], mul(depth, n[a]))),
+        );
+        acc.normal[a] = add(acc.normal[a], mul(weighted_depth, n[a]));
     }
-    acc.weight = add(acc.weight, depth);
+    acc.weight = add(acc.weight, weighted_depth);
     acc.max_depth = _mm256_max_ps(depth, acc.max_depth);
     acc.contacts = add(acc.contacts, in_contact);
-    acc.braking = add(acc.braking, _mm256_and_ps(brakes, one));
+    acc.braking = add(acc.braking, _mm256_and_ps(brakes, wt));
     let releasing = _mm256_cmp_ps::<_CMP_LT_OQ>(sd, set(k.release));
     acc.release = add(acc.release, _mm256_and_ps(releasing, one));
 }

@@ -1,0 +1,305 @@
+//! Which level of detail of the pointshell the contact stage renders each tick: the bounded
+//! contact stage's budget (issue 21).
+//!
+//! The search costs about the same per point looked at, so the tick's contact cost is set by
+//! the number of points in clusters near the surface. [`ShellColumns::near_clusters`]
+//! counts them at every level before any point is looked at; [`LevelChooser`] then picks
+//! the finest level that fits the budget and changes level without a force step:
+//!
+//! * A change is a *blend*: for [`Resolution::BLEND_S`] both levels are searched and the
+//!   rendered sums move linearly from the old level's to the new one's, so the wrench
+//!   changes per tick by at most the difference between the two levels' wrenches divided
+//!   by the blend's ticks. Both levels' sums are sums of point springs and dampers with
+//!   non-negative weights, so every blend of them is too: passivity is kept.
+//! * Coarser when the near points exceed `COARSEN` of the budget, finer when the finer
+//!   level's would be at most `REFINE` of it (a half and a quarter): a blend (both levels
+//!   together, about 1.25 times the finer's cost on a surface) then still fits while the
+//!   patch keeps growing, and the factor 2 between the thresholds keeps a contact near one
+//!   from switching back and forth. If a blend no longer fits, it ends at the coarser of
+//!   its two levels at once.
+//! * If the points grow past the whole budget in one tick (an object slammed flat onto a
+//!   face), the stage goes to the level that fits at once: being on time matters more.
+//!   With nothing near, nothing is rendered and the level returns to the finest at once.
+//!
+//! [`ShellColumns::near_clusters`]: super::near::ShellColumns::near_clusters
+
+use super::pointshell::LEVELS;
+
+/// How finely the stage renders contact.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Resolution {
+    /// Always level `0` (every point) up to `LEVELS − 1` (the coarsest), whatever it costs.
+    Level(u8),
+    /// The finest level whose points near the surface fit `points_per_ms` times the tick
+    /// period (so a 4 kHz loop gets a quarter of a 1 kHz loop's points), never coarser than
+    /// a spacing of `coarsest_spacing_m`: past that the budget is exceeded rather than the
+    /// object's shape lost.
+    Budget {
+        /// Points near the surface the search may look at per millisecond of tick period.
+        points_per_ms: f64,
+        /// The coarsest point spacing used, m.
+        coarsest_spacing_m: f64,
+    },
+}
+
+impl Resolution {
+    /// How long a change of level is blended, s.
+    pub const BLEND_S: f64 = 0.02;
+
+    /// The default budget: 6 000 points per millisecond, down to 4 mm spacing. Chosen from
+    /// `tick-budget --scene` on a 2-core VM (about 11 ns per point looked at, AVX2): 6 000
+    /// points cost about 70 µs, leaving room in a 1 ms tick for the rest of it and for a
+    /// planner on the other core.
+    pub const DEFAULT: Self = Self::Budget {
+        points_per_ms: 6000.0,
+        coarsest_spacing_m: 0.004,
+    };
+
+    /// Checks the values; the error says which is wrong.
+    pub fn validate(&self) -> Result<(), String> {
+        match *self {
+            Self::Level(l) if usize::from(l) >= LEVELS => Err(format!(
+                "resolution level {l} does not exist (levels 0–{})",
+                LEVELS - 1
+            )),
+            Self::Level(_) => Ok(()),
+            Self::Budget {
+                points_per_ms,
+                coarsest_spacing_m,
+            } => {
+                if !(points_per_ms.is_finite() && points_per_ms >= 1.0) {
+                    return Err(format!(
+                        "contact point budget must be ≥ 1 point per ms, got {points_per_ms}"
+                    ));
+                }
+                if !(coarsest_spacing_m.is_finite() && coarsest_spacing_m > 0.0) {
+                    return Err(format!(
+                        "coarsest point spacing must be > 0 m, got {coarsest_spacing_m}"
+                    ));
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// The coarsest level allowed at point spacing `spacing_m`.
+    pub fn coarsest_level(&self, spacing_m: f64) -> usize {
+        match *self {
+            Self::Level(l) => usize::from(l).min(LEVELS - 1),
+            Self::Budget {
+                coarsest_spacing_m, ..
+            } => (0..LEVELS)
+                .rev()
+                .find(|&l| spacing_m * f64::from(1u32 << l) <= coarsest_spacing_m * (1.0 + 1e-9))
+                .unwrap_or(0),
+        }
+    }
+}
+
+/// What to render this tick: `(1 − alpha)` of level `from`'s sums plus `alpha` of level
+/// `to`'s; one level when `from == to`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Plan {
+    pub from: usize,
+    pub to: usize,
+    pub alpha: f64,
+}
+
+impl Plan {
+    /// Level `level` alone.
+    pub fn at(level: usize) -> Self {
+        Self {
+            from: level,
+            to: level,
+            alpha: 0.0,
+        }
+    }
+}
+
+/// Coarser when the near points pass this share of the budget.
+const COARSEN: f64 = 0.5;
+/// Finer when the finer level's near points are at most this share of it.
+const REFINE: f64 = 0.25;
+
+/// The level in use and a blend in progress (see the module docs).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(super) struct LevelChooser {
+    current: usize,
+    /// Target level and ticks of the blend done.
+    blend: Option<(usize, u32)>,
+}
+
+impl LevelChooser {
+    /// Starts at `level` with no blend.
+    pub fn at(level: usize) -> Self {
+        Self {
+            current: level,
+            blend: None,
+        }
+    }
+
+    /// The level rendered (the blend's target while blending).
+    pub fn level(&self) -> usize {
+        self.blend.map_or(self.current, |(to, _)| to)
+    }
+
+    /// The plan for a tick whose near clusters hold `near[l]` points at level `l`, with
+    /// `budget` points, levels up to `coarsest`, and blends of `blend_ticks` ticks.
+    pub fn plan(
+        &mut self,
+        near: &[u32; LEVELS],
+        budget: f64,
+        coarsest: usize,
+        blend_ticks: u32,
+    ) -> Plan {
+        let n = |l: usize| f64::from(near[l]);
+        let target = (0..=coarsest).find(|&l| n(l) <= budget).unwrap_or(coarsest);
+        if let Some((to, done)) = self.blend {
+            if n(self.current) + n(to) > budget {
+                // Both no longer fit: settle at the coarser of the two.
+                self.current = self.current.max(to);
+                self.blend = None;
+                return Plan::at(self.current);
+            }
+            let done = done + 1;
+            if done >= blend_ticks {
+                self.current = to;
+                self.blend = None;
+                return Plan::at(to);
+            }
+            self.blend = Some((to, done));
+            return Plan {
+                from: self.current,
+                to,
+                alpha: f64::from(done) / f64::from(blend_ticks),
+            };
+        }
+        let c = self.current.min(coarsest);
+        self.current = c;
+        if near[c] == 0 || n(c) > budget {
+            // Nothing rendered, or over budget now: no time to blend.
+            self.current = if near[c] == 0 { 0 } else { target };
+            return Plan::at(self.current);
+        }
+        let to = if c < coarsest && n(c) > COARSEN * budget {
+            c + 1
+        } else if c > 0 && n(c - 1) <= REFINE * budget {
+            c - 1
+        } else {
+            return Plan::at(c);
+        };
+        if blend_ticks <= 1 {
+            self.current = to;
+            return Plan::at(to);
+        }
+        self.blend = Some((to, 1));
+        Plan {
+            from: c,
+            to,
+            alpha: 1.0 / f64::from(blend_ticks),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Near points of a flat patch of `n` level-0 points: a quarter per level.
+    fn patch(n: u32) -> [u32; LEVELS] {
+        std::array::from_fn(|l| n >> (2 * l))
+    }
+
+    #[test]
+    fn a_growing_patch_coarsens_through_blends_and_stays_within_budget() {
+        let mut c = LevelChooser::default();
+        let budget = 4000.0;
+        let mut previous = Plan::at(0);
+        let mut seen_blend = false;
+        // A patch growing by 50 points per tick to 40 000 points, then shrinking back.
+        let sizes: Vec<u32> = (0..800)
+            .map(|i| i * 50)
+            .chain((0..800).rev().map(|i| i * 50))
+            .collect();
+        for &size in &sizes {
+            let near = patch(size);
+            let p = c.plan(&near, budget, 3, 20);
+            // Never over budget (both levels while blending), except where even the
+            // coarsest level does not fit.
+            let cost = f64::from(near[p.from])
+                + if p.from == p.to {
+                    0.0
+                } else {
+                    f64::from(near[p.to])
+                };
+            assert!(
+                cost <= budget || p.from == 3,
+                "size {size}: {p:?} costs {cost}"
+            );
+            // Levels change only through blends of adjacent levels, alpha rising by a
+            // twentieth per tick.
+            if p.from != p.to {
+                seen_blend = true;
+                assert_eq!(p.from.abs_diff(p.to), 1);
+                let step = if previous.from == p.from && previous.to == p.to {
+                    p.alpha - previous.alpha
+                } else {
+                    p.alpha
+                };
+                assert!((step - 0.05).abs() < 1e-12, "{previous:?} → {p:?}");
+            } else if previous.from != previous.to {
+                assert_eq!(p.from, previous.to, "a blend ends at its target");
+                assert!(previous.alpha > 0.94);
+            } else {
+                assert_eq!(
+                    p.from, previous.from,
+                    "size {size}: jumped {previous:?} → {p:?}"
+                );
+            }
+            previous = p;
+        }
+        assert!(seen_blend);
+        assert_eq!(c.level(), 0, "back to the finest level");
+    }
+
+    #[test]
+    fn a_patch_over_budget_at_once_jumps_to_the_level_that_fits() {
+        let mut c = LevelChooser::default();
+        let p = c.plan(&patch(30_000), 4000.0, 3, 20);
+        assert_eq!(p, Plan::at(2));
+        // The coarsest allowed level caps it.
+        let mut c = LevelChooser::default();
+        assert_eq!(c.plan(&patch(1_000_000), 4000.0, 2, 20), Plan::at(2));
+        // Leaving contact returns to the finest level at once.
+        assert_eq!(c.plan(&[0; LEVELS], 4000.0, 2, 20), Plan::at(0));
+    }
+
+    #[test]
+    fn a_patch_between_the_thresholds_does_not_switch() {
+        let mut c = LevelChooser::at(1);
+        for _ in 0..100 {
+            // Level 1 holds 1 500 points (≤ 0.5 · 4 000), level 0 would hold 6 000
+            // (> 0.25 · 4 000): stay.
+            assert_eq!(c.plan(&patch(6000), 4000.0, 3, 20), Plan::at(1));
+        }
+    }
+
+    #[test]
+    fn resolutions_are_validated_and_cap_the_level_by_spacing() {
+        assert!(Resolution::Level(LEVELS as u8).validate().is_err());
+        assert!(Resolution::Level(0).validate().is_ok());
+        let budget = |p: f64, s: f64| Resolution::Budget {
+            points_per_ms: p,
+            coarsest_spacing_m: s,
+        };
+        assert!(budget(f64::NAN, 0.004).validate().is_err());
+        assert!(budget(0.0, 0.004).validate().is_err());
+        assert!(budget(100.0, -1.0).validate().is_err());
+        assert!(Resolution::DEFAULT.validate().is_ok());
+        assert_eq!(Resolution::DEFAULT.coarsest_level(0.001), 2);
+        assert_eq!(Resolution::DEFAULT.coarsest_level(0.0005), 3);
+        assert_eq!(Resolution::DEFAULT.coarsest_level(0.002), 1);
+        assert_eq!(Resolution::DEFAULT.coarsest_level(0.005), 0);
+        assert_eq!(Resolution::Level(2).coarsest_level(0.001), 2);
+    }
+}
