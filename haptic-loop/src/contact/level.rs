@@ -3,8 +3,8 @@
 //!
 //! The search costs about the same per point looked at, so the tick's contact cost is set by
 //! the number of points in clusters near the surface. [`ShellColumns::near_clusters`]
-//! counts them at every level before any point is looked at; [`LevelChooser`] then picks
-//! the finest level that fits the budget and changes level without a force step:
+//! counts them at the level in use before any point is looked at; [`LevelChooser`] then
+//! keeps to the finest level that fits the budget and changes level without a force step:
 //!
 //! * A change is a *blend*: for [`Resolution::BLEND_S`] both levels are searched and the
 //!   rendered sums move linearly from the old level's to the new one's, so the wrench
@@ -12,7 +12,9 @@
 //!   by the blend's ticks. Both levels' sums are sums of point springs and dampers with
 //!   non-negative weights, so every blend of them is too: passivity is kept.
 //! * Coarser when the near points exceed `COARSEN` of the budget, finer when the finer
-//!   level's would be at most `REFINE` of it (a half and a quarter): a blend (both levels
+//!   level's would be at most `REFINE` of it (a half and a quarter; the finer level's near
+//!   pass, which only counts, runs only when this level's points are under that share
+//!   already, so it stays cheap): a blend (both levels
 //!   together, about 1.25 times the finer's cost on a surface) then still fits while the
 //!   patch keeps growing, and the factor 2 between the thresholds keeps a contact near one
 //!   from switching back and forth. If a blend no longer fits, it ends at the coarser of
@@ -143,19 +145,21 @@ impl LevelChooser {
         self.blend.map_or(self.current, |(to, _)| to)
     }
 
-    /// The plan for a tick whose near clusters hold `near[l]` points at level `l`, with
-    /// `budget` points, levels up to `coarsest`, and blends of `blend_ticks` ticks.
+    /// The plan for a tick whose near clusters hold `near(l)` points at level `l` (which
+    /// runs level l's near pass: asked for the level in use, a blend's target, and the
+    /// next finer level when this one holds few points), with `budget` points, levels up
+    /// to `coarsest`, and blends of `blend_ticks` ticks. A jump estimates the level that
+    /// fits (on a surface each level holds about a quarter of the finer one's points) and
+    /// goes further next tick if that was not enough.
     pub fn plan(
         &mut self,
-        near: &[u32; LEVELS],
+        mut near: impl FnMut(usize) -> u32,
         budget: f64,
         coarsest: usize,
         blend_ticks: u32,
     ) -> Plan {
-        let n = |l: usize| f64::from(near[l]);
-        let target = (0..=coarsest).find(|&l| n(l) <= budget).unwrap_or(coarsest);
         if let Some((to, done)) = self.blend {
-            if n(self.current) + n(to) > budget {
+            if f64::from(near(self.current)) + f64::from(near(to)) > budget {
                 // Both no longer fit: settle at the coarser of the two.
                 self.current = self.current.max(to);
                 self.blend = None;
@@ -175,15 +179,26 @@ impl LevelChooser {
             };
         }
         let c = self.current.min(coarsest);
-        self.current = c;
-        if near[c] == 0 || n(c) > budget {
-            // Nothing rendered, or over budget now: no time to blend.
-            self.current = if near[c] == 0 { 0 } else { target };
-            return Plan::at(self.current);
+        let n = f64::from(near(c));
+        if n == 0.0 {
+            // Nothing rendered: the finest level costs nothing either.
+            self.current = 0;
+            return Plan::at(0);
         }
-        let to = if c < coarsest && n(c) > COARSEN * budget {
+        if n > budget {
+            // Over budget now: no time to blend.
+            let (mut level, mut estimate) = (c, n);
+            while level < coarsest && estimate > budget {
+                level += 1;
+                estimate /= 4.0;
+            }
+            self.current = level;
+            return Plan::at(level);
+        }
+        self.current = c;
+        let to = if c < coarsest && n > COARSEN * budget {
             c + 1
-        } else if c > 0 && n(c - 1) <= REFINE * budget {
+        } else if c > 0 && n <= REFINE * budget && f64::from(near(c - 1)) <= REFINE * budget {
             c - 1
         } else {
             return Plan::at(c);
@@ -223,7 +238,7 @@ mod tests {
             .collect();
         for &size in &sizes {
             let near = patch(size);
-            let p = c.plan(&near, budget, 3, 20);
+            let p = c.plan(|l| near[l], budget, 3, 20);
             // Never over budget (both levels while blending), except where even the
             // coarsest level does not fit.
             let cost = f64::from(near[p.from])
@@ -265,13 +280,13 @@ mod tests {
     #[test]
     fn a_patch_over_budget_at_once_jumps_to_the_level_that_fits() {
         let mut c = LevelChooser::default();
-        let p = c.plan(&patch(30_000), 4000.0, 3, 20);
+        let p = c.plan(|l| patch(30_000)[l], 4000.0, 3, 20);
         assert_eq!(p, Plan::at(2));
         // The coarsest allowed level caps it.
         let mut c = LevelChooser::default();
-        assert_eq!(c.plan(&patch(1_000_000), 4000.0, 2, 20), Plan::at(2));
+        assert_eq!(c.plan(|l| patch(1_000_000)[l], 4000.0, 2, 20), Plan::at(2));
         // Leaving contact returns to the finest level at once.
-        assert_eq!(c.plan(&[0; LEVELS], 4000.0, 2, 20), Plan::at(0));
+        assert_eq!(c.plan(|_| 0, 4000.0, 2, 20), Plan::at(0));
     }
 
     #[test]
@@ -280,7 +295,7 @@ mod tests {
         for _ in 0..100 {
             // Level 1 holds 1 500 points (≤ 0.5 · 4 000), level 0 would hold 6 000
             // (> 0.25 · 4 000): stay.
-            assert_eq!(c.plan(&patch(6000), 4000.0, 3, 20), Plan::at(1));
+            assert_eq!(c.plan(|l| patch(6000)[l], 4000.0, 3, 20), Plan::at(1));
         }
     }
 

@@ -206,9 +206,10 @@ impl Coupling {
 #[derive(Debug)]
 pub struct ContactModel {
     voxmap: Voxmap,
-    shell: Pointshell,
-    /// The pointshell as the search reads it.
-    columns: ShellColumns,
+    /// The pointshell's levels of detail, finest (every point) first.
+    shells: Vec<Pointshell>,
+    /// Each level as the search reads it.
+    columns: Vec<ShellColumns>,
     /// Centre of mass, object frame, m.
     com_local: Vector3<f64>,
     /// Inertia tensor about the centre of mass per kg of mass, object frame, m².
@@ -250,7 +251,8 @@ impl ContactModel {
     ) -> Result<Self, ContactError> {
         let voxmap = Voxmap::build(obstacles, voxmap)?;
         let started = Instant::now();
-        let shell = Pointshell::build(object, voxmap.voxel_m())?;
+        let shells = Pointshell::build(object, voxmap.voxel_m())?.with_coarser();
+        let shell = &shells[0];
         let shell_build_s = started.elapsed().as_secs_f64();
         // Summed part by part: parry's `Compound` refuses a mesh among its parts (it
         // panics on nested composite shapes), as the silencer's body is.
@@ -276,8 +278,8 @@ impl ContactModel {
         let radius_m = shell.radius_about(&com_local);
         Ok(Self {
             voxmap,
-            columns: ShellColumns::new(&shell),
-            shell,
+            columns: shells.iter().map(ShellColumns::new).collect(),
+            shells,
             com_local,
             inertia_per_kg,
             radius_m,
@@ -290,9 +292,14 @@ impl ContactModel {
         &self.voxmap
     }
 
-    /// The object's pointshell.
+    /// The object's pointshell (every point: level 0).
     pub fn pointshell(&self) -> &Pointshell {
-        &self.shell
+        &self.shells[0]
+    }
+
+    /// Its level of detail `level` (< [`LEVELS`]; see `pointshell`'s module docs).
+    pub fn pointshell_at(&self, level: usize) -> &Pointshell {
+        &self.shells[level]
     }
 
     /// Centre of mass, object frame, m.
@@ -303,10 +310,15 @@ impl ContactModel {
     /// One line for the start-up log: voxmap size, memory, build times, point count.
     pub fn describe(&self) -> String {
         format!(
-            "{}; pointshell {} points in {} clusters, built in {:.2} s",
+            "{}; pointshell {} points in {} clusters (levels of detail: {} points), built in {:.2} s",
             self.voxmap.report(),
-            self.shell.len(),
-            self.shell.clusters().len(),
+            self.shells[0].len(),
+            self.shells[0].clusters().len(),
+            self.shells
+                .iter()
+                .map(|s| s.len().to_string())
+                .collect::<Vec<_>>()
+                .join(" / "),
             self.shell_build_s
         )
     }
@@ -372,11 +384,13 @@ pub struct Probe {
     pub point_m: Vector3<f64>,
 }
 
-/// Temporal coherence of the contact search: the whole object, each cluster and each point
-/// carry the total proxy motion (m, any point's worst-case travel, summed over steps) at
-/// which they can first come within reach of the surface. Until the running total passes
+/// Temporal coherence of the contact search: the whole object, each group, cluster and
+/// point carry the total proxy motion (m, any point's worst-case travel, summed over steps)
+/// at which they can first come within reach of the surface. Until the running total passes
 /// it, they are skipped without a voxmap look-up; a point 5 mm from the wall is looked at
-/// again only after the object has moved about 3 mm. Preallocated; reset on `place`.
+/// again only after the object has moved about 3 mm. Each level of detail keeps its own
+/// budgets; one not searched for a while finds them used up and checks again, which is
+/// always safe. Preallocated; reset on `place`.
 #[derive(Debug, Clone, Default)]
 struct Coherence {
     /// Running total of the bound on any point's motion, m.
@@ -384,22 +398,33 @@ struct Coherence {
     /// Pose at the last search.
     last: Option<Isometry3<f64>>,
     object: f64,
+    levels: Vec<LevelCache>,
+}
+
+/// One level of detail's budgets (see [`Coherence`]) and the search's scratch.
+#[derive(Debug, Clone, Default)]
+struct LevelCache {
     groups: Vec<ClusterBudget>,
     clusters: Vec<ClusterBudget>,
     points: Vec<f64>,
+    scratch: Scratch,
 }
 
 impl Coherence {
-    fn new(shell: &Pointshell) -> Self {
-        let (groups, clusters, points) =
-            (shell.groups().len(), shell.clusters().len(), shell.len());
+    fn new(shells: &[Pointshell]) -> Self {
         Self {
             motion_m: 0.0,
             last: None,
             object: 0.0,
-            groups: vec![ClusterBudget::default(); groups],
-            clusters: vec![ClusterBudget::default(); clusters],
-            points: vec![0.0; points],
+            levels: shells
+                .iter()
+                .map(|s| LevelCache {
+                    groups: vec![ClusterBudget::default(); s.groups().len()],
+                    clusters: vec![ClusterBudget::default(); s.clusters().len()],
+                    points: vec![0.0; s.len()],
+                    scratch: Scratch::with_capacity(s.clusters().len(), s.len()),
+                })
+                .collect(),
         }
     }
 
@@ -408,9 +433,11 @@ impl Coherence {
         self.motion_m = 0.0;
         self.last = None;
         self.object = 0.0;
-        self.groups.fill(ClusterBudget::default());
-        self.clusters.fill(ClusterBudget::default());
-        self.points.fill(0.0);
+        for l in &mut self.levels {
+            l.groups.fill(ClusterBudget::default());
+            l.clusters.fill(ClusterBudget::default());
+            l.points.fill(0.0);
+        }
     }
 
     /// Adds the motion from the last search to `pose`: the centre of mass's travel plus
@@ -456,21 +483,20 @@ pub struct ContactStage {
     /// The coarsest level the resolution allows at the model's spacing.
     coarsest_level: usize,
     cache: Coherence,
-    /// The search's scratch (preallocated).
-    scratch: Scratch,
 }
 
 impl ContactStage {
     /// A proxy for `model`; it is placed at the first anchor it sees.
     pub fn new(model: Arc<ContactModel>, config: ContactConfig, coupling: Coupling) -> Self {
         Self {
-            cache: Coherence::new(&model.shell),
-            scratch: Scratch::with_capacity(model.shell.clusters().len(), model.shell.len()),
+            cache: Coherence::new(&model.shells),
             levels: LevelChooser::at(match config.resolution {
                 Resolution::Level(l) => usize::from(l).min(LEVELS - 1),
                 Resolution::Budget { .. } => 0,
             }),
-            coarsest_level: config.resolution.coarsest_level(model.shell.spacing_m()),
+            coarsest_level: config
+                .resolution
+                .coarsest_level(model.shells[0].spacing_m()),
             model,
             config,
             coupling,
@@ -520,7 +546,7 @@ impl ContactStage {
             Resolution::Level(l) => usize::from(l),
             Resolution::Budget { .. } => 0,
         });
-        self.coarsest_level = resolution.coarsest_level(self.model.shell.spacing_m());
+        self.coarsest_level = resolution.coarsest_level(self.model.shells[0].spacing_m());
         Ok(())
     }
 
@@ -577,12 +603,11 @@ impl ContactStage {
         let dtheta = (anchor.rotation * self.pose.rotation.inverse()).scaled_axis();
         let coupling =
             0.5 * c.k_n_per_m * dx.norm_squared() + 0.5 * c.k_nm_per_rad * dtheta.norm_squared();
-        let shell = &self.model.shell;
+        let shell = &self.model.shells[self.levels.level()];
         let contact: f64 = shell
             .points()
             .iter()
-            .zip(shell.weights(self.levels.level()))
-            .filter(|(_, w)| **w > 0.0)
+            .zip(shell.weights())
             .map(|(p, w)| {
                 match self
                     .model
@@ -605,9 +630,7 @@ impl ContactStage {
     /// proxy.
     pub fn probe(&self, pose: &Isometry3<f64>) -> Probe {
         // A fresh cache: a full search. (Allocates: a diagnostic, not for the RT thread.)
-        let shell = &self.model.shell;
-        let mut cache = Coherence::new(shell);
-        let mut scratch = Scratch::with_capacity(shell.clusters().len(), shell.len());
+        let mut cache = Coherence::new(&self.model.shells);
         let level = self.levels.level();
         let s = self
             .sum_contacts(
@@ -615,7 +638,6 @@ impl ContactStage {
                 &Vector3::zeros(),
                 &Vector3::zeros(),
                 &mut cache,
-                &mut scratch,
                 |_| Plan::at(level),
             )
             .totals;
@@ -652,9 +674,10 @@ impl ContactStage {
     }
 
     /// The scene's wrench on the object at `pose` moving with `velocity` (centre of mass,
-    /// m/s) and `angular_velocity` (rad/s), at the levels `plan` chooses from the near
-    /// clusters' point counts per level. Points and clusters whose motion budget in `cache`
-    /// is not used up are skipped (see [`Coherence`]) and the budgets are renewed.
+    /// m/s) and `angular_velocity` (rad/s), at the levels `plan` chooses, given the near
+    /// clusters' point count at any level it asks for. Groups, clusters and points whose
+    /// motion budget in `cache` is not used up are skipped (see [`Coherence`]) and the
+    /// budgets are renewed.
     ///
     /// This is the hot loop of the tick: after the object-level check it runs in
     /// [`ShellColumns::near_clusters`] and [`ShellColumns::search`] (see the `near`
@@ -665,8 +688,7 @@ impl ContactStage {
         velocity: &Vector3<f64>,
         angular_velocity: &Vector3<f64>,
         cache: &mut Coherence,
-        scratch: &mut Scratch,
-        plan: impl FnOnce(&[u32; LEVELS]) -> Plan,
+        plan: impl FnOnce(&mut dyn FnMut(usize) -> u32) -> Plan,
     ) -> Found {
         let model = &*self.model;
         let vox = &model.voxmap;
@@ -700,15 +722,27 @@ impl ContactStage {
             proximity_m: prox,
             release_m: release,
         };
-        let near =
-            model
-                .columns
-                .near_clusters(&mut cache.groups, &mut cache.clusters, &k, vox, scratch);
-        let plan = plan(&near);
-        let mut search = |level| {
-            model
-                .columns
-                .search(level, &mut cache.points, &k, &pass, vox, scratch)
+        // Each level's near pass at most once, and only for the levels asked for.
+        let mut counts = [None; LEVELS];
+        let levels = &mut cache.levels;
+        let mut near = |l: usize| {
+            *counts[l].get_or_insert_with(|| {
+                let c = &mut levels[l];
+                model.columns[l].near_clusters(
+                    &mut c.groups,
+                    &mut c.clusters,
+                    &k,
+                    vox,
+                    &mut c.scratch,
+                )
+            })
+        };
+        let plan = plan(&mut near);
+        near(plan.from);
+        near(plan.to);
+        let mut search = |l: usize| {
+            let c = &mut levels[l];
+            model.columns[l].search(&mut c.points, &k, &pass, vox, &mut c.scratch)
         };
         let from = search(plan.from);
         if plan.to == plan.from {
@@ -730,7 +764,6 @@ impl ContactStage {
         let before = self.pose;
         let mut cache = std::mem::take(&mut self.cache);
         cache.advance(&self.pose, &self.model.com_local, self.model.radius_m);
-        let mut scratch = std::mem::take(&mut self.scratch);
         let mut levels = self.levels;
         let (resolution, coarsest) = (self.config.resolution, self.coarsest_level);
         let found = self.sum_contacts(
@@ -738,7 +771,6 @@ impl ContactStage {
             &self.velocity,
             &self.angular_velocity,
             &mut cache,
-            &mut scratch,
             |near| match resolution {
                 Resolution::Level(_) => Plan::at(levels.level()),
                 Resolution::Budget { points_per_ms, .. } => levels.plan(
@@ -751,7 +783,6 @@ impl ContactStage {
         );
         self.levels = levels;
         self.cache = cache;
-        self.scratch = scratch;
         let s = found.totals;
 
         self.previous_contacts = s.contacts;

@@ -2,15 +2,14 @@
 //! ([`ShellColumns::search`]).
 //!
 //! 1. *Candidates*: the clusters that may be near the surface ([`ShellColumns::near_clusters`],
-//!    which also counts their points at every level of detail, so the caller can choose a
-//!    level that fits its budget), then those of their points at the chosen level whose
-//!    motion budget is used up (see `Coherence`), as a list of point indices.
+//!    which also counts their points, so the caller can keep to its budget), then those of
+//!    their points whose motion budget is used up (see `Coherence`), as a list of point
+//!    indices. Each level of detail of the pointshell has its own columns and budgets.
 //! 2. *Look-up*: [`LANES`] candidates at a time are moved into the scene and looked up in
 //!    the voxmap; their budgets are renewed.
 //! 3. *Force pass* ([`force_chunk`]), in the same chunk, for those within reach of a
 //!    surface they face: penalty, braking and the implicit step's JᵀJ sums, each point's
-//!    terms times its weight at the level (the level-0 points it stands for), without
-//!    branches.
+//!    terms times its weight (the level-0 points it stands for), without branches.
 //!
 //! Steps 2 and 3 are written twice: lane by lane, each statement over all lanes and
 //! choices as selections ([`ShellColumns::chunks`], portable, and the reference), and in
@@ -23,7 +22,7 @@
 
 use super::jtj::JtJ;
 use super::lanes::{LANES, Lanes, axes, lanes};
-use super::pointshell::{Cluster, ClusterGroup, LEVELS, Pointshell};
+use super::pointshell::{Cluster, ClusterGroup, Pointshell};
 use super::voxmap::Voxmap;
 
 /// Calls `$m!($args; i: a b, ...)` with the 21 pairs (a, b) of J's rows whose products
@@ -71,13 +70,14 @@ const PAIRS: [(usize, usize); 21] = [
     (5, 5),
 ];
 
-/// The pointshell as the search reads it: object-frame points (m), inward normals and
-/// each level's weights as `f32` columns, in the pointshell's order, and its clusters.
+/// The pointshell (one level of detail) as the search reads it: object-frame points (m),
+/// inward normals and weights as `f32` columns, in the pointshell's order, and its
+/// clusters and groups.
 #[derive(Debug, Clone)]
 pub(super) struct ShellColumns {
     point: [Vec<f32>; 3],
     normal: [Vec<f32>; 3],
-    weight: [Vec<f32>; LEVELS],
+    weight: Vec<f32>,
     clusters: Vec<Cluster>,
     groups: Vec<ClusterGroup>,
 }
@@ -151,7 +151,7 @@ impl ShellColumns {
             point: std::array::from_fn(|a| column(shell.points(), a)),
             normal: std::array::from_fn(|a| column(shell.normals(), a)),
             // Weights are whole numbers below 2^24: exact in f32.
-            weight: std::array::from_fn(|l| shell.weights(l).iter().map(|&w| w as f32).collect()),
+            weight: shell.weights().iter().map(|&w| w as f32).collect(),
             clusters: shell.clusters().to_vec(),
             groups: shell.groups().to_vec(),
         }
@@ -160,8 +160,8 @@ impl ShellColumns {
     /// Step 1a: the groups, then the clusters of near groups, whose budgets in
     /// `group_budgets` and `cluster_budgets` are used up are checked against the voxmap's
     /// clearance and their budgets renewed; the clusters that may be within reach are
-    /// listed in `scratch`. Returns their number of points at each level: what a search at
-    /// that level would look at, at most.
+    /// listed in `scratch`. Returns their number of points: what the search looks at, at
+    /// most.
     pub(super) fn near_clusters(
         &self,
         group_budgets: &mut [ClusterBudget],
@@ -169,8 +169,8 @@ impl ShellColumns {
         k: &SearchParams,
         vox: &Voxmap,
         scratch: &mut Scratch,
-    ) -> [u32; LEVELS] {
-        let mut points = [0u32; LEVELS];
+    ) -> u32 {
+        let mut points = 0;
         let mut count = 0;
         for (group, budget) in self.groups.iter().zip(group_budgets.iter_mut()) {
             if !renew(budget, &group.centre, group.radius_m, k, vox) {
@@ -184,9 +184,7 @@ impl ShellColumns {
                 if renew(budget, &cl.centre, cl.radius_m, k, vox) {
                     scratch.near[count] = index as u32;
                     count += 1;
-                    for (n, end) in points.iter_mut().zip(cl.level_ends) {
-                        *n += end - cl.start;
-                    }
+                    points += cl.end - cl.start;
                 }
             }
         }
@@ -194,25 +192,24 @@ impl ShellColumns {
         points
     }
 
-    /// The search and the force pass at `level` (< [`LEVELS`]), over the near clusters
-    /// [`Self::near_clusters`] listed in `scratch`: their points at that level whose own
-    /// budget (`point_budgets`) is used up are looked up in the voxmap and their budgets
-    /// renewed; those within reach of a surface they face go through the force pass
-    /// ([`force_chunk`]) in the same chunk, with their weights at that level.
+    /// The search and the force pass over the near clusters [`Self::near_clusters`] listed
+    /// in `scratch`: their points whose own budget (`point_budgets`) is used up are looked
+    /// up in the voxmap and their budgets renewed; those within reach of a surface they
+    /// face go through the force pass ([`force_chunk`]) in the same chunk, with their
+    /// weights.
     pub(super) fn search(
         &self,
-        level: usize,
         point_budgets: &mut [f64],
         k: &SearchParams,
         pass: &PassParams,
         vox: &Voxmap,
         scratch: &mut Scratch,
     ) -> Found {
-        let count = self.candidates(level, point_budgets, k, scratch);
+        let count = self.candidates(point_budgets, k, scratch);
         let chunks = Chunks {
             candidates: &scratch.candidates[..count.div_ceil(LANES) * LANES],
             count,
-            weight: &self.weight[level],
+            weight: &self.weight,
             search: k,
             force: ForceConsts::new(pass),
             com: pass.com.map(|x| x as f32),
@@ -233,21 +230,15 @@ impl ShellColumns {
         }
     }
 
-    /// Step 1b: lists the points at `level` of the near clusters in `scratch` whose
-    /// budget is used up, pads the list to whole chunks with copies of its first entry, and
-    /// returns the number of real candidates.
-    fn candidates(
-        &self,
-        level: usize,
-        point_budgets: &[f64],
-        k: &SearchParams,
-        scratch: &mut Scratch,
-    ) -> usize {
+    /// Step 1b: lists the points of the near clusters in `scratch` whose budget is used up,
+    /// pads the list to whole chunks with copies of its first entry, and returns the number
+    /// of real candidates.
+    fn candidates(&self, point_budgets: &[f64], k: &SearchParams, scratch: &mut Scratch) -> usize {
         let moved = k.moved_m;
         let mut count = 0;
         for &c in &scratch.near[..scratch.near_count] {
             let cl = &self.clusters[c as usize];
-            let end = cl.level_ends[level];
+            let end = cl.end;
             // Branch-free: every index is written, and kept by advancing `count`
             // (`count` ≤ the points seen so far, so the write stays in the list).
             let budgets = &point_budgets[cl.start as usize..end as usize];
@@ -363,7 +354,7 @@ struct Chunks<'a> {
     candidates: &'a [u32],
     /// Real candidates.
     count: usize,
-    /// The level's weights, one per point.
+    /// The weights, one per point.
     weight: &'a [f32],
     search: &'a SearchParams,
     force: ForceConsts,
@@ -844,11 +835,18 @@ mod tests {
         )];
         let vox = Voxmap::build(&slab, &super::super::voxmap::VoxmapConfig::default()).unwrap();
         let cube = [(Pose::IDENTITY, SharedShape::cuboid(0.02, 0.02, 0.02))];
-        let shell = ShellColumns::new(&Pointshell::build(&cube, 0.001).unwrap());
-        let points = shell.point[0].len();
+        let levels: Vec<ShellColumns> = Pointshell::build(&cube, 0.001)
+            .unwrap()
+            .with_coarser()
+            .iter()
+            .map(ShellColumns::new)
+            .collect();
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
         let (mut contacts, mut braking) = (0.0, 0.0);
         for _ in 0..200 {
+            // Every level of detail, weights and all.
+            let shell = &levels[rng.random_range(0..levels.len())];
+            let points = shell.point[0].len();
             // Tilted a little, its lowest corner between 2 mm above and 1.5 mm into the
             // slab: penetrating, braking and far points together.
             let rotation = UnitQuaternion::from_euler_angles(
@@ -891,13 +889,11 @@ mod tests {
             let mut clusters = vec![ClusterBudget::default(); shell.clusters.len()];
             let mut budgets = vec![0.0; points];
             shell.near_clusters(&mut groups, &mut clusters, &k, &vox, &mut scratch);
-            // Every level, weights and all.
-            let level = rng.random_range(0..LEVELS);
-            let count = shell.candidates(level, &budgets, &k, &mut scratch);
+            let count = shell.candidates(&budgets, &k, &mut scratch);
             let chunks = Chunks {
                 candidates: &scratch.candidates[..count.div_ceil(LANES) * LANES],
                 count,
-                weight: &shell.weight[level],
+                weight: &shell.weight,
                 search: &k,
                 force: ForceConsts::new(&pass),
                 com: pass.com.map(|x| x as f32),
@@ -906,7 +902,7 @@ mod tests {
             let (plain, kept) = shell.chunks(&chunks, &mut budgets, &vox);
             // SAFETY: the CPU has AVX2, checked above.
             let (fast, kept_avx2) =
-                unsafe { avx2::chunks(&shell, &chunks, &mut budgets_avx2, &vox) };
+                unsafe { avx2::chunks(shell, &chunks, &mut budgets_avx2, &vox) };
             assert_eq!(kept, kept_avx2);
             assert_eq!(bits(&plain), bits(&fast));
             assert_eq!(

@@ -22,9 +22,9 @@
 //! represented by its member nearest the group's weighted centroid, which carries the
 //! group's weight: the number of level-0 points it stands for, i.e. its share of the
 //! surface in point areas. Every level's weights sum to the point count, so a flat patch
-//! pressed uniformly gets the same total stiffness and force at every level. Within a
-//! cluster the points are ordered coarsest first, so level L's points of a cluster are a
-//! prefix of its range (`Cluster::level_ends`).
+//! pressed uniformly gets the same total stiffness and force at every level. Each level is
+//! a pointshell of its own ([`Pointshell::with_coarser`]) with clusters and groups at its
+//! spacing, so a search at level L costs what its points cost, not level 0's clusters.
 
 use nalgebra::Vector3;
 use parry3d_f64::bounding_volume::{Aabb, BoundingVolume};
@@ -61,9 +61,6 @@ pub struct Cluster {
     pub start: u32,
     /// End of the range (exclusive).
     pub end: u32,
-    /// End of the prefix of the range that holds level L's points (`level_ends[0]` =
-    /// `end`).
-    pub level_ends: [u32; LEVELS],
 }
 
 /// Consecutive clusters with a sphere holding all their points (object frame).
@@ -86,9 +83,8 @@ pub struct Pointshell {
     normals: Vec<Vector3<f64>>,
     clusters: Vec<Cluster>,
     groups: Vec<ClusterGroup>,
-    /// Per level, per point: the number of level-0 points it stands for (0 where the point
-    /// is not at that level).
-    weights: [Vec<f64>; LEVELS],
+    /// Per point: the number of level-0 points it stands for (1 at level 0).
+    weights: Vec<f64>,
     spacing_m: f64,
 }
 
@@ -186,69 +182,86 @@ impl Pointshell {
             return Err(ContactError::NoSurface);
         }
 
-        // Group by cluster cell; points of a cluster are stored contiguously.
-        let ck =
-            |p: &Vector3<f64>| [p.x, p.y, p.z].map(|c| (c / (h * CLUSTER_CELLS)).floor() as i64);
-        // Keyed by (group cell, cluster cell): a group's clusters are consecutive.
-        let mut groups: BTreeMap<([i64; 3], [i64; 3]), Vec<PointNormal>> = BTreeMap::new();
-        for (p, n) in cells.into_values() {
-            let c = ck(&p);
-            let g = c.map(|x| x.div_euclid(GROUP_CLUSTERS));
-            groups.entry((g, c)).or_default().push((p, n));
+        Ok(Self::clustered(
+            cells.into_values().map(|(p, n)| (p, n, 1.0)).collect(),
+            h,
+        ))
+    }
+
+    /// This pointshell (level 0) and its [`LEVELS`] − 1 coarser levels of detail (see the
+    /// module docs), each a pointshell of its own with clusters and groups at its spacing.
+    pub fn with_coarser(self) -> Vec<Self> {
+        let h = self.spacing_m;
+        let finest: Vec<PointNormal> = self
+            .points
+            .iter()
+            .copied()
+            .zip(self.normals.iter().copied())
+            .collect();
+        let weights = levels(&finest, h);
+        let mut out = vec![self];
+        for (level, w) in weights.iter().enumerate().skip(1) {
+            let entries = finest
+                .iter()
+                .zip(w)
+                .filter(|(_, w)| **w > 0.0)
+                .map(|(&(p, n), &w)| (p, n, w))
+                .collect();
+            out.push(Self::clustered(entries, h * f64::from(1u32 << level)));
         }
-        let group_of: Vec<[i64; 3]> = groups.keys().map(|(g, _)| *g).collect();
-        let members: Vec<Vec<PointNormal>> = groups.into_values().collect();
-        let flat: Vec<PointNormal> = members.iter().flatten().copied().collect();
-        let (top, level_weights) = levels(&flat, h);
-        let mut shell = Self {
-            points: Vec::with_capacity(flat.len()),
-            normals: Vec::with_capacity(flat.len()),
-            clusters: Vec::with_capacity(members.len()),
-            groups: Vec::new(),
-            weights: std::array::from_fn(|_| Vec::with_capacity(flat.len())),
-            spacing_m: h,
+        out
+    }
+
+    /// Points (position, inward normal, weight) at `spacing_m` grouped into clusters and
+    /// groups; the points of a cluster, and the clusters of a group, are consecutive.
+    /// Deterministic: in cell order, and in the given order within a cell.
+    fn clustered(entries: Vec<(Vector3<f64>, Vector3<f64>, f64)>, spacing_m: f64) -> Self {
+        let ck = |p: &Vector3<f64>| {
+            [p.x, p.y, p.z].map(|c| (c / (spacing_m * CLUSTER_CELLS)).floor() as i64)
         };
-        let mut first = 0;
-        for group in &members {
+        // Keyed by (group cell, cluster cell): a group's clusters are consecutive.
+        type Entry = (Vector3<f64>, Vector3<f64>, f64);
+        let mut cells: BTreeMap<([i64; 3], [i64; 3]), Vec<Entry>> = BTreeMap::new();
+        for e in entries {
+            let c = ck(&e.0);
+            let g = c.map(|x| x.div_euclid(GROUP_CLUSTERS));
+            cells.entry((g, c)).or_default().push(e);
+        }
+        let group_of: Vec<[i64; 3]> = cells.keys().map(|(g, _)| *g).collect();
+        let mut shell = Self {
+            points: Vec::new(),
+            normals: Vec::new(),
+            weights: Vec::new(),
+            clusters: Vec::with_capacity(cells.len()),
+            groups: Vec::new(),
+            spacing_m,
+        };
+        for members in cells.into_values() {
             let start = shell.points.len() as u32;
-            let (mut lo, mut hi) = (group[0].0, group[0].0);
-            for (p, _) in group {
+            let (mut lo, mut hi) = (members[0].0, members[0].0);
+            for (p, _, _) in &members {
                 lo = lo.inf(p);
                 hi = hi.sup(p);
             }
             let centre = (lo + hi) / 2.0;
-            let radius_m = group
+            let radius_m = members
                 .iter()
-                .map(|(p, _)| (p - centre).norm())
+                .map(|(p, _, _)| (p - centre).norm())
                 .fold(0.0, f64::max);
-            // Coarsest first (stable), so each level is a prefix of the range.
-            let mut order: Vec<usize> = (first..first + group.len()).collect();
-            order.sort_by_key(|&i| std::cmp::Reverse(top[i]));
-            for &i in &order {
-                shell.points.push(flat[i].0);
-                shell.normals.push(flat[i].1);
-                for (w, lw) in shell.weights.iter_mut().zip(&level_weights) {
-                    w.push(lw[i]);
-                }
+            for (p, n, w) in members {
+                shell.points.push(p);
+                shell.normals.push(n);
+                shell.weights.push(w);
             }
-            let level_ends = std::array::from_fn(|level| {
-                start
-                    + order
-                        .iter()
-                        .filter(|&&i| usize::from(top[i]) >= level)
-                        .count() as u32
-            });
-            first += group.len();
             shell.clusters.push(Cluster {
                 centre,
                 radius_m,
                 start,
                 end: shell.points.len() as u32,
-                level_ends,
             });
         }
         shell.groups = cluster_groups(&shell.clusters, &group_of);
-        Ok(shell)
+        shell
     }
 
     /// Points, object frame, m.
@@ -271,10 +284,10 @@ impl Pointshell {
         &self.groups
     }
 
-    /// Level `level`'s weights, one per point: the number of level-0 points each stands
-    /// for, 0 for points not at that level. Panics if `level` ≥ [`LEVELS`].
-    pub fn weights(&self, level: usize) -> &[f64] {
-        &self.weights[level]
+    /// Weights, one per point: the number of level-0 points each stands for (all 1 at
+    /// level 0; at each level they sum to level 0's point count).
+    pub fn weights(&self) -> &[f64] {
+        &self.weights
     }
 
     /// Number of points.
@@ -332,12 +345,11 @@ fn cluster_groups(clusters: &[Cluster], group_of: &[[i64; 3]]) -> Vec<ClusterGro
     out
 }
 
-/// The levels of detail of `points` (spacing `h`; see the module docs): for each point the
-/// coarsest level it belongs to, and for each level the weight of every point (0 where it
-/// does not belong). Deterministic: cells are visited in key order, members in index order.
-fn levels(points: &[PointNormal], h: f64) -> (Vec<u8>, [Vec<f64>; LEVELS]) {
+/// The levels of detail of `points` (spacing `h`; see the module docs): for each level the
+/// weight of every point (0 where it does not belong). Deterministic: cells are visited in
+/// key order, members in index order.
+fn levels(points: &[PointNormal], h: f64) -> [Vec<f64>; LEVELS] {
     let n = points.len();
-    let mut top = vec![0u8; n];
     let mut weights: [Vec<f64>; LEVELS] = std::array::from_fn(|_| vec![0.0; n]);
     weights[0].fill(1.0);
     let mut members: Vec<usize> = (0..n).collect();
@@ -377,13 +389,12 @@ fn levels(points: &[PointNormal], h: f64) -> (Vec<u8>, [Vec<f64>; LEVELS]) {
                 })
                 .expect("groups are not empty");
             this[rep] = total;
-            top[rep] = level as u8;
             next.push(rep);
         }
         next.sort_unstable();
         members = next;
     }
-    (top, weights)
+    weights
 }
 
 /// Points on the 12 edges (corners included) of a box of half extents `he`, at most `h`
@@ -453,39 +464,31 @@ mod tests {
     }
 
     #[test]
-    fn levels_are_nested_prefixes_whose_weights_sum_to_the_point_count() {
+    fn levels_are_nested_and_their_weights_sum_to_the_point_count() {
         let parts = vec![(Pose::IDENTITY, SharedShape::cuboid(0.02, 0.01, 0.015))];
-        let s = Pointshell::build(&parts, 0.001).unwrap();
-        let n = s.len() as f64;
-        let mut previous = s.len();
-        for level in 0..LEVELS {
-            let w = s.weights(level);
-            assert_eq!(w.iter().sum::<f64>(), n, "level {level}");
-            let count = w.iter().filter(|&&x| x > 0.0).count();
-            for c in s.clusters() {
-                let end = c.level_ends[level] as usize;
-                assert!(c.start as usize <= end && end <= c.end as usize);
-                // Exactly the prefix carries weight, and a coarser level's points are
-                // this level's too.
-                let range = c.start as usize..c.end as usize;
-                for (i, &wi) in range.clone().zip(&w[range]) {
-                    assert_eq!(wi > 0.0, i < end, "level {level} point {i}");
-                    if level > 0 {
-                        assert!(wi == 0.0 || s.weights(level - 1)[i] > 0.0);
-                    }
-                }
-            }
+        let levels = Pointshell::build(&parts, 0.001).unwrap().with_coarser();
+        assert_eq!(levels.len(), LEVELS);
+        let n = levels[0].len() as f64;
+        assert!(levels[0].weights().iter().all(|&w| w == 1.0));
+        for (level, s) in levels.iter().enumerate() {
+            assert_eq!(s.weights().iter().sum::<f64>(), n, "level {level}");
+            assert_eq!(s.spacing_m(), 0.001 * f64::from(1u32 << level));
+            // Clusters partition the points, groups the clusters.
+            let covered: u32 = s.clusters().iter().map(|c| c.end - c.start).sum();
+            assert_eq!(covered as usize, s.len());
+            assert_eq!(s.groups().last().unwrap().end as usize, s.clusters().len());
             if level > 0 {
+                // A coarser point is a finer level's point, with its normal.
+                let finer = &levels[level - 1];
+                for (p, nrm) in s.points().iter().zip(s.normals()) {
+                    let i = finer.points().iter().position(|q| q == p).expect("nested");
+                    assert_eq!(finer.normals()[i], *nrm);
+                }
                 // Faces make up the box: about a quarter of the points per level.
-                let ratio = previous as f64 / count as f64;
-                assert!(
-                    (2.5..=4.5).contains(&ratio),
-                    "level {level}: {previous} → {count}"
-                );
+                let ratio = finer.len() as f64 / s.len() as f64;
+                assert!((2.5..=4.5).contains(&ratio), "level {level}: ratio {ratio}");
             }
-            previous = count;
         }
-        assert_eq!(s.clusters()[0].level_ends[0], s.clusters()[0].end);
     }
 
     #[test]
@@ -494,22 +497,21 @@ mod tests {
         // group spans: at every level the weight carried by points of each normal equals
         // the number of level-0 points with that normal, so each face keeps its area.
         let parts = vec![(Pose::IDENTITY, SharedShape::cuboid(0.01, 0.012, 0.008))];
-        let s = Pointshell::build(&parts, 0.001).unwrap();
+        let levels = Pointshell::build(&parts, 0.001).unwrap().with_coarser();
         let key = |n: &Vector3<f64>| n.map(|c| (c * 100.0).round() as i64);
-        let by_normal = |level: usize| {
+        let by_normal = |s: &Pointshell| {
             let mut sums: BTreeMap<[i64; 3], f64> = BTreeMap::new();
-            for (n, w) in s.normals().iter().zip(s.weights(level)) {
+            for (n, w) in s.normals().iter().zip(s.weights()) {
                 let k = key(n);
                 *sums.entry([k.x, k.y, k.z]).or_default() += w;
             }
-            sums.retain(|_, w| *w > 0.0);
             sums
         };
-        let finest = by_normal(0);
+        let finest = by_normal(&levels[0]);
         // 6 faces, 12 edges, 8 corners.
         assert_eq!(finest.len(), 26, "{finest:?}");
-        for level in 1..LEVELS {
-            assert_eq!(by_normal(level), finest, "level {level}");
+        for (level, s) in levels.iter().enumerate().skip(1) {
+            assert_eq!(by_normal(s), finest, "level {level}");
         }
     }
 
