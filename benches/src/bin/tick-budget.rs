@@ -110,15 +110,7 @@ fn main() -> anyhow::Result<()> {
     }
     let resolution = match (args.level, args.points_per_ms) {
         (Some(l), _) => Resolution::Level(l),
-        (None, Some(points_per_ms)) => match Resolution::DEFAULT {
-            Resolution::Budget {
-                coarsest_spacing_m, ..
-            } => Resolution::Budget {
-                points_per_ms,
-                coarsest_spacing_m,
-            },
-            fixed => fixed,
-        },
+        (None, Some(points_per_ms)) => Resolution::budget(points_per_ms),
         (None, None) => Resolution::DEFAULT,
     };
     resolution

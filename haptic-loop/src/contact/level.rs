@@ -52,10 +52,19 @@ impl Resolution {
     /// `tick-budget --scene` on a 2-core VM (about 11 ns per point looked at, AVX2): 6 000
     /// points cost about 70 µs, leaving room in a 1 ms tick for the rest of it and for a
     /// planner on the other core.
-    pub const DEFAULT: Self = Self::Budget {
-        points_per_ms: 6000.0,
-        coarsest_spacing_m: 0.004,
-    };
+    pub const DEFAULT: Self = Self::budget(6000.0);
+
+    /// The coarsest spacing a budget goes down to by default, m: a few times the features
+    /// the built-in scenes' clearances are made of, and where the torque test still holds.
+    pub const COARSEST_SPACING_M: f64 = 0.004;
+
+    /// A budget of `points_per_ms` down to [`Self::COARSEST_SPACING_M`].
+    pub const fn budget(points_per_ms: f64) -> Self {
+        Self::Budget {
+            points_per_ms,
+            coarsest_spacing_m: Self::COARSEST_SPACING_M,
+        }
+    }
 
     /// Checks the values; the error says which is wrong.
     pub fn validate(&self) -> Result<(), String> {

@@ -482,6 +482,8 @@ pub struct ContactStage {
     levels: LevelChooser,
     /// The coarsest level the resolution allows at the model's spacing.
     coarsest_level: usize,
+    /// Changes of the rendered level so far.
+    level_changes: u64,
     cache: Coherence,
 }
 
@@ -497,6 +499,7 @@ impl ContactStage {
             coarsest_level: config
                 .resolution
                 .coarsest_level(model.shells[0].spacing_m()),
+            level_changes: 0,
             model,
             config,
             coupling,
@@ -553,6 +556,11 @@ impl ContactStage {
     /// Level of detail rendered in the last step (the new one while a change is blended).
     pub fn level(&self) -> usize {
         self.levels.level()
+    }
+
+    /// How many times the rendered level has changed since the stage was made.
+    pub fn level_changes(&self) -> u64 {
+        self.level_changes
     }
 
     /// The model.
@@ -781,6 +789,7 @@ impl ContactStage {
                 ),
             },
         );
+        self.level_changes += u64::from(levels.level() != self.levels.level());
         self.levels = levels;
         self.cache = cache;
         let s = found.totals;

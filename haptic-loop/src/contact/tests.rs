@@ -712,10 +712,7 @@ fn changing_level_adds_no_force_step() {
     let fine_step = largest(&steps(&fine));
     let peak = fine.iter().map(|f| f.norm()).fold(0.0, f64::max);
     for (points_per_ms, coarsest, last) in [(3000.0, 1, 0), (1000.0, 2, 2)] {
-        let (coarse, depth, levels) = turn_a_cube_flat(Resolution::Budget {
-            points_per_ms,
-            coarsest_spacing_m: 0.004,
-        });
+        let (coarse, depth, levels) = turn_a_cube_flat(Resolution::budget(points_per_ms));
         let changes = levels.windows(2).filter(|w| w[0] != w[1]).count();
         assert!(
             levels.iter().max() == Some(&coarsest)

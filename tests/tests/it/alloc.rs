@@ -2,7 +2,7 @@
 //! contact rendering on (the simulated operator drives the S into the wall).
 
 use devices::sim::{ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmConfig, Waypoint};
-use haptic_loop::contact::{ContactConfig, ContactModel, ContactStage, Coupling};
+use haptic_loop::contact::{ContactConfig, ContactModel, ContactStage, Coupling, Resolution};
 use haptic_loop::guidance::GuidanceConfig;
 use haptic_loop::mapping::MappingConfig;
 use haptic_loop::rt::RtOptions;
@@ -77,7 +77,12 @@ fn rt_thread_allocates_nothing_over_6000_ticks_with_ipc_and_contact() {
         safety: SafetyConfig::default(),
         period_s: 1.0 / 2000.0,
     };
-    let contact_config = ContactConfig::with_voxel_m(0.002);
+    // A point budget small enough (50 points per tick at 2 kHz) that the stage changes
+    // level of detail and blends while the S is at the wall.
+    let contact_config = ContactConfig {
+        resolution: Resolution::budget(100.0),
+        ..ContactConfig::with_voxel_m(0.002)
+    };
     let model =
         ContactModel::from_scene(&scene::Scene::wall_with_hole(), &contact_config.voxmap).unwrap();
     let coupling = Coupling::from_spec(&SimulatedArmConfig::default().spec(), 1.0, 0.75);
@@ -126,4 +131,6 @@ fn rt_thread_allocates_nothing_over_6000_ticks_with_ipc_and_contact() {
         "the S touched the wall (only {} ticks in contact)",
         tick.contact_ticks()
     );
+    let changes = tick.contact().map_or(0, |c| c.level_changes());
+    assert!(changes >= 1, "the level of detail never changed");
 }

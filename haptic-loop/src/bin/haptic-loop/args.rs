@@ -4,7 +4,7 @@
 use anyhow::{Context, bail};
 use clap::Args;
 use devices::sim::{ScriptedUserConfig, SimulatedArmConfig};
-use haptic_loop::contact::ContactConfig;
+use haptic_loop::contact::{ContactConfig, LEVELS, Resolution};
 use haptic_loop::device_choice::{DeviceChoice, DeviceOptions};
 use haptic_loop::guidance::GuidanceConfig;
 use haptic_loop::rt::RtOptions;
@@ -63,6 +63,15 @@ pub struct LoopArgs {
     /// Render no contact: the object follows the hand through obstacles.
     #[arg(long)]
     pub no_contact: bool,
+    /// Contact point budget: points near the surface the contact stage may look at per
+    /// millisecond of tick period; past it, contact is rendered from a coarser level of
+    /// detail of the object's points (down to 4 mm spacing).
+    #[arg(long, default_value_t = 6000.0)]
+    pub contact_points_per_ms: f64,
+    /// Render contact always at this level of detail (0 = every point, each level about
+    /// twice the spacing of the one before), whatever it costs, instead of the budget.
+    #[arg(long, conflicts_with = "contact_points_per_ms")]
+    pub contact_level: Option<u8>,
     /// Write the summary as JSON here.
     #[arg(long)]
     pub summary_json: Option<PathBuf>,
@@ -215,8 +224,25 @@ impl LoopArgs {
         if !(self.voxel_mm.is_finite() && (0.25..=20.0).contains(&self.voxel_mm)) {
             bail!("--voxel-mm must be within 0.25–20, got {}", self.voxel_mm);
         }
-        let contact =
-            (!self.no_contact).then(|| ContactConfig::with_voxel_m(self.voxel_mm / 1000.0));
+        let resolution = match self.contact_level {
+            Some(l) if usize::from(l) >= LEVELS => {
+                bail!("--contact-level must be within 0–{}, got {l}", LEVELS - 1)
+            }
+            Some(l) => Resolution::Level(l),
+            None => {
+                if !(self.contact_points_per_ms.is_finite() && self.contact_points_per_ms >= 1.0) {
+                    bail!(
+                        "--contact-points-per-ms must be at least 1, got {}",
+                        self.contact_points_per_ms
+                    );
+                }
+                Resolution::budget(self.contact_points_per_ms)
+            }
+        };
+        let contact = (!self.no_contact).then(|| ContactConfig {
+            resolution,
+            ..ContactConfig::with_voxel_m(self.voxel_mm / 1000.0)
+        });
         let arm = SimulatedArmConfig::default();
         let radius = arm.workspace_radius_m;
         let scale = match self.scale {
