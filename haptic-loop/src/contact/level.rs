@@ -149,6 +149,14 @@ impl LevelChooser {
         }
     }
 
+    /// Where `resolution` starts: its level, or level 0 for a budget.
+    pub fn starting(resolution: &Resolution) -> Self {
+        Self::at(match *resolution {
+            Resolution::Level(l) => usize::from(l).min(LEVELS - 1),
+            Resolution::Budget { .. } => 0,
+        })
+    }
+
     /// The level rendered (the blend's target while blending).
     pub fn level(&self) -> usize {
         self.blend.map_or(self.current, |(to, _)| to)

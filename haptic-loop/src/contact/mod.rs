@@ -492,10 +492,7 @@ impl ContactStage {
     pub fn new(model: Arc<ContactModel>, config: ContactConfig, coupling: Coupling) -> Self {
         Self {
             cache: Coherence::new(&model.shells),
-            levels: LevelChooser::at(match config.resolution {
-                Resolution::Level(l) => usize::from(l).min(LEVELS - 1),
-                Resolution::Budget { .. } => 0,
-            }),
+            levels: LevelChooser::starting(&config.resolution),
             coarsest_level: config
                 .resolution
                 .coarsest_level(model.shells[0].spacing_m()),
@@ -545,10 +542,7 @@ impl ContactStage {
     pub fn set_resolution(&mut self, resolution: Resolution) -> Result<(), ContactError> {
         resolution.validate().map_err(ContactError::Resolution)?;
         self.config.resolution = resolution;
-        self.levels = LevelChooser::at(match resolution {
-            Resolution::Level(l) => usize::from(l),
-            Resolution::Budget { .. } => 0,
-        });
+        self.levels = LevelChooser::starting(&resolution);
         self.coarsest_level = resolution.coarsest_level(self.model.shells[0].spacing_m());
         Ok(())
     }
@@ -706,11 +700,14 @@ impl ContactStage {
         let reach = prox.max(release);
         let moved = cache.motion_m;
         let com = pose.transform_point(&Point3::from(model.com_local)).coords;
+        // Nothing within reach: the plan sees no near points (and returns to level 0).
         if moved < cache.object {
+            plan(&mut |_| 0);
             return Found::default();
         }
         cache.object = moved + vox.clearance(&com) - model.radius_m - reach;
         if moved < cache.object {
+            plan(&mut |_| 0);
             return Found::default();
         }
         let (b_contact, b_brake) = self.shared_damping();

@@ -172,8 +172,8 @@ impl ShellColumns {
     ) -> u32 {
         let mut points = 0;
         let mut count = 0;
-        for (group, budget) in self.groups.iter().zip(group_budgets.iter_mut()) {
-            if !renew(budget, &group.centre, group.radius_m, k, vox) {
+        for (g, (group, budget)) in self.groups.iter().zip(group_budgets.iter_mut()).enumerate() {
+            if !renew(budget, g, &group.centre, group.radius_m, k, vox) {
                 continue;
             }
             let range = group.start as usize..group.end as usize;
@@ -181,7 +181,7 @@ impl ShellColumns {
                 .iter()
                 .zip(&mut cluster_budgets[range.clone()]);
             for (index, (cl, budget)) in range.zip(members) {
-                if renew(budget, &cl.centre, cl.radius_m, k, vox) {
+                if renew(budget, index, &cl.centre, cl.radius_m, k, vox) {
                     scratch.near[count] = index as u32;
                     count += 1;
                     points += cl.end - cl.start;
@@ -328,11 +328,14 @@ impl ShellColumns {
 
 /// Whether a sphere of `radius_m` about `centre` (object frame) may be within reach, by its
 /// `budget`: when the budget is used up, checked against the voxmap's clearance and the
-/// budget renewed. A near sphere is checked again only after moving a reach: what it holds
-/// carries its own budgets, so a late check costs compares, never a missed contact.
+/// budget renewed. A near sphere is checked again only after moving between half a reach
+/// and a reach, staggered by its `index` so that the near spheres of a sliding contact,
+/// found together, are not all checked again in one tick: what a near sphere holds carries
+/// its own budgets, so any check interval costs compares, never a missed contact.
 #[inline(always)]
 fn renew(
     budget: &mut ClusterBudget,
+    index: usize,
     centre: &Vector3<f64>,
     radius_m: f64,
     k: &SearchParams,
@@ -343,7 +346,14 @@ fn renew(
         let centre = k.rotation * centre + k.translation;
         let slack = vox.clearance(&centre) - radius_m - k.reach_m;
         budget.near = slack <= 0.0;
-        budget.check_at = moved + if budget.near { k.reach_m } else { slack };
+        // Golden-ratio steps spread the indices evenly over [0.5, 1).
+        let stagger = 0.5 + 0.5 * (index as f64 * 0.618_033_988_749_895).fract();
+        budget.check_at = moved
+            + if budget.near {
+                k.reach_m * stagger
+            } else {
+                slack
+            };
     }
     budget.near
 }

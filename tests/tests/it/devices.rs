@@ -86,6 +86,7 @@ fn absent_devices_fail_with_a_message_naming_what_to_check() {
 
 #[test]
 fn bridge_with_the_example_driver_process_runs_the_loop() {
+    let _serial = tests::one_loop_at_a_time();
     let ns = tests::unique_namespace("bridgeproc");
     let mut driver = tests::Proc::spawn(
         &tests::example("bridge_driver"),
@@ -241,6 +242,7 @@ fn new_devices_read_and_write_without_allocating() {
 
 #[test]
 fn loop_runs_a_dhd_arm_through_the_fake_sdk_and_lists_it() {
+    let _serial = tests::one_loop_at_a_time();
     let lib = tests::fake_sdk("fake_dhd");
     let lib = lib.to_str().expect("utf-8 path");
     let ns = tests::unique_namespace("dhdproc");

@@ -1,7 +1,7 @@
 //! The two real processes, `haptic-loop run` and `planner serve`, on the simulated arm.
 
 use ipc_types::services;
-use ipc_types::{GuidanceFreshness, HapticState};
+use ipc_types::{FaultCode, GuidanceFreshness, HapticState};
 use std::time::{Duration, Instant};
 use tests::{Proc, bin, norm, one_loop_at_a_time, unique_namespace, wait_for};
 
@@ -115,9 +115,18 @@ fn guidance_reaches_the_arm_fades_on_planner_death_and_returns() {
         * devices::sim::SimulatedArmConfig::default()
             .spec()
             .max_damping_n_s_per_m;
+    // Forces ramped in: no fault for the ramp and then some. (Without real-time rights a
+    // busy machine can make the loop miss five deadlines in a row; it then latches
+    // OVERRUN_STREAK, commands zero and ramps back in, as it should.)
+    let ramped = (1000.0 * (haptic_loop::safety::SafetyConfig::default().ramp_s + 0.2)) as u64;
+    let mut last_fault = 0;
     let s = wait_for("fresh guidance, ramped in", Duration::from_secs(30), || {
         let s = *state.get();
-        (guidance_seen(&s) && s.header.sequence > 1500).then_some(s)
+        if s.fault != FaultCode::NONE {
+            last_fault = s.header.sequence;
+        }
+        (guidance_seen(&s) && s.header.sequence > 1500 && s.header.sequence > last_fault + ramped)
+            .then_some(s)
     });
     let v = s.device_twist.linear_m_s;
     let expected: Vec<f64> = (0..3)
