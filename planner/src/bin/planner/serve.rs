@@ -43,7 +43,8 @@ pub struct ServeArgs {
     /// receiver learns to wake before four writes in five and spins until the state comes,
     /// reading it within ~1 µs of its write for about the spread of its own wake-ups in CPU
     /// per tick (this window only bounds a late tick's cost). 0: it only sleeps, reading
-    /// each state its wake-up latency after the write (~5–40 µs).
+    /// each state its wake-up latency after the write (~5–40 µs). It spins only for a loop
+    /// with a real-time thread: a loop at normal priority needs that CPU more.
     #[arg(long, default_value_t = 100.0)]
     pub state_spin_us: f64,
     /// SCHED_FIFO priority of the thread that receives the haptic state (below the haptic
