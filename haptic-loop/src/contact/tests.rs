@@ -159,7 +159,8 @@ impl Exact {
 /// For random orientations, approaches `target` along `dir` from `back_m` before it until the
 /// object touches, then
 /// pushes in: the contact force must agree with parry's normal within 10° and grow with
-/// depth. Returns the number of orientations checked.
+/// depth, at every level of detail. Returns the number of orientations checked (the least
+/// over the levels).
 fn check_direction_and_monotonicity(
     obstacles: &[(Pose, SharedShape)],
     object: &[(Pose, SharedShape)],
@@ -169,26 +170,43 @@ fn check_direction_and_monotonicity(
     seed: u64,
     cases: usize,
 ) -> usize {
-    let exact = Exact::new(obstacles, object);
+    let approach = Approach {
+        exact: Exact::new(obstacles, object),
+        target,
+        dirs,
+        back_m,
+        seed,
+        cases,
+    };
     let mut checked = usize::MAX;
     for (level, st) in level_stages(obstacles, object, 1.0 * MM) {
-        let n = check_level(&st, &exact, target, dirs, back_m, seed, cases);
+        let n = check_level(&st, &approach);
         eprintln!("{level:?}: {n} cases");
         checked = checked.min(n);
     }
     checked
 }
 
-/// [`check_direction_and_monotonicity`] for one stage.
-fn check_level(
-    st: &ContactStage,
-    exact: &Exact,
+/// What [`check_direction_and_monotonicity`] checks each stage with.
+struct Approach<'a> {
+    exact: Exact,
     target: Vector3<f64>,
-    dirs: &[Vector3<f64>],
+    dirs: &'a [Vector3<f64>],
     back_m: f64,
     seed: u64,
     cases: usize,
-) -> usize {
+}
+
+/// [`check_direction_and_monotonicity`] for one stage.
+fn check_level(st: &ContactStage, a: &Approach) -> usize {
+    let &Approach {
+        ref exact,
+        target,
+        dirs,
+        back_m,
+        seed,
+        cases,
+    } = a;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut checked = 0;
     for case in 0..cases {

@@ -57,6 +57,10 @@ pub struct ContactSummary {
     pub voxmap_mb: f64,
     /// Voxmap build time, s.
     pub voxmap_build_s: f64,
+    /// Level of detail rendered at the end (0 = every point).
+    pub level: usize,
+    /// Changes of level of detail (the point budget at work).
+    pub level_changes: u64,
 }
 
 impl ContactSummary {
@@ -66,7 +70,8 @@ impl ContactSummary {
         tick: &Tick<D, G, S>,
         period_s: f64,
     ) -> Option<Self> {
-        let model = tick.contact()?.model();
+        let stage = tick.contact()?;
+        let model = stage.model();
         let report = model.voxmap().report();
         Some(Self {
             contact_s: tick.contact_ticks() as f64 * period_s,
@@ -75,6 +80,8 @@ impl ContactSummary {
             points: model.pointshell().len(),
             voxmap_mb: report.memory_bytes as f64 / 1e6,
             voxmap_build_s: report.build_time.as_secs_f64(),
+            level: stage.level(),
+            level_changes: stage.level_changes(),
         })
     }
 }
@@ -152,8 +159,8 @@ impl fmt::Display for Summary {
         match &self.contact {
             Some(c) => writeln!(
                 f,
-                "contact:           {:.2} s in contact, max penetration {:.3} mm ({} points, {} mm voxels)",
-                c.contact_s, c.max_penetration_mm, c.points, c.voxel_mm
+                "contact:           {:.2} s in contact, max penetration {:.3} mm ({} points, {} mm voxels; level of detail {} at the end, {} changes)",
+                c.contact_s, c.max_penetration_mm, c.points, c.voxel_mm, c.level, c.level_changes
             )?,
             None => writeln!(f, "contact:           off")?,
         }
