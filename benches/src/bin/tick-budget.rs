@@ -163,7 +163,7 @@ fn main() -> anyhow::Result<()> {
         .with_contact(stage);
     let mut cpu_hist = hist.clone();
     for i in 1..=ticks {
-        let c0 = thread_cpu_ns();
+        let c0 = if args.cpu_time { thread_cpu_ns() } else { 0 };
         let t0 = Instant::now();
         let s = *tick.step(i * period_ns, PrevTiming::default());
         hist.saturating_record((t0.elapsed().as_nanos() as u64).max(1));

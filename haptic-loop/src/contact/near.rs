@@ -238,11 +238,10 @@ impl ShellColumns {
         let mut count = 0;
         for &c in &scratch.near[..scratch.near_count] {
             let cl = &self.clusters[c as usize];
-            let end = cl.end;
             // Branch-free: every index is written, and kept by advancing `count`
             // (`count` ≤ the points seen so far, so the write stays in the list).
-            let budgets = &point_budgets[cl.start as usize..end as usize];
-            for (i, budget) in (cl.start..end).zip(budgets) {
+            let budgets = &point_budgets[cl.start as usize..cl.end as usize];
+            for (i, budget) in (cl.start..cl.end).zip(budgets) {
                 scratch.candidates[count] = i;
                 count += usize::from(moved >= *budget);
             }
@@ -528,7 +527,7 @@ impl ForceConsts {
 }
 
 /// The force pass over one chunk: points at `r` from the centre of mass (m) with field
-/// gradient `g`, signed distance `sd` (m) and weight `w` (level-0 points) add their
+/// gradient `g`, signed distance `sd` (m) and weight `wt` (level-0 points) add their
 /// penalty, braking and JJᵀ sums, each times its weight, to `acc`. Every statement works on
 /// all lanes and choices are selections, so there are no branches; a lane with `sd` = +∞
 /// and a unit gradient adds nothing. (Weight 1 multiplies exactly: level 0 gives the bits

@@ -111,7 +111,7 @@ impl Pointshell {
             return Err(ContactError::Spacing(spacing_m));
         }
         let h = spacing_m;
-        let key = |p: &Vector3<f64>| [p.x, p.y, p.z].map(|c| (c / h).floor() as i64);
+        let key = |p: &Vector3<f64>| cell_of(p, h);
         // One point per cell, ordered by cell so that the result is deterministic.
         let mut cells: BTreeMap<[i64; 3], (Vector3<f64>, Vector3<f64>)> = BTreeMap::new();
         for (i, (pose, shape)) in parts.iter().enumerate() {
@@ -216,9 +216,7 @@ impl Pointshell {
     /// groups; the points of a cluster, and the clusters of a group, are consecutive.
     /// Deterministic: in cell order, and in the given order within a cell.
     fn clustered(entries: Vec<(Vector3<f64>, Vector3<f64>, f64)>, spacing_m: f64) -> Self {
-        let ck = |p: &Vector3<f64>| {
-            [p.x, p.y, p.z].map(|c| (c / (spacing_m * CLUSTER_CELLS)).floor() as i64)
-        };
+        let ck = |p: &Vector3<f64>| cell_of(p, spacing_m * CLUSTER_CELLS);
         // Keyed by (group cell, cluster cell): a group's clusters are consecutive.
         type Entry = (Vector3<f64>, Vector3<f64>, f64);
         let mut cells: BTreeMap<([i64; 3], [i64; 3]), Vec<Entry>> = BTreeMap::new();
@@ -238,16 +236,7 @@ impl Pointshell {
         };
         for members in cells.into_values() {
             let start = shell.points.len() as u32;
-            let (mut lo, mut hi) = (members[0].0, members[0].0);
-            for (p, _, _) in &members {
-                lo = lo.inf(p);
-                hi = hi.sup(p);
-            }
-            let centre = (lo + hi) / 2.0;
-            let radius_m = members
-                .iter()
-                .map(|(p, _, _)| (p - centre).norm())
-                .fold(0.0, f64::max);
+            let (centre, radius_m) = sphere_around(members.iter().map(|(p, _, _)| (*p, 0.0)));
             for (p, n, w) in members {
                 shell.points.push(p);
                 shell.normals.push(n);
@@ -314,6 +303,26 @@ impl Pointshell {
     }
 }
 
+/// The cell of a grid of `size_m` cells (origin at a corner) holding `p`.
+fn cell_of(p: &Vector3<f64>, size_m: f64) -> [i64; 3] {
+    [p.x, p.y, p.z].map(|c| (c / size_m).floor() as i64)
+}
+
+/// A sphere holding the given spheres (centre, radius in m; radius 0 for points): centred
+/// in the box of their centres. Not the smallest, but cheap and deterministic.
+fn sphere_around(
+    spheres: impl Iterator<Item = (Vector3<f64>, f64)> + Clone,
+) -> (Vector3<f64>, f64) {
+    let mut centres = spheres.clone().map(|(c, _)| c);
+    let first = centres.next().expect("at least one sphere");
+    let (lo, hi) = centres.fold((first, first), |(lo, hi), c| (lo.inf(&c), hi.sup(&c)));
+    let centre = (lo + hi) / 2.0;
+    let radius_m = spheres
+        .map(|(c, r)| (c - centre).norm() + r)
+        .fold(0.0, f64::max);
+    (centre, radius_m)
+}
+
 /// The groups of `clusters`, where `group_of[i]` is cluster i's group cell (consecutive
 /// clusters of one cell form a group), each with a sphere holding its clusters' spheres.
 fn cluster_groups(clusters: &[Cluster], group_of: &[[i64; 3]]) -> Vec<ClusterGroup> {
@@ -323,17 +332,8 @@ fn cluster_groups(clusters: &[Cluster], group_of: &[[i64; 3]]) -> Vec<ClusterGro
         let end = (start..clusters.len())
             .find(|&i| group_of[i] != group_of[start])
             .unwrap_or(clusters.len());
-        let members = &clusters[start..end];
-        let (mut lo, mut hi) = (members[0].centre, members[0].centre);
-        for c in members {
-            lo = lo.inf(&c.centre);
-            hi = hi.sup(&c.centre);
-        }
-        let centre = (lo + hi) / 2.0;
-        let radius_m = members
-            .iter()
-            .map(|c| (c.centre - centre).norm() + c.radius_m)
-            .fold(0.0, f64::max);
+        let (centre, radius_m) =
+            sphere_around(clusters[start..end].iter().map(|c| (c.centre, c.radius_m)));
         out.push(ClusterGroup {
             centre,
             radius_m,
@@ -359,7 +359,7 @@ fn levels(points: &[PointNormal], h: f64) -> [Vec<f64>; LEVELS] {
         let mut cells: BTreeMap<[i64; 3], Vec<Vec<usize>>> = BTreeMap::new();
         for &i in &members {
             let (p, normal) = &points[i];
-            let key = [p.x, p.y, p.z].map(|c| (c / cell).floor() as i64);
+            let key = cell_of(p, cell);
             let groups = cells.entry(key).or_default();
             match groups
                 .iter_mut()

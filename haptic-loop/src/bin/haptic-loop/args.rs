@@ -4,7 +4,7 @@
 use anyhow::{Context, bail};
 use clap::Args;
 use devices::sim::{ScriptedUserConfig, SimulatedArmConfig};
-use haptic_loop::contact::{ContactConfig, LEVELS, Resolution};
+use haptic_loop::contact::{ContactConfig, Resolution};
 use haptic_loop::device_choice::{DeviceChoice, DeviceOptions};
 use haptic_loop::guidance::GuidanceConfig;
 use haptic_loop::rt::RtOptions;
@@ -224,21 +224,16 @@ impl LoopArgs {
         if !(self.voxel_mm.is_finite() && (0.25..=20.0).contains(&self.voxel_mm)) {
             bail!("--voxel-mm must be within 0.25–20, got {}", self.voxel_mm);
         }
-        let resolution = match self.contact_level {
-            Some(l) if usize::from(l) >= LEVELS => {
-                bail!("--contact-level must be within 0–{}, got {l}", LEVELS - 1)
-            }
-            Some(l) => Resolution::Level(l),
-            None => {
-                if !(self.contact_points_per_ms.is_finite() && self.contact_points_per_ms >= 1.0) {
-                    bail!(
-                        "--contact-points-per-ms must be at least 1, got {}",
-                        self.contact_points_per_ms
-                    );
-                }
-                Resolution::budget(self.contact_points_per_ms)
-            }
+        let (resolution, flag) = match self.contact_level {
+            Some(l) => (Resolution::Level(l), "--contact-level"),
+            None => (
+                Resolution::budget(self.contact_points_per_ms),
+                "--contact-points-per-ms",
+            ),
         };
+        resolution
+            .validate()
+            .map_err(|e| anyhow::anyhow!("{flag}: {e}"))?;
         let contact = (!self.no_contact).then(|| ContactConfig {
             resolution,
             ..ContactConfig::with_voxel_m(self.voxel_mm / 1000.0)
