@@ -175,7 +175,7 @@ typedef struct hrrtc_Guidance {
     uint64_t iterations;
     uint64_t nodes;
     uint32_t trees;
-    uint32_t reserved;
+    uint32_t planner_id;
     double distance_to_goal;
     uint64_t collision_checks;
 } hrrtc_Guidance;
@@ -192,7 +192,7 @@ _Static_assert(offsetof(hrrtc_Guidance, solved) == 108, "offset of Guidance.solv
 _Static_assert(offsetof(hrrtc_Guidance, iterations) == 112, "offset of Guidance.iterations");
 _Static_assert(offsetof(hrrtc_Guidance, nodes) == 120, "offset of Guidance.nodes");
 _Static_assert(offsetof(hrrtc_Guidance, trees) == 128, "offset of Guidance.trees");
-_Static_assert(offsetof(hrrtc_Guidance, reserved) == 132, "offset of Guidance.reserved");
+_Static_assert(offsetof(hrrtc_Guidance, planner_id) == 132, "offset of Guidance.planner_id");
 _Static_assert(offsetof(hrrtc_Guidance, distance_to_goal) == 136, "offset of Guidance.distance_to_goal");
 _Static_assert(offsetof(hrrtc_Guidance, collision_checks) == 144, "offset of Guidance.collision_checks");
 #define HRRTC_GUIDANCE_TYPE_NAME "hrrtc::Guidance.v1"

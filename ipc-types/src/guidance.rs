@@ -37,8 +37,11 @@ pub struct Guidance {
     pub nodes: u64,
     /// Number of trees (start, goal, local trees).
     pub trees: u32,
-    /// Reserved, zero.
-    pub reserved: u32,
+    /// Identity of the planner that wrote the sample: random, non-zero, fixed for the
+    /// planner's life. Tells planners apart when several serve one loop, also across hosts
+    /// where process ids repeat; 0 from writers that do not set it (then `header.writer_pid`
+    /// is the identity).
+    pub planner_id: u32,
     /// Weighted distance (I-RRT eq. 2) from the goal to the nearest node of the start tree.
     pub distance_to_goal: f64,
     /// Collision checks since start.

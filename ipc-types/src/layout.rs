@@ -209,7 +209,7 @@ pub fn wire_types() -> Vec<StructLayout> {
             iterations,
             nodes,
             trees,
-            reserved,
+            planner_id,
             distance_to_goal,
             collision_checks,
         }),

@@ -181,6 +181,8 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> Result<ShellReport, S
     let mut guidance_seq = 0u64;
     let mut path_seq = 0u64;
     let pid = std::process::id();
+    let planner_id = new_planner_id();
+    tracing::info!("planner id {planner_id:08x}");
     let mut last_connection_update = Instant::now();
     let mut announced_operator = false;
 
@@ -262,7 +264,15 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> Result<ShellReport, S
                 next_guidance = now + guidance_period;
             }
             guidance_seq += 1;
-            let g = make_guidance(config, &planner, q_user.as_ref(), &op, guidance_seq, pid);
+            let g = make_guidance(
+                config,
+                &planner,
+                q_user.as_ref(),
+                &op,
+                guidance_seq,
+                pid,
+                planner_id,
+            );
             publish_guidance(&guidance, &guidance_event, g);
             report.guidance_published += 1;
         }
@@ -316,6 +326,19 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> Result<ShellReport, S
     Ok(report)
 }
 
+/// A random non-zero identity for this planner's guidance ([`Guidance::planner_id`]). The
+/// standard library's hash seeds are random per process, so no random-number crate is
+/// needed for one number; the pid and the clock are mixed in so two processes started in
+/// the same instant differ even if the seeds did not.
+fn new_planner_id() -> u32 {
+    use std::hash::{BuildHasher, Hasher};
+    let mut h = std::collections::hash_map::RandomState::new().build_hasher();
+    h.write_u32(std::process::id());
+    h.write_u64(ipc_types::monotonic_ns());
+    let v = h.finish();
+    ((v >> 32) as u32 ^ v as u32).max(1)
+}
+
 fn make_guidance(
     config: &ShellConfig,
     planner: &Planner,
@@ -323,6 +346,7 @@ fn make_guidance(
     op: &Operator,
     seq: u64,
     pid: u32,
+    planner_id: u32,
 ) -> Guidance {
     let s = planner.stats();
     let (attractive, mode) = match q_user {
@@ -354,7 +378,7 @@ fn make_guidance(
         iterations: s.iterations,
         nodes: s.nodes as u64,
         trees: s.trees as u32,
-        reserved: 0,
+        planner_id,
         distance_to_goal: s.best_distance_to_goal,
         collision_checks: s.collision_checks,
     }

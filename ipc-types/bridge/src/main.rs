@@ -1,0 +1,149 @@
+//! `hrrtc-bridge`: carries one namespace's haptic state, guidance, paths and roadmaps
+//! between two hosts over Zenoh, so that the planner can run on another machine than the
+//! haptic arm. Run one on each host. Exit codes: 0 stopped, 2 an error (printed on stderr)
+//! or bad arguments.
+
+use anyhow::Context;
+use clap::{Parser, ValueEnum};
+use hrrtc_bridge::clock::HostClock;
+use hrrtc_bridge::{BridgeConfig, Side};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Bridge one namespace of the haptic loop and planner between hosts over Zenoh (TCP).
+///
+/// On the arm's host: `hrrtc-bridge --side loop --listen tcp/0.0.0.0:7447`.
+/// On the planner's host: `hrrtc-bridge --side planner --connect tcp/ARM-HOST:7447`, then
+/// `planner serve` there as usual. Stops on Ctrl-C / SIGTERM or after --duration-s.
+#[derive(Debug, Parser)]
+#[command(name = "hrrtc-bridge", version, about, long_about)]
+struct Cli {
+    /// This host's role: `loop` (the haptic loop runs here: its state goes out, guidance,
+    /// paths and roadmaps come in) or `planner` (the reverse).
+    #[arg(long, value_enum)]
+    side: SideArg,
+    /// iceoryx2 namespace of the loop and planner (their --namespace); the Zenoh keys are
+    /// `hrrtc/<namespace>/...` and must match on both hosts.
+    #[arg(long, default_value = ipc_types::services::DEFAULT_NAMESPACE)]
+    namespace: String,
+    /// Zenoh endpoint to listen on, e.g. `tcp/0.0.0.0:7447` (repeatable). Open this TCP
+    /// port in the host's firewall.
+    #[arg(long)]
+    listen: Vec<String>,
+    /// Zenoh endpoint of the other host's bridge, e.g. `tcp/192.168.1.20:7447` (repeatable).
+    #[arg(long)]
+    connect: Vec<String>,
+    /// Give up starting when no --connect endpoint answers within this, s. Once connected,
+    /// a lost link is retried for ever (every 0.1–1 s).
+    #[arg(long, default_value_t = 10.0)]
+    connect_timeout_s: f64,
+    /// Loop side: send at most this many states per second (default: every tick).
+    #[arg(long)]
+    state_rate_hz: Option<f64>,
+    /// Loop side: poll period of the state blackboard, µs.
+    #[arg(long, default_value_t = 100)]
+    state_poll_us: u64,
+    /// Do not carry roadmap increments (they are only for `planner view`: ~90 KB each, up
+    /// to 20 per second per planner).
+    #[arg(long)]
+    no_roadmap: bool,
+    /// Stop after this many seconds.
+    #[arg(long)]
+    duration_s: Option<f64>,
+    /// Testing: present this host's clock to the other side shifted by this many seconds,
+    /// as a host booted at another time would. The re-stamping on arrival must cancel it.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    clock_offset_s: f64,
+    /// Testing: and running this many parts per million fast (negative: slow).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    clock_drift_ppm: f64,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum)]
+enum SideArg {
+    Loop,
+    Planner,
+}
+
+fn main() -> std::process::ExitCode {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=warn"));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .init();
+    match run() {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("hrrtc-bridge: error: {e:#}");
+            std::process::ExitCode::from(2)
+        }
+    }
+}
+
+fn run() -> anyhow::Result<()> {
+    let cli = Cli::parse();
+    let side = match cli.side {
+        SideArg::Loop => Side::Loop,
+        SideArg::Planner => Side::Planner,
+    };
+    if cli.listen.is_empty() && cli.connect.is_empty() {
+        anyhow::bail!(
+            "give --listen, --connect or both: the other host's bridge must be reachable"
+        );
+    }
+    for (name, v) in [
+        ("--connect-timeout-s", cli.connect_timeout_s),
+        ("--clock-offset-s", cli.clock_offset_s),
+        ("--clock-drift-ppm", cli.clock_drift_ppm),
+    ] {
+        anyhow::ensure!(v.is_finite(), "{name} {v}: must be a finite number");
+    }
+    anyhow::ensure!(
+        cli.connect_timeout_s >= 0.0,
+        "--connect-timeout-s {}: must be ≥ 0",
+        cli.connect_timeout_s
+    );
+    if let Some(d) = cli.duration_s {
+        anyhow::ensure!(
+            d.is_finite() && d > 0.0,
+            "--duration-s {d}: must be positive"
+        );
+    }
+    let config = BridgeConfig {
+        listen: cli.listen,
+        connect: cli.connect,
+        connect_timeout_s: cli.connect_timeout_s,
+        state_rate_hz: cli.state_rate_hz,
+        state_poll_us: cli.state_poll_us,
+        roadmap: !cli.no_roadmap,
+        clock: HostClock::simulated(cli.clock_offset_s, cli.clock_drift_ppm),
+        duration_s: cli.duration_s,
+        ..BridgeConfig::new(side, &cli.namespace)
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let stop = stop.clone();
+        ctrlc::set_handler(move || stop.store(true, Ordering::Release))
+            .context("installing the Ctrl-C / SIGTERM handler")?;
+    }
+    let report = hrrtc_bridge::run(&config, stop)?;
+    println!(
+        "bridge ({} side) ran {:.1} s; {} peer(s){}",
+        side.name(),
+        report.seconds,
+        report.peers,
+        report.min_rtt_us.map_or(String::new(), |r| format!(
+            ", smallest round trip {r:.0} µs"
+        ))
+    );
+    for (name, k) in &report.kinds {
+        if k.sent + k.received > 0 {
+            println!(
+                "  {name}: sent {}, received {}, delivered {}, rejected {}, dropped {}",
+                k.sent, k.received, k.delivered, k.rejected, k.dropped
+            );
+        }
+    }
+    Ok(())
+}
