@@ -17,6 +17,10 @@ pub struct GuidanceConfig {
     pub max_torque_fraction: f64,
     /// Samples stamped further than this in the future are rejected as corrupt, s.
     pub max_future_s: f64,
+    /// When the guidance comes from another planner than the last sample (another of
+    /// several planners is chosen, or a planner restarted), F_s moves from what was
+    /// rendered to the new planner's over this time, linearly, s: a switch is never a step.
+    pub switch_s: f64,
 }
 
 impl Default for GuidanceConfig {
@@ -26,6 +30,7 @@ impl Default for GuidanceConfig {
             max_force_fraction: 0.4,
             max_torque_fraction: 0.4,
             max_future_s: 0.1,
+            switch_s: 0.2,
         }
     }
 }
@@ -65,6 +70,16 @@ pub struct GuidanceFilter {
     last_valid: Option<Guidance>,
     rejected: u64,
     last_rejected_sequence: u64,
+    /// F_s rendered by the last call (force N, torque N·m).
+    last_output: (Vector3<f64>, Vector3<f64>),
+    /// A switch of planner in progress: what was rendered when it began, and when, ns.
+    blend_from: Option<(Vector3<f64>, Vector3<f64>, u64)>,
+}
+
+/// Who wrote a sample: its planner id and process. Two samples of one source differ in
+/// sequence; a new source starts a blend.
+fn source(g: &Guidance) -> (u32, u32) {
+    (g.planner_id, g.header.writer_pid)
 }
 
 impl GuidanceFilter {
@@ -78,6 +93,8 @@ impl GuidanceFilter {
             last_valid: None,
             rejected: 0,
             last_rejected_sequence: 0,
+            last_output: (Vector3::zeros(), Vector3::zeros()),
+            blend_from: None,
         }
     }
 
@@ -88,12 +105,43 @@ impl GuidanceFilter {
 
     /// F_s at `now_ns` from the newest sample `g`.
     pub fn render(&mut self, g: &Guidance, now_ns: u64) -> RenderedGuidance {
+        let r = self.render_unblended(g, now_ns);
+        let r = match self.blend_from {
+            Some((force, torque, start_ns)) => {
+                let switch_ns = self.config.switch_s * 1e9;
+                let w = now_ns.saturating_sub(start_ns) as f64 / switch_ns;
+                if w >= 1.0 || !w.is_finite() {
+                    self.blend_from = None;
+                    r
+                } else {
+                    // Both ends are bounded, so every point between them is.
+                    RenderedGuidance {
+                        force_n: force * (1.0 - w) + r.force_n * w,
+                        torque_nm: torque * (1.0 - w) + r.torque_nm * w,
+                        ..r
+                    }
+                }
+            }
+            None => r,
+        };
+        self.last_output = (r.force_n, r.torque_nm);
+        r
+    }
+
+    fn render_unblended(&mut self, g: &Guidance, now_ns: u64) -> RenderedGuidance {
         let future_ns = (self.config.max_future_s * 1e9) as u64;
-        let is_new = self
-            .last_valid
-            .is_none_or(|last| last.header.sequence != g.header.sequence);
+        let is_new = self.last_valid.is_none_or(|last| {
+            last.header.sequence != g.header.sequence || source(&last) != source(g)
+        });
         if g.header.sequence != 0 && is_new {
             if g.validate().is_ok() && g.header.timestamp_ns <= now_ns.saturating_add(future_ns) {
+                if self
+                    .last_valid
+                    .is_some_and(|last| source(&last) != source(g))
+                {
+                    let (force, torque) = self.last_output;
+                    self.blend_from = Some((force, torque, now_ns));
+                }
                 self.last_valid = Some(*g);
             } else if g.header.sequence != self.last_rejected_sequence {
                 self.rejected += 1;
@@ -226,6 +274,44 @@ mod tests {
         future.header.timestamp_ns = 10_000 * MS;
         f.render(&future, 4 * MS);
         assert_eq!(f.rejected(), 2, "a stamp 10 s in the future is corrupt");
+    }
+
+    /// Another planner's sample (or a restarted planner's) takes over through a blend over
+    /// `switch_s`: the rendered force moves from the old planner's to the new one's in
+    /// equal steps of 1 ms, never a jump.
+    #[test]
+    fn a_switch_of_planner_blends_instead_of_stepping() {
+        let mut f = filter();
+        let a = sample(40, 1000 * MS);
+        assert!((f.render(&a, 1001 * MS).force_n.x - 1.0).abs() < 1e-12);
+        let mut b = sample(40, 1001 * MS);
+        b.planner_id = 2;
+        b.attractive[0] = -0.05;
+        let mut prev = 1.0;
+        let mut largest_step: f64 = 0.0;
+        for i in 0..=250u64 {
+            let t = 1002 * MS + i * MS;
+            let mut b_now = b;
+            b_now.header.sequence = 40 + i / 10;
+            b_now.header.timestamp_ns = t;
+            let x = f.render(&b_now, t).force_n.x;
+            if i == 5 {
+                // The first sample of the new planner repeats the old one's sequence: it
+                // is taken all the same (another source), so the blend began at i = 0.
+                assert!((x - 0.95).abs() < 1e-9, "{x} N after 5 ms of the blend");
+            }
+            largest_step = largest_step.max((x - prev).abs());
+            prev = x;
+        }
+        // From +1 N to −1 N over 200 ms: 0.01 N per 1 ms tick.
+        assert!(
+            (largest_step - 0.01).abs() < 1e-9,
+            "largest step {largest_step} N"
+        );
+        assert!(
+            (prev + 1.0).abs() < 1e-12,
+            "arrived at the new planner's force"
+        );
     }
 
     #[test]

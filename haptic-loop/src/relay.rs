@@ -9,12 +9,17 @@
 //! sample reaches the triple buffer microseconds after it was sent and is rendered by the
 //! next tick; it also wakes every `poll` (default 1 ms) on its own, so a planner that does
 //! not notify, or a lost notification, costs at most that.
+//!
+//! Several planners may publish at once (one service, many publishers): the relay follows
+//! one of them, chosen by [`choice::PlannerChoice`], and hands on only its samples.
+
+pub mod choice;
 
 use crate::Error;
 use crate::tick::GuidanceSource;
 use ipc_types::Guidance;
 use ipc_types::services;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
@@ -36,6 +41,7 @@ pub struct Relay {
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
     newest: Arc<Mutex<Guidance>>,
+    switches: Arc<AtomicU64>,
 }
 
 impl Relay {
@@ -45,11 +51,13 @@ impl Relay {
         let (mut input, output) = triple_buffer::triple_buffer(&Guidance::default());
         let stop = Arc::new(AtomicBool::new(false));
         let newest = Arc::new(Mutex::new(Guidance::default()));
+        let switches = Arc::new(AtomicU64::new(0));
         let (ready_tx, ready_rx) = std::sync::mpsc::channel();
         let thread = {
             let namespace = namespace.to_string();
             let stop = stop.clone();
             let newest = newest.clone();
+            let switches = switches.clone();
             std::thread::Builder::new()
                 .name("guidance-relay".into())
                 .spawn(move || {
@@ -72,11 +80,25 @@ impl Relay {
                             return;
                         }
                     };
+                    let mut choice = choice::PlannerChoice::default();
+                    let mut handed_on: Option<(u32, u32, u64)> = None;
                     while !stop.load(Ordering::Acquire) {
                         let mut latest = None;
                         loop {
                             match sub.receive() {
-                                Ok(Some(sample)) => latest = Some(*sample),
+                                Ok(Some(sample)) => {
+                                    let g = *sample;
+                                    if g.validate().is_err() {
+                                        // The RT filter rejects and counts it, keeping the
+                                        // last valid sample.
+                                        latest = Some(g);
+                                        continue;
+                                    }
+                                    let now = ipc_types::monotonic_ns();
+                                    if let Some(pick) = choice.offer(g, now) {
+                                        latest = Some(pick);
+                                    }
+                                }
                                 Ok(None) => break,
                                 Err(e) => {
                                     tracing::warn!("guidance relay: receive failed: {e:?}");
@@ -85,9 +107,14 @@ impl Relay {
                             }
                         }
                         if let Some(g) = latest {
-                            input.write(g);
-                            *newest.lock().unwrap_or_else(|p| p.into_inner()) = g;
+                            let id = (g.planner_id, g.header.writer_pid, g.header.sequence);
+                            if handed_on != Some(id) || g.validate().is_err() {
+                                handed_on = Some(id);
+                                input.write(g);
+                                *newest.lock().unwrap_or_else(|p| p.into_inner()) = g;
+                            }
                         }
+                        switches.store(choice.switches(), Ordering::Relaxed);
                         // Woken by the planner's notification or after `poll`; a failed
                         // wait (e.g. an interrupting signal) falls back to sleeping.
                         if listener.timed_wait(|_| {}, poll).is_err() {
@@ -109,6 +136,7 @@ impl Relay {
                 stop,
                 thread: Some(thread),
                 newest,
+                switches,
             },
             RelayOutput(output),
         ))
@@ -117,6 +145,11 @@ impl Relay {
     /// The newest sample the relay has seen (for progress lines and summaries).
     pub fn newest(&self) -> Guidance {
         *self.newest.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Times the relay moved from one planner's guidance to another's.
+    pub fn planner_switches(&self) -> u64 {
+        self.switches.load(Ordering::Relaxed)
     }
 
     /// A handle observers on other threads can read the newest sample from.

@@ -38,6 +38,8 @@ pub fn bin_dir() -> &'static Path {
             "fake-hd",
             "-p",
             "hrrtc-c",
+            "-p",
+            "hrrtc-bridge",
             "--lib",
             "--bins",
             "--example",

@@ -98,6 +98,11 @@ impl Watch {
         self.relay.newest()
     }
 
+    /// Times the relay moved from one planner's guidance to another's.
+    pub fn planner_switches(&self) -> u64 {
+        self.relay.planner_switches()
+    }
+
     /// `(waypoints, weighted length)` of the newest path received.
     pub fn path(&self) -> Option<(u64, f64)> {
         self.path

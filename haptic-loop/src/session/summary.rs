@@ -38,6 +38,10 @@ pub struct Summary {
     pub planner_iterations: u64,
     /// Planner nodes at the end.
     pub planner_nodes: u64,
+    /// `planner_id` of the planner followed at the end (0: none, or one that sets none).
+    pub planner_id: u32,
+    /// Times the loop moved from one planner's guidance to another's (several planners).
+    pub planner_switches: u64,
     /// Contact rendering figures; `null` when contact was off.
     pub contact: Option<ContactSummary>,
 }
@@ -109,6 +113,8 @@ impl Summary {
             wake_latency_us: report.wake_latency_us,
             planner_iterations: guidance.iterations,
             planner_nodes: guidance.nodes,
+            planner_id: guidance.planner_id,
+            planner_switches: watch.planner_switches(),
             loop_report: report,
             contact,
         }
@@ -135,11 +141,19 @@ impl fmt::Display for Summary {
             }
             _ => writeln!(f, "solved:            no")?,
         }
-        writeln!(
+        write!(
             f,
             "planner:           {} iterations, {} nodes",
             self.planner_iterations, self.planner_nodes
         )?;
+        match self.planner_switches {
+            0 => writeln!(f)?,
+            n => writeln!(
+                f,
+                " (planner {:08x}; {n} switches between planners)",
+                self.planner_id
+            )?,
+        }
         writeln!(
             f,
             "ticks:             {} in {:.1} s",

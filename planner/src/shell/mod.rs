@@ -82,6 +82,8 @@ pub struct ShellConfig {
 pub struct ShellReport {
     /// Seconds the process ran.
     pub run_s: f64,
+    /// The `planner_id` its guidance carried.
+    pub planner_id: u32,
     /// A solution was found.
     pub solved: bool,
     /// Seconds from start to solution.
@@ -183,6 +185,7 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> Result<ShellReport, S
     let pid = std::process::id();
     let planner_id = new_planner_id();
     tracing::info!("planner id {planner_id:08x}");
+    report.planner_id = planner_id;
     let mut last_connection_update = Instant::now();
     let mut announced_operator = false;
 

@@ -7,6 +7,7 @@ use haptic_loop::alloc_count::CountingAllocator;
 static ALLOCATOR: CountingAllocator = CountingAllocator;
 
 mod alloc;
+mod bridge;
 mod devices;
 mod external_c;
 mod issue_16;

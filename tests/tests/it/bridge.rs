@@ -1,0 +1,313 @@
+//! Two hosts on one machine: the loop on "host A" (the default iceoryx2 domain, which this
+//! test process shares), a planner on "host B" (processes started in a folder whose
+//! `config/iceoryx2.toml` gives iceoryx2 another file prefix, so neither domain sees the
+//! other's services or shared memory), joined only by two `hrrtc-bridge` processes over
+//! Zenoh on loopback TCP with explicit endpoints. Host B's bridge presents a clock an hour
+//! off, as a host booted at another time would.
+
+use ipc_types::services;
+use ipc_types::{GuidanceFreshness, HapticState};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+use tests::{Proc, bin, norm, one_loop_at_a_time, unique_namespace, wait_for};
+
+/// A folder that makes processes started in it "host B": iceoryx2 reads
+/// `config/iceoryx2.toml` from the working directory.
+fn host_b(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("hrrtc-it-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("config")).unwrap();
+    let prefix = format!("iox2_{tag}{}_", std::process::id());
+    std::fs::write(
+        dir.join("config/iceoryx2.toml"),
+        format!("[global]\nprefix = \"{prefix}\"\n"),
+    )
+    .unwrap();
+    dir
+}
+
+fn spawn_in(dir: &Path, program: &Path, args: &[&str]) -> Proc {
+    let child = Command::new(program)
+        .args(args)
+        .current_dir(dir)
+        .stdin(Stdio::null())
+        .stdout(Stdio::inherit())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .unwrap_or_else(|e| panic!("cannot start {}: {e}", program.display()));
+    Proc {
+        child,
+        name: program.display().to_string(),
+    }
+}
+
+/// A loopback TCP port free a moment ago.
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+fn bridge_a(ns: &str, port: u16) -> Proc {
+    let listen = format!("tcp/127.0.0.1:{port}");
+    Proc::spawn(
+        &bin("hrrtc-bridge"),
+        &["--side", "loop", "--namespace", ns, "--listen", &listen],
+    )
+}
+
+fn bridge_b(dir: &Path, ns: &str, port: u16, offset_s: &str) -> Proc {
+    let connect = format!("tcp/127.0.0.1:{port}");
+    spawn_in(
+        dir,
+        &bin("hrrtc-bridge"),
+        &[
+            "--side",
+            "planner",
+            "--namespace",
+            ns,
+            "--connect",
+            &connect,
+            "--clock-offset-s",
+            offset_s,
+            "--clock-drift-ppm",
+            "50",
+        ],
+    )
+}
+
+fn start_loop(ns: &str, summary: &Path) -> Proc {
+    Proc::spawn(
+        &bin("haptic-loop"),
+        &[
+            "run",
+            "--namespace",
+            ns,
+            "--priority",
+            "0",
+            "--no-mlock",
+            "--no-contact",
+            "--duration-s",
+            "60",
+            "--summary-json",
+            summary.to_str().unwrap(),
+        ],
+    )
+}
+
+fn guidance_fresh(s: &HapticState) -> bool {
+    s.guidance_sequence > 0
+        && s.guidance_freshness == GuidanceFreshness::FRESH
+        && norm(s.guidance_wrench.force_n) > 1e-6
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// The remote planner receives the state at ≥ 90 % of the loop's rate and its guidance
+/// reaches the arm, fresh (neither rejected as from the future nor faded as an hour old),
+/// with host B's clock an hour ahead. A second planner on host A, which cannot solve (a
+/// one-tree RRT of 0.5 mm steps cannot reach a goal 0.9 m away in 12 s), serves the same loop: once the remote
+/// one solves, the loop follows it (the first to solve).
+#[test]
+fn a_remote_planner_is_served_across_hosts_and_followed_once_it_solves() {
+    let _serial = one_loop_at_a_time();
+    let ns = unique_namespace("bridge");
+    let dir = host_b("hb");
+    let port = free_port();
+    let loop_summary = std::env::temp_dir().join(format!("{ns}-loop.json"));
+    let remote_json = std::env::temp_dir().join(format!("{ns}-remote.json"));
+    let local_json = std::env::temp_dir().join(format!("{ns}-local.json"));
+    let mut lp = start_loop(&ns, &loop_summary);
+    let (node, _) = services::create_node("it_bridge_watch").unwrap();
+    let state = services::state_reader(&node, &ns).unwrap();
+    wait_for("the loop publishes", Duration::from_secs(30), || {
+        (state.get().header.sequence > 100).then_some(())
+    });
+    let _a = bridge_a(&ns, port);
+    let _b = bridge_b(&dir, &ns, port, "3600");
+    let remote_arg = remote_json.to_str().unwrap().to_string();
+    let (seq0, t0) = (state.get().header.sequence, Instant::now());
+    let mut remote = spawn_in(
+        &dir,
+        &bin("planner"),
+        &[
+            "serve",
+            "--namespace",
+            &ns,
+            "--duration-s",
+            "12",
+            "--json",
+            &remote_arg,
+        ],
+    );
+    let local_arg = local_json.to_str().unwrap().to_string();
+    let mut local = Proc::spawn(
+        &bin("planner"),
+        &[
+            "serve",
+            "--namespace",
+            &ns,
+            "--seed",
+            "2",
+            "--algorithm",
+            "rrt",
+            "--step",
+            "0.0005",
+            "--duration-s",
+            "12",
+            "--json",
+            &local_arg,
+        ],
+    );
+    let s = wait_for("fresh guidance on host A", Duration::from_secs(30), || {
+        let s = *state.get();
+        guidance_fresh(&s).then_some(s)
+    });
+    eprintln!(
+        "guidance age at render: fresh, sequence {}",
+        s.guidance_sequence
+    );
+    for p in [&mut remote, &mut local] {
+        let st = p
+            .wait_timeout(Duration::from_secs(60))
+            .expect("planner stops");
+        assert!(st.success(), "planner exit status {st}");
+    }
+    let loop_hz = (state.get().header.sequence - seq0) as f64 / t0.elapsed().as_secs_f64();
+    let remote_report = json(&remote_json);
+    let local_report = json(&local_json);
+    let rate = remote_report["state_rate_hz"].as_f64().unwrap();
+    assert!(loop_hz >= 500.0, "the loop published at {loop_hz:.0} Hz");
+    assert!(
+        rate >= 0.9 * loop_hz.min(1000.0),
+        "the remote planner saw {rate:.0} Hz of HapticState, the loop published {loop_hz:.0} Hz: {remote_report}"
+    );
+    assert_eq!(remote_report["solved"], true, "{remote_report}");
+    assert_eq!(local_report["solved"], false, "{local_report}");
+    assert!(
+        local_report["guidance_published"].as_u64().unwrap() > 100,
+        "the local planner served too: {local_report}"
+    );
+    lp.signal(libc::SIGTERM);
+    lp.wait_timeout(Duration::from_secs(10))
+        .expect("loop stops");
+    let summary = json(&loop_summary);
+    assert_eq!(
+        summary["planner_id"], remote_report["planner_id"],
+        "the loop follows the planner that solved: {summary}"
+    );
+    assert_eq!(summary["solved"], true, "{summary}");
+    for f in [loop_summary, remote_json, local_json] {
+        let _ = std::fs::remove_file(f);
+    }
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// Cutting the link (the loop host's bridge killed) fades the remote guidance out within
+/// time-to-live + fade while the loop ticks on; a new bridge on the same port restores it;
+/// a remote planner killed and restarted is followed. Host B's clock is an hour behind.
+#[test]
+fn a_cut_link_fades_guidance_and_reconnecting_or_restarting_restores_it() {
+    let _serial = one_loop_at_a_time();
+    let ns = unique_namespace("bridgecut");
+    let dir = host_b("hc");
+    let port = free_port();
+    let loop_summary = std::env::temp_dir().join(format!("{ns}-loop.json"));
+    let mut lp = start_loop(&ns, &loop_summary);
+    let (node, _) = services::create_node("it_bridgecut_watch").unwrap();
+    let state = services::state_reader(&node, &ns).unwrap();
+    wait_for("the loop publishes", Duration::from_secs(30), || {
+        (state.get().header.sequence > 100).then_some(())
+    });
+    let mut a = bridge_a(&ns, port);
+    let mut b = bridge_b(&dir, &ns, port, "-3600");
+    let planner_args = ["serve", "--namespace", &ns, "--ttl-ms", "100"];
+    let mut planner = spawn_in(&dir, &bin("planner"), &planner_args);
+    let fresh = |what: &str| {
+        wait_for(what, Duration::from_secs(30), || {
+            let s = *state.get();
+            guidance_fresh(&s).then_some(s)
+        })
+    };
+    fresh("fresh guidance from host B");
+
+    // Cut: ttl 100 ms + fade 200 ms, so 500 ticks later (by the loop's own count) F_s is 0.
+    a.signal(libc::SIGKILL);
+    a.wait_timeout(Duration::from_secs(10))
+        .expect("bridge died");
+    let cut_seq = state.get().header.sequence;
+    wait_for("500 ticks after the cut", Duration::from_secs(30), || {
+        (state.get().header.sequence > cut_seq + 500).then_some(())
+    });
+    let s = *state.get();
+    assert_eq!(s.guidance_freshness, GuidanceFreshness::LOST);
+    assert_eq!(norm(s.guidance_wrench.force_n), 0.0);
+    assert!(lp.is_running(), "the loop survives the cut");
+    assert!(
+        b.is_running(),
+        "the remote bridge waits for the link to return"
+    );
+
+    // Reconnect: host B's bridge finds the new one on the same endpoint by itself.
+    let mut a2 = bridge_a(&ns, port);
+    fresh("guidance after the bridge returned");
+
+    // The remote planner killed and restarted: its guidance fades, the new one is followed.
+    let first_pid = planner.child.id();
+    planner.signal(libc::SIGKILL);
+    planner
+        .wait_timeout(Duration::from_secs(10))
+        .expect("planner died");
+    let kill_seq = state.get().header.sequence;
+    wait_for("500 ticks after the kill", Duration::from_secs(30), || {
+        (state.get().header.sequence > kill_seq + 500).then_some(())
+    });
+    assert_eq!(state.get().guidance_freshness, GuidanceFreshness::LOST);
+    let mut planner2 = spawn_in(&dir, &bin("planner"), &planner_args);
+    assert_ne!(planner2.child.id(), first_pid);
+    fresh("guidance from the restarted remote planner");
+
+    for p in [&mut planner2, &mut b, &mut a2, &mut lp] {
+        p.signal(libc::SIGTERM);
+        let st = p
+            .wait_timeout(Duration::from_secs(10))
+            .expect("stops on SIGTERM");
+        assert!(st.success(), "{}: clean exit on SIGTERM: {st}", p.name);
+    }
+    let _ = std::fs::remove_file(loop_summary);
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// An endpoint nobody listens on is an error naming it, after the connect timeout.
+#[test]
+fn an_unreachable_endpoint_is_a_clear_error() {
+    let port = free_port();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let out = Command::new(bin("hrrtc-bridge"))
+        .args([
+            "--side",
+            "planner",
+            "--namespace",
+            &unique_namespace("unreach"),
+            "--connect",
+            &endpoint,
+            "--connect-timeout-s",
+            "0.5",
+        ])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains(&endpoint), "names the endpoint: {stderr}");
+    let out = Command::new(bin("hrrtc-bridge"))
+        .args(["--side", "loop", "--listen", "tcp/not-an-endpoint"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("tcp/not-an-endpoint"), "{stderr}");
+}
