@@ -58,8 +58,12 @@ impl Side {
 pub struct BridgeConfig {
     /// This host's role.
     pub side: Side,
-    /// The iceoryx2 namespace bridged; also the Zenoh key prefix `hrrtc/<namespace>/`.
+    /// The iceoryx2 namespace bridged.
     pub namespace: String,
+    /// The Zenoh key prefix is `hrrtc/<key_namespace>/`; `None`: the namespace. (Two
+    /// bridges of one host on different namespaces can so be joined, e.g. to measure the
+    /// bridge with one clock.)
+    pub key_namespace: Option<String>,
     /// Zenoh endpoints to listen on, e.g. `tcp/0.0.0.0:7447`.
     pub listen: Vec<String>,
     /// Zenoh endpoints of the other bridges to connect to, e.g. `tcp/10.0.0.2:7447`.
@@ -86,6 +90,7 @@ impl BridgeConfig {
         Self {
             side,
             namespace: namespace.to_owned(),
+            key_namespace: None,
             listen: Vec::new(),
             connect: Vec::new(),
             connect_timeout_s: 10.0,
@@ -220,6 +225,9 @@ const IMPORT_QUEUE: usize = 256;
 /// Runs a bridge until `stop` is set (or `config.duration_s` passes).
 pub fn run(config: &BridgeConfig, stop: Arc<AtomicBool>) -> Result<BridgeReport, BridgeError> {
     services::validate_namespace(&config.namespace)?;
+    if let Some(k) = &config.key_namespace {
+        services::validate_namespace(k)?;
+    }
     for e in config.listen.iter().chain(&config.connect) {
         e.parse::<zenoh::config::EndPoint>()
             .map_err(|err| BridgeError::Endpoint {
@@ -246,7 +254,7 @@ pub fn run(config: &BridgeConfig, stop: Arc<AtomicBool>) -> Result<BridgeReport,
     let counters = Arc::new(Counters::default());
     let delays = Arc::new(Mutex::new(PeerDelays::default()));
     let clock = config.clock;
-    let ns = &config.namespace;
+    let ns = config.key_namespace.as_ref().unwrap_or(&config.namespace);
 
     // Probes: answer others' pings at once (on Zenoh's thread), time our own.
     let pong_key = key(ns, "bridge/pong");
@@ -366,8 +374,9 @@ pub fn run(config: &BridgeConfig, stop: Arc<AtomicBool>) -> Result<BridgeReport,
     }
     if setup.is_ok() {
         tracing::info!(
-            "bridge {id:016x} ({} side) on namespace '{ns}': listening on {:?}, connected to {:?}",
+            "bridge {id:016x} ({} side) on namespace '{}', keys hrrtc/{ns}/: listening on {:?}, connected to {:?}",
             config.side.name(),
+            config.namespace,
             config.listen,
             config.connect
         );
@@ -699,6 +708,7 @@ fn export_thread(
     ready: std::sync::mpsc::Sender<Result<(), BridgeError>>,
 ) {
     let ns = &config.namespace;
+    let keys = config.key_namespace.as_ref().unwrap_or(ns);
     let opened = (|| -> Result<_, BridgeError> {
         let (node, _) = services::create_node(&format!("bridge_out_{}", std::process::id()))?;
         let input = match config.side {
@@ -722,7 +732,7 @@ fn export_thread(
         };
         let mut publishers = Vec::new();
         for leaf in exported {
-            let k = key(ns, leaf);
+            let k = key(keys, leaf);
             // Newest wins: drop rather than queue behind a slow link, and skip Zenoh's
             // batching for the small, frequent samples.
             let p = session
@@ -735,11 +745,11 @@ fn export_thread(
             publishers.push(p);
         }
         let ping = session
-            .declare_publisher(key(ns, "bridge/ping"))
+            .declare_publisher(key(keys, "bridge/ping"))
             .congestion_control(CongestionControl::Drop)
             .express(true)
             .wait()
-            .map_err(declare_error(&key(ns, "bridge/ping")))?;
+            .map_err(declare_error(&key(keys, "bridge/ping")))?;
         Ok((node, input, publishers, ping))
     })();
     let (_node, mut input, publishers, ping) = match opened {

@@ -26,6 +26,9 @@ struct Cli {
     /// `hrrtc/<namespace>/...` and must match on both hosts.
     #[arg(long, default_value = ipc_types::services::DEFAULT_NAMESPACE)]
     namespace: String,
+    /// Zenoh key namespace, if not the iceoryx2 namespace (both bridges must use the same).
+    #[arg(long)]
+    key_namespace: Option<String>,
     /// Zenoh endpoint to listen on, e.g. `tcp/0.0.0.0:7447` (repeatable). Open this TCP
     /// port in the host's firewall.
     #[arg(long)]
@@ -119,6 +122,7 @@ fn run() -> anyhow::Result<()> {
         roadmap: !cli.no_roadmap,
         clock: HostClock::simulated(cli.clock_offset_s, cli.clock_drift_ppm),
         duration_s: cli.duration_s,
+        key_namespace: cli.key_namespace,
         ..BridgeConfig::new(side, &cli.namespace)
     };
     let stop = Arc::new(AtomicBool::new(false));
