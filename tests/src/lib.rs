@@ -80,11 +80,24 @@ pub struct Proc {
 impl Proc {
     /// Starts `program args`, stdout and stderr to this process's stderr (shown on failure).
     pub fn spawn(program: &Path, args: &[&str]) -> Proc {
-        let child = Command::new(program)
-            .args(args)
+        Self::spawn_with(program, args, |_| {})
+    }
+
+    /// As [`Proc::spawn`], in working directory `dir`.
+    pub fn spawn_in(dir: &Path, program: &Path, args: &[&str]) -> Proc {
+        Self::spawn_with(program, args, |c| {
+            c.current_dir(dir);
+        })
+    }
+
+    fn spawn_with(program: &Path, args: &[&str], setup: impl FnOnce(&mut Command)) -> Proc {
+        let mut cmd = Command::new(program);
+        cmd.args(args)
             .stdin(Stdio::null())
             .stdout(Stdio::inherit())
-            .stderr(Stdio::inherit())
+            .stderr(Stdio::inherit());
+        setup(&mut cmd);
+        let child = cmd
             .spawn()
             .unwrap_or_else(|e| panic!("cannot start {}: {e}", program.display()));
         Proc {

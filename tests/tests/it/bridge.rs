@@ -8,7 +8,7 @@
 use ipc_types::services;
 use ipc_types::{GuidanceFreshness, HapticState};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 use tests::{Proc, bin, norm, one_loop_at_a_time, unique_namespace, wait_for};
 
@@ -24,21 +24,6 @@ fn host_b(tag: &str) -> PathBuf {
     )
     .unwrap();
     dir
-}
-
-fn spawn_in(dir: &Path, program: &Path, args: &[&str]) -> Proc {
-    let child = Command::new(program)
-        .args(args)
-        .current_dir(dir)
-        .stdin(Stdio::null())
-        .stdout(Stdio::inherit())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .unwrap_or_else(|e| panic!("cannot start {}: {e}", program.display()));
-    Proc {
-        child,
-        name: program.display().to_string(),
-    }
 }
 
 /// A loopback TCP port free a moment ago.
@@ -60,7 +45,7 @@ fn bridge_a(ns: &str, port: u16) -> Proc {
 
 fn bridge_b(dir: &Path, ns: &str, port: u16, offset_s: &str) -> Proc {
     let connect = format!("tcp/127.0.0.1:{port}");
-    spawn_in(
+    Proc::spawn_in(
         dir,
         &bin("hrrtc-bridge"),
         &[
@@ -131,7 +116,7 @@ fn a_remote_planner_is_served_across_hosts_and_followed_once_it_solves() {
     let _b = bridge_b(&dir, &ns, port, "3600");
     let remote_arg = remote_json.to_str().unwrap().to_string();
     let (seq0, t0) = (state.get().header.sequence, Instant::now());
-    let mut remote = spawn_in(
+    let mut remote = Proc::spawn_in(
         &dir,
         &bin("planner"),
         &[
@@ -226,7 +211,7 @@ fn a_cut_link_fades_guidance_and_reconnecting_or_restarting_restores_it() {
     let mut a = bridge_a(&ns, port);
     let mut b = bridge_b(&dir, &ns, port, "-3600");
     let planner_args = ["serve", "--namespace", &ns, "--ttl-ms", "100"];
-    let mut planner = spawn_in(&dir, &bin("planner"), &planner_args);
+    let mut planner = Proc::spawn_in(&dir, &bin("planner"), &planner_args);
     let fresh = |what: &str| {
         wait_for(what, Duration::from_secs(30), || {
             let s = *state.get();
@@ -267,7 +252,7 @@ fn a_cut_link_fades_guidance_and_reconnecting_or_restarting_restores_it() {
         (state.get().header.sequence > kill_seq + 500).then_some(())
     });
     assert_eq!(state.get().guidance_freshness, GuidanceFreshness::LOST);
-    let mut planner2 = spawn_in(&dir, &bin("planner"), &planner_args);
+    let mut planner2 = Proc::spawn_in(&dir, &bin("planner"), &planner_args);
     assert_ne!(planner2.child.id(), first_pid);
     fresh("guidance from the restarted remote planner");
 
