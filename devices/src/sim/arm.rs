@@ -4,13 +4,15 @@ use nalgebra::{Isometry3, Vector3};
 
 use super::body::{MassProperties, RigidBody};
 use super::config::SimulatedArmConfig;
+use super::operator::OperatorHand;
 use super::sensor::quantize_pose;
 use super::user::ScriptedUser;
 use crate::{DeviceError, DeviceSpec, DeviceState, HapticDevice, Wrench};
 
 /// A simulated desktop 6-DOF arm: a rigid end effector of the configured mass and inertia,
-/// pushed by the last written (saturated) wrench, an optional [`ScriptedUser`]'s hand,
-/// viscous damping and a spherical workspace wall.
+/// pushed by the last written (saturated) wrench, an optional hand (a [`ScriptedUser`]
+/// replaying a timed path, or an [`OperatorHand`] that reacts to what it feels), viscous
+/// damping and a spherical workspace wall.
 ///
 /// # Time
 /// `read(now_ns)` integrates from the previous `read`'s `now_ns` to this one: the first
@@ -34,7 +36,7 @@ pub struct SimulatedArm {
     spec: DeviceSpec,
     mass: MassProperties,
     body: RigidBody,
-    user: Option<ScriptedUser>,
+    user: Option<Hand>,
     /// Simulated time at which the user was attached, ns.
     user_start_ns: u64,
     /// Last valid written wrench after saturation.
@@ -46,6 +48,13 @@ pub struct SimulatedArm {
     open: bool,
     last_now_ns: Option<u64>,
     sim_time_ns: u64,
+}
+
+/// Whose hand holds the arm.
+#[derive(Debug, Clone)]
+enum Hand {
+    Scripted(Box<ScriptedUser>),
+    Operator(Box<OperatorHand>),
 }
 
 impl SimulatedArm {
@@ -82,22 +91,49 @@ impl SimulatedArm {
         Ok(arm)
     }
 
-    /// Attaches `user` (replacing any other); its clock starts at the current simulated
-    /// time. The arm does not move.
+    /// An arm held by a reacting operator's `hand`, starting at rest at its route's start.
+    pub fn with_operator(
+        config: SimulatedArmConfig,
+        hand: OperatorHand,
+    ) -> Result<Self, DeviceError> {
+        let mut arm = SimulatedArm::new(config)?;
+        arm.set_true_pose(hand.setpoint());
+        arm.user = Some(Hand::Operator(Box::new(hand)));
+        arm.user_start_ns = arm.sim_time_ns;
+        Ok(arm)
+    }
+
+    /// Attaches `user` (replacing any other hand); its clock starts at the current
+    /// simulated time. The arm does not move.
     pub fn attach_user(&mut self, user: ScriptedUser) {
-        self.user = Some(user);
+        self.user = Some(Hand::Scripted(Box::new(user)));
         self.user_start_ns = self.sim_time_ns;
     }
 
-    /// Detaches and returns the user; the hand wrench becomes zero.
+    /// Detaches and returns the scripted user (an operator's hand is let go too); the hand
+    /// wrench becomes zero.
     pub fn detach_user(&mut self) -> Option<ScriptedUser> {
         self.hand = Wrench::ZERO;
-        self.user.take()
+        match self.user.take() {
+            Some(Hand::Scripted(u)) => Some(*u),
+            _ => None,
+        }
     }
 
-    /// The attached user, if any.
+    /// The attached scripted user, if any.
     pub fn user(&self) -> Option<&ScriptedUser> {
-        self.user.as_ref()
+        match &self.user {
+            Some(Hand::Scripted(u)) => Some(u),
+            _ => None,
+        }
+    }
+
+    /// The attached reacting operator's hand, if any.
+    pub fn operator_hand(&self) -> Option<&OperatorHand> {
+        match &self.user {
+            Some(Hand::Operator(h)) => Some(h),
+            _ => None,
+        }
     }
 
     /// Seconds on the attached user's clock (simulated time since it was attached).
@@ -189,11 +225,19 @@ impl SimulatedArm {
         let t_user = self.user_time_s();
         let body = self.body;
         self.hand = match self.user.as_mut() {
-            Some(user) => user.hand_wrench(
+            Some(Hand::Scripted(user)) => user.hand_wrench(
                 t_user,
                 &body.pose,
                 &body.linear_velocity,
                 &body.angular_velocity,
+            ),
+            // The hand feels what the device pushes the end effector with.
+            Some(Hand::Operator(hand)) => hand.hand_wrench(
+                t_user,
+                &body.pose,
+                &body.linear_velocity,
+                &body.angular_velocity,
+                &self.command,
             ),
             None => Wrench::ZERO,
         };

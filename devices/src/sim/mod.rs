@@ -1,5 +1,6 @@
-//! Simulated devices for tests and benches: [`SimulatedArm`] and the [`ScriptedUser`] that
-//! holds it.
+//! Simulated devices for tests, benches and the demo: [`SimulatedArm`] held by a
+//! [`ScriptedUser`] (a timed path) or by a reacting [`operator`] ([`OperatorHand`]), and the
+//! same operator on a rate-controlled [`SimulatedSpaceMouse`].
 //!
 //! The arm's dynamics see the rendered wrench, so a rendered wall really deflects the arm
 //! away from where the scripted hand wants it, as a real operator's arm would be.
@@ -7,14 +8,18 @@
 mod arm;
 mod body;
 mod config;
+pub mod operator;
 mod path;
 mod sensor;
+mod spacemouse;
 mod tremor;
 mod user;
 
 pub use arm::SimulatedArm;
 pub use config::SimulatedArmConfig;
+pub use operator::{Operator, OperatorConfig, OperatorHand, RouteStep};
 pub use path::Waypoint;
+pub use spacemouse::SimulatedSpaceMouse;
 pub use user::{ScriptedUser, ScriptedUserConfig};
 
 #[cfg(test)]

@@ -203,6 +203,12 @@ impl RateControl {
         };
     }
 
+    /// Puts the avatar at rest at `pose` (device base frame), e.g. where a task starts.
+    pub fn reset_to(&mut self, pose: Isometry3<f64>) {
+        self.halt();
+        self.pose = pose;
+    }
+
     /// Stops the avatar where it is (unplug, fault).
     pub fn halt(&mut self) {
         self.linear_velocity = Vector3::zeros();
@@ -210,9 +216,8 @@ impl RateControl {
         self.guidance = Wrench::ZERO;
     }
 
-    /// Advances by `dt_s` seconds with `axes` held for `report_age_s` seconds:
-    /// v = v_max·deflection + admittance·F_s, then explicit Euler on the pose, kept inside
-    /// the workspace sphere (the outward velocity is removed at its wall).
+    /// Advances by `dt_s` seconds with `axes` held for `report_age_s` seconds (a report
+    /// older than `hold_timeout_s` counts as released); see [`RateControl::step_deflections`].
     pub fn step(&mut self, axes: &RawAxes, report_age_s: f64, dt_s: f64) {
         let c = &self.config;
         let (t, r) = if report_age_s > c.hold_timeout_s {
@@ -223,6 +228,25 @@ impl RateControl {
                 c.deflections(axes.rotation),
             )
         };
+        self.step_deflections(&t, &r, dt_s);
+    }
+
+    /// Advances by `dt_s` seconds with deflections `t` and `r` (scene axes, each in
+    /// [−1, 1]; larger values are clamped): v = v_max·deflection + admittance·F_s, then
+    /// explicit Euler on the pose, kept inside the workspace sphere (the outward velocity is
+    /// removed at its wall).
+    pub fn step_deflections(&mut self, t: &Vector3<f64>, r: &Vector3<f64>, dt_s: f64) {
+        let c = &self.config;
+        let unit = |v: &Vector3<f64>| {
+            v.map(|x| {
+                if x.is_finite() {
+                    x.clamp(-1.0, 1.0)
+                } else {
+                    0.0
+                }
+            })
+        };
+        let (t, r) = (unit(t), unit(r));
         let mut v = t * c.max_speed_m_per_s + self.guidance.force * c.guidance_m_per_s_per_n;
         let w =
             r * c.max_angular_speed_rad_per_s + self.guidance.torque * c.guidance_rad_per_s_per_nm;

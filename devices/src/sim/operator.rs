@@ -1,0 +1,524 @@
+//! A simulated operator who reacts: it follows an intended route, perceives the held
+//! object and the force it feels a reaction time late, hesitates, sometimes takes a wrong
+//! turn or holds the object at a wrong orientation, notices when it is blocked and
+//! corrects, presses against a surface to slide along it where its route says so, and
+//! yields to the planner's guidance once it feels it.
+//!
+//! The mind ([`Operator`]) only decides an *intent*: the velocity it wants for the held
+//! object and the force it presses with. Two bodies carry it out:
+//! - [`OperatorHand`] holds a haptic arm through a spring-damper grip whose setpoint moves
+//!   with the intent (used by [`SimulatedArm`](super::SimulatedArm));
+//! - [`SimulatedSpaceMouse`](super::SimulatedSpaceMouse) turns the intent into puck
+//!   deflections of a rate-controlled avatar; there the operator feels nothing and judges
+//!   being blocked only by seeing no progress.
+//!
+//! # The model, per decision (every 1 ms of the operator's clock)
+//! 1. **Perceive** the object's pose and felt wrench now; act on the perception of
+//!    `reaction_delay_s` ago ([`perception`]).
+//! 2. **Target**: the current route step's pose, moved sideways by a wrong turn and turned
+//!    by a wrong orientation if this step drew one, and by the jitter of a retry.
+//! 3. **Arrived** within the tolerances (ignoring the press direction on a sliding step)?
+//!    A wrong turn is then seen to be wrong and dropped; otherwise dwell, then the next
+//!    step (with new random draws). The last step is held.
+//! 4. **Intent**: toward the target at `speed_m_per_s` / `angular_speed_rad_per_s`, slowing
+//!    within `approach_time_s` of it. A felt force that does not oppose that motion (nor
+//!    lie along the press) is guidance: it takes a share `guidance_share · min(|f| /
+//!    guidance_full_n, 1)` of the intent (`stuck_guidance_share` once stuck), the same for
+//!    torque.
+//! 5. **Blocked**: a felt force against the motion above `blocked_force_n` for
+//!    `blocked_time_s`, or no progress of `stall_progress_m` for `stall_time_s`. Then, in
+//!    this order: drop a wrong turn; else reduce a wrong orientation by `correction_share`;
+//!    else back off for `retry_back_s` and retry with a small random change of position and
+//!    orientation.
+//! 6. **Hesitate** now and then (a Poisson process), standing still.
+//!
+//! Deterministic for a given config (its `seed`), route and sequence of perceptions; no
+//! allocation after construction.
+
+mod config;
+mod hand;
+mod perception;
+
+pub use config::OperatorConfig;
+pub use hand::OperatorHand;
+pub use perception::Perception;
+
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+
+use crate::DeviceError;
+use perception::DelayLine;
+
+/// How often the operator decides, s.
+pub const DECISION_PERIOD_S: f64 = 1e-3;
+
+/// One step of an operator's route, device base frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RouteStep {
+    /// Pose to bring the held object to (m).
+    pub pose: Isometry3<f64>,
+    /// Force the hand adds while heading here, N: pressing the object against a surface
+    /// to slide along it (H-RRT-C's use of contact). Zero for free motion.
+    pub press_n: Vector3<f64>,
+    /// Pause on arrival, s.
+    pub dwell_s: f64,
+}
+
+impl RouteStep {
+    /// A free-motion step to `pose` with no dwell.
+    pub fn to(pose: Isometry3<f64>) -> Self {
+        RouteStep {
+            pose,
+            press_n: Vector3::zeros(),
+            dwell_s: 0.0,
+        }
+    }
+}
+
+/// What the operator wants at one instant, device base frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Intent {
+    /// Wanted velocity of the held object, m/s.
+    pub linear_velocity: Vector3<f64>,
+    /// Wanted angular velocity, rad/s.
+    pub angular_velocity: Vector3<f64>,
+    /// Force pressed with, N.
+    pub press_n: Vector3<f64>,
+}
+
+impl Intent {
+    const STILL: Intent = Intent {
+        linear_velocity: Vector3::new(0.0, 0.0, 0.0),
+        angular_velocity: Vector3::new(0.0, 0.0, 0.0),
+        press_n: Vector3::new(0.0, 0.0, 0.0),
+    };
+}
+
+/// What the operator did so far.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct OperatorStats {
+    /// Route steps reached (the last one included once held).
+    pub steps_reached: u32,
+    /// Times it felt or saw itself blocked.
+    pub blocks: u32,
+    /// Wrong turns taken, and of those dropped.
+    pub wrong_turns: u32,
+    /// Wrong orientations drawn.
+    pub wrong_orientations: u32,
+    /// Corrections of a wrong turn or orientation after a block or on arrival.
+    pub corrections: u32,
+    /// Retries (back off and change a little) after a block with nothing to correct.
+    pub retries: u32,
+    /// Hesitations.
+    pub hesitations: u32,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Mode {
+    Moving,
+    /// Standing still until `until` (s).
+    Hesitating {
+        until: f64,
+    },
+    /// At the step, pausing until `until` (s).
+    Dwelling {
+        until: f64,
+    },
+    /// Moving back along `direction` (unit) until `until` (s).
+    BackingOff {
+        until: f64,
+        direction: Vector3<f64>,
+    },
+    /// At the last step, holding it.
+    Done,
+}
+
+/// The operator's mind. See the module docs.
+#[derive(Debug, Clone)]
+pub struct Operator {
+    config: OperatorConfig,
+    route: Vec<RouteStep>,
+    rng: ChaCha8Rng,
+    step: usize,
+    mode: Mode,
+    /// Wrong turn of this step: sideways offset of its position, m.
+    turn: Vector3<f64>,
+    /// Wrong orientation of this step (identity when none), applied in the base frame.
+    orientation_error: UnitQuaternion<f64>,
+    /// A retry's change of the target.
+    jitter: Isometry3<f64>,
+    blocks_here: u32,
+    /// Time the felt resistance has lasted, s.
+    resisted_s: f64,
+    /// Best progress measure this attempt and when it was reached, s.
+    best: f64,
+    best_at: f64,
+    last_t: Option<f64>,
+    line: DelayLine,
+    intent: Intent,
+    stats: OperatorStats,
+}
+
+impl Operator {
+    /// An operator following `route` (device base frame). Allocates; fails on an invalid
+    /// config or an empty or non-finite route.
+    pub fn new(config: OperatorConfig, route: Vec<RouteStep>) -> Result<Self, DeviceError> {
+        config.validate()?;
+        if route.is_empty() {
+            return Err(DeviceError::InvalidConfig("route (empty)"));
+        }
+        let finite = |s: &RouteStep| {
+            s.pose.translation.vector.iter().all(|v| v.is_finite())
+                && s.pose.rotation.coords.iter().all(|v| v.is_finite())
+                && s.press_n.iter().all(|v| v.is_finite())
+                && s.dwell_s.is_finite()
+                && s.dwell_s >= 0.0
+        };
+        if !route.iter().all(finite) {
+            return Err(DeviceError::InvalidConfig(
+                "route (a non-finite pose, press or dwell)",
+            ));
+        }
+        Ok(Operator {
+            rng: ChaCha8Rng::seed_from_u64(config.seed),
+            line: DelayLine::new(config.reaction_delay_s, DECISION_PERIOD_S),
+            config,
+            route,
+            step: 0,
+            mode: Mode::Moving,
+            turn: Vector3::zeros(),
+            orientation_error: UnitQuaternion::identity(),
+            jitter: Isometry3::identity(),
+            blocks_here: 0,
+            resisted_s: 0.0,
+            best: f64::INFINITY,
+            best_at: 0.0,
+            last_t: None,
+            intent: Intent::STILL,
+            stats: OperatorStats::default(),
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &OperatorConfig {
+        &self.config
+    }
+
+    /// The route.
+    pub fn route(&self) -> &[RouteStep] {
+        &self.route
+    }
+
+    /// Where the operator starts: the first step's pose.
+    pub fn start_pose(&self) -> Isometry3<f64> {
+        self.route[0].pose
+    }
+
+    /// Index of the route step it is heading for (or holding).
+    pub fn step_index(&self) -> usize {
+        self.step
+    }
+
+    /// True once it holds the last step.
+    pub fn finished(&self) -> bool {
+        self.mode == Mode::Done
+    }
+
+    /// True while hesitating.
+    pub fn hesitating(&self) -> bool {
+        matches!(self.mode, Mode::Hesitating { .. })
+    }
+
+    /// The current wrong orientation's angle, rad (0 when none).
+    pub fn orientation_error_rad(&self) -> f64 {
+        self.orientation_error.angle()
+    }
+
+    /// What it did so far.
+    pub fn stats(&self) -> OperatorStats {
+        self.stats
+    }
+
+    /// The intent of the last decision.
+    pub fn intent(&self) -> Intent {
+        self.intent
+    }
+
+    /// The pose it aims for now (the step's pose with this attempt's errors), base frame.
+    pub fn target(&self) -> Isometry3<f64> {
+        let step = &self.route[self.step];
+        let p = step.pose.translation.vector + self.turn + self.jitter.translation.vector;
+        let q = self.jitter.rotation * self.orientation_error * step.pose.rotation;
+        Isometry3::from_parts(Translation3::from(p), q)
+    }
+
+    /// Decides with what is perceived now (acting on what was perceived
+    /// `reaction_delay_s` earlier) and returns the intent. Call once per
+    /// [`DECISION_PERIOD_S`] with non-decreasing times.
+    pub fn decide(&mut self, now: &Perception) -> Intent {
+        let dt = self.last_t.map_or(0.0, |t| (now.t_s - t).clamp(0.0, 0.1));
+        self.last_t = Some(now.t_s);
+        let seen = self.line.push(*now);
+        let t = now.t_s;
+        if self.best.is_infinite() {
+            self.begin_attempt(t);
+        }
+        self.intent = match self.mode {
+            Mode::Done => self.toward(&seen, false),
+            Mode::Hesitating { until } | Mode::Dwelling { until } if t < until => {
+                self.best_at = t;
+                Intent {
+                    press_n: self.press(),
+                    ..Intent::STILL
+                }
+            }
+            Mode::Dwelling { .. } => {
+                self.next_step(t);
+                self.toward(&seen, true)
+            }
+            Mode::Hesitating { .. } => {
+                self.mode = Mode::Moving;
+                self.best_at = t;
+                self.toward(&seen, true)
+            }
+            Mode::BackingOff { until, direction } if t < until => Intent {
+                linear_velocity: direction * (0.5 * self.config.speed_m_per_s),
+                ..Intent::STILL
+            },
+            Mode::BackingOff { .. } => {
+                self.mode = Mode::Moving;
+                self.begin_attempt(t);
+                self.toward(&seen, true)
+            }
+            Mode::Moving => self.moving(&seen, t, dt),
+        };
+        self.intent
+    }
+
+    fn moving(&mut self, seen: &Perception, t: f64, dt: f64) -> Intent {
+        let c = self.config;
+        let (e_p, e_r) = self.errors(seen);
+        if e_p.norm() <= c.position_tolerance_m && e_r.norm() <= c.angle_tolerance_rad {
+            if self.turn != Vector3::zeros() {
+                // It sees it went the wrong way.
+                self.turn = Vector3::zeros();
+                self.stats.corrections += 1;
+                self.begin_attempt(t);
+                return self.toward(seen, true);
+            }
+            self.stats.steps_reached += 1;
+            let dwell = self.route[self.step].dwell_s;
+            if self.step + 1 == self.route.len() {
+                self.mode = Mode::Done;
+            } else if dwell > 0.0 {
+                self.mode = Mode::Dwelling { until: t + dwell };
+            } else {
+                self.next_step(t);
+            }
+            return self.toward(seen, true);
+        }
+        if self.rng.random::<f64>() < c.hesitation_rate_per_s * dt {
+            let span = c.hesitation_max_s - c.hesitation_min_s;
+            let until = t + c.hesitation_min_s + span * self.rng.random::<f64>();
+            self.mode = Mode::Hesitating { until };
+            self.stats.hesitations += 1;
+            return Intent {
+                press_n: self.press(),
+                ..Intent::STILL
+            };
+        }
+        let intent = self.toward(seen, true);
+        // Progress: the seen distance to the target, angles weighed as lengths.
+        let measure = e_p.norm() + c.rotation_length_m * e_r.norm();
+        if measure < self.best - c.stall_progress_m {
+            self.best = measure;
+            self.best_at = t;
+        }
+        let resistance = self.resistance(seen, &e_p);
+        if resistance > c.blocked_force_n {
+            self.resisted_s += dt;
+        } else if resistance < 0.5 * c.blocked_force_n {
+            self.resisted_s = 0.0;
+        }
+        let felt_block = seen.felt.is_some() && self.resisted_s >= c.blocked_time_s;
+        if felt_block || t - self.best_at >= c.stall_time_s {
+            self.blocked(t, &e_p);
+            return Intent {
+                press_n: self.press(),
+                ..Intent::STILL
+            };
+        }
+        intent
+    }
+
+    /// Position error (m) and rotation vector (rad) from the seen pose to the target, base
+    /// frame; on a sliding step the position error's part along the press is dropped.
+    fn errors(&self, seen: &Perception) -> (Vector3<f64>, Vector3<f64>) {
+        let target = self.target();
+        let mut e_p = target.translation.vector - seen.pose.translation.vector;
+        if let Some(n) = self.route[self.step].press_n.try_normalize(1e-9) {
+            e_p -= n * e_p.dot(&n);
+        }
+        let e_r = (target.rotation * seen.pose.rotation.inverse()).scaled_axis();
+        (e_p, e_r)
+    }
+
+    /// The felt force against the wanted motion, N (0 without force feedback).
+    fn resistance(&self, seen: &Perception, e_p: &Vector3<f64>) -> f64 {
+        let (Some(felt), Some(d)) = (seen.felt, e_p.try_normalize(1e-9)) else {
+            return 0.0;
+        };
+        (-felt.force.dot(&d)).max(0.0)
+    }
+
+    fn press(&self) -> Vector3<f64> {
+        self.route[self.step].press_n
+    }
+
+    /// The intent toward the target from `seen`, with the guidance share when `yielding`.
+    fn toward(&self, seen: &Perception, yielding: bool) -> Intent {
+        let c = &self.config;
+        let (e_p, e_r) = self.errors(seen);
+        let v_route = limited(e_p, c.speed_m_per_s, c.approach_time_s);
+        let w_route = limited(e_r, c.angular_speed_rad_per_s, c.approach_time_s);
+        let mut intent = Intent {
+            linear_velocity: v_route,
+            angular_velocity: w_route,
+            press_n: self.press(),
+        };
+        let Some(felt) = seen.felt.filter(|_| yielding) else {
+            return intent;
+        };
+        let share = if self.blocks_here >= c.stuck_after_blocks {
+            c.stuck_guidance_share
+        } else {
+            c.guidance_share
+        };
+        // What does not push back against the motion, nor along the press, is a pull.
+        let mut pull = felt.force;
+        if let Some(d) = e_p.try_normalize(1e-9) {
+            pull -= d * pull.dot(&d).min(0.0);
+        }
+        if let Some(n) = self.press().try_normalize(1e-9) {
+            pull -= n * pull.dot(&n);
+        }
+        let mut twist = felt.torque;
+        if let Some(d) = e_r.try_normalize(1e-9) {
+            twist -= d * twist.dot(&d).min(0.0);
+        }
+        let wf = share * (pull.norm() / c.guidance_full_n).min(1.0);
+        let wt = share * (twist.norm() / c.guidance_full_nm).min(1.0);
+        if let Some(u) = pull.try_normalize(1e-9) {
+            intent.linear_velocity = v_route * (1.0 - wf) + u * (wf * c.speed_m_per_s);
+        }
+        if let Some(u) = twist.try_normalize(1e-9) {
+            intent.angular_velocity = w_route * (1.0 - wt) + u * (wt * c.angular_speed_rad_per_s);
+        }
+        intent
+    }
+
+    fn blocked(&mut self, t: f64, e_p: &Vector3<f64>) {
+        let c = self.config;
+        self.stats.blocks += 1;
+        self.blocks_here += 1;
+        self.resisted_s = 0.0;
+        if self.turn != Vector3::zeros() {
+            self.turn = Vector3::zeros();
+            self.stats.corrections += 1;
+            self.begin_attempt(t);
+            return;
+        }
+        if self.orientation_error.angle() > 0.0 {
+            let kept = self
+                .orientation_error
+                .try_slerp(&UnitQuaternion::identity(), c.correction_share, 1e-9)
+                .unwrap_or_else(UnitQuaternion::identity);
+            self.orientation_error = if kept.angle() < 0.5 * c.angle_tolerance_rad {
+                UnitQuaternion::identity()
+            } else {
+                kept
+            };
+            self.stats.corrections += 1;
+            self.begin_attempt(t);
+            return;
+        }
+        // Nothing it knows to correct: back off, then try a little differently.
+        self.stats.retries += 1;
+        let back = e_p.try_normalize(1e-9).map_or_else(Vector3::zeros, |d| -d);
+        self.mode = Mode::BackingOff {
+            until: t + c.retry_back_s,
+            direction: back,
+        };
+        let sideways = self.gaussian3() * c.retry_jitter_m;
+        let sideways = match e_p.try_normalize(1e-9) {
+            Some(d) => sideways - d * sideways.dot(&d),
+            None => sideways,
+        };
+        let turn = self.gaussian3() * c.retry_jitter_rad;
+        self.jitter = Isometry3::from_parts(
+            Translation3::from(sideways),
+            UnitQuaternion::from_scaled_axis(turn),
+        );
+    }
+
+    /// Moves to the next step and draws its errors.
+    fn next_step(&mut self, t: f64) {
+        let c = self.config;
+        self.step += 1;
+        self.mode = Mode::Moving;
+        self.blocks_here = 0;
+        self.jitter = Isometry3::identity();
+        self.turn = Vector3::zeros();
+        self.orientation_error = UnitQuaternion::identity();
+        let last = self.step + 1 == self.route.len();
+        if !last && self.rng.random::<f64>() < c.wrong_turn_probability {
+            let from = self.route[self.step - 1].pose.translation.vector;
+            let to = self.route[self.step].pose.translation.vector;
+            let mut side = self.gaussian3();
+            if let Some(d) = (to - from).try_normalize(1e-9) {
+                side -= d * side.dot(&d);
+            }
+            if let Some(s) = side.try_normalize(1e-9) {
+                self.turn = s * c.wrong_turn_m;
+                self.stats.wrong_turns += 1;
+            }
+        }
+        if !last && self.rng.random::<f64>() < c.wrong_orientation_probability {
+            let axis = self.gaussian3();
+            if let Some(a) = axis.try_normalize(1e-9) {
+                let angle = c.wrong_orientation_rad * (0.5 + self.rng.random::<f64>());
+                self.orientation_error = UnitQuaternion::from_scaled_axis(a * angle);
+                self.stats.wrong_orientations += 1;
+            }
+        }
+        self.begin_attempt(t);
+    }
+
+    fn begin_attempt(&mut self, t: f64) {
+        self.best = f64::MAX;
+        self.best_at = t;
+        self.resisted_s = 0.0;
+    }
+
+    fn gaussian3(&mut self) -> Vector3<f64> {
+        Vector3::new(
+            self.rng.sample(StandardNormal),
+            self.rng.sample(StandardNormal),
+            self.rng.sample(StandardNormal),
+        )
+    }
+}
+
+/// `error` as a velocity of at most `max` that closes it in about `approach_s`.
+fn limited(error: Vector3<f64>, max: f64, approach_s: f64) -> Vector3<f64> {
+    let n = error.norm();
+    if n < 1e-12 {
+        return Vector3::zeros();
+    }
+    error * ((max / n).min(1.0 / approach_s))
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,256 @@
+//! Parameters of the reactive operator, with the "expert" and "novice" presets.
+
+use serde::{Deserialize, Serialize};
+
+use crate::DeviceError;
+
+/// Parameters of [`Operator`](super::Operator) and of the hand that holds the arm
+/// ([`OperatorHand`](super::OperatorHand)). Lengths, speeds and forces are at the device
+/// (device base frame), not in the scene. Every field has a default (the expert), so a
+/// partial TOML/JSON table deserializes.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct OperatorConfig {
+    /// Time between what the operator perceives (pose, felt force) and its reaction to it,
+    /// s (people: about 0.1–0.25). Expert 0.12, novice 0.22.
+    pub reaction_delay_s: f64,
+    /// Hand speed toward the next route step in free motion, m/s. Expert 0.08, novice 0.05.
+    pub speed_m_per_s: f64,
+    /// Turning rate toward the next step's orientation, rad/s. Expert 1.0, novice 0.6.
+    pub angular_speed_rad_per_s: f64,
+    /// Slowing near a target: the speed is at most distance / this, s. Default 0.25.
+    pub approach_time_s: f64,
+    /// Length that weighs an angle against a distance in the operator's sense of progress
+    /// and arrival, m/rad (about the object's size at the device). Default 0.02.
+    pub rotation_length_m: f64,
+    /// A route step counts as reached within this distance, m. Default 0.002.
+    pub position_tolerance_m: f64,
+    /// ... and within this angle, rad. Default 0.05.
+    pub angle_tolerance_rad: f64,
+    /// Hesitations start at this rate while moving, 1/s (a Poisson process). Expert 0.05,
+    /// novice 0.2.
+    pub hesitation_rate_per_s: f64,
+    /// Shortest hesitation, s (its length is uniform between the two). Expert 0.2, novice 0.4.
+    pub hesitation_min_s: f64,
+    /// Longest hesitation, s. Expert 0.6, novice 1.5.
+    pub hesitation_max_s: f64,
+    /// Probability, per route step after the first, of heading first to a wrong place
+    /// (the step's position moved sideways by `wrong_turn_m`). Expert 0.05, novice 0.25.
+    pub wrong_turn_probability: f64,
+    /// How far sideways a wrong turn aims, m. Expert 0.015, novice 0.025.
+    pub wrong_turn_m: f64,
+    /// Probability, per route step after the first, of holding the object at a wrong
+    /// orientation (off by `wrong_orientation_rad` × U(0.5, 1.5) about a random axis).
+    /// Expert 0.15, novice 0.5.
+    pub wrong_orientation_probability: f64,
+    /// Typical size of a wrong orientation, rad. Expert 0.12, novice 0.3.
+    pub wrong_orientation_rad: f64,
+    /// Felt force against the intended motion that the operator reads as "blocked", N.
+    /// Expert 1.5, novice 2.5. (Only with force feedback.)
+    pub blocked_force_n: f64,
+    /// ... once felt for this long, s. Expert 0.2, novice 0.4.
+    pub blocked_time_s: f64,
+    /// Seen progress toward the step smaller than `stall_progress_m` for this long reads as
+    /// "blocked" too, s (what a SpaceMouse user, who feels nothing, goes by). Expert 0.6,
+    /// novice 1.2.
+    pub stall_time_s: f64,
+    /// Progress that counts, m (angles weighed by `rotation_length_m`). Default 0.001.
+    pub stall_progress_m: f64,
+    /// Share of a wrong orientation removed at each correction, 0–1. Expert 0.8, novice 0.5.
+    pub correction_share: f64,
+    /// After a block with nothing to correct: back off for this long, s, then retry with a
+    /// small random change. Default 0.3.
+    pub retry_back_s: f64,
+    /// Sideways change of a retry, m (σ per axis). Expert 0.002, novice 0.004.
+    pub retry_jitter_m: f64,
+    /// Orientation change of a retry, rad (σ per axis). Expert 0.04, novice 0.08.
+    pub retry_jitter_rad: f64,
+    /// Share of the operator's intent that comes from a guidance force it feels at
+    /// `guidance_full_n` or more (0–1; weaker forces give a proportionally smaller share).
+    /// Expert 0.3, novice 0.5.
+    pub guidance_share: f64,
+    /// The same share once blocked `stuck_after_blocks` times at one step: stuck, it lets
+    /// the guidance lead. Expert 0.8, novice 0.8.
+    pub stuck_guidance_share: f64,
+    /// Blocks at one step after which the operator counts itself stuck. Default 3.
+    pub stuck_after_blocks: u32,
+    /// Guidance force felt at full share, N. Default 1.0.
+    pub guidance_full_n: f64,
+    /// Guidance torque felt at full share, N·m. Default 0.05.
+    pub guidance_full_nm: f64,
+    /// Grip: translational stiffness between the hand and the handle, N/m. Default 300.
+    pub hand_stiffness_n_per_m: f64,
+    /// Grip: translational damping, N·s/m. Default 5.
+    pub hand_damping_n_s_per_m: f64,
+    /// Grip: rotational stiffness, N·m/rad. Default 0.5.
+    pub hand_rot_stiffness_nm_per_rad: f64,
+    /// Grip: rotational damping, N·m·s/rad. Default 0.02.
+    pub hand_rot_damping_nm_s_per_rad: f64,
+    /// Largest force the hand applies, N (bounded effort). Default 6.
+    pub max_force_n: f64,
+    /// Largest torque the hand applies, N·m. Default 0.4.
+    pub max_torque_nm: f64,
+    /// Seed of every random choice (ChaCha8). Default 1.
+    pub seed: u64,
+}
+
+impl Default for OperatorConfig {
+    fn default() -> Self {
+        OperatorConfig::expert()
+    }
+}
+
+impl OperatorConfig {
+    /// A trained operator: quick to react, few mistakes, corrects most of an error at once,
+    /// lets guidance take 30 % of its intent.
+    pub fn expert() -> Self {
+        OperatorConfig {
+            reaction_delay_s: 0.12,
+            speed_m_per_s: 0.08,
+            angular_speed_rad_per_s: 1.0,
+            approach_time_s: 0.25,
+            rotation_length_m: 0.02,
+            position_tolerance_m: 0.002,
+            angle_tolerance_rad: 0.05,
+            hesitation_rate_per_s: 0.05,
+            hesitation_min_s: 0.2,
+            hesitation_max_s: 0.6,
+            wrong_turn_probability: 0.05,
+            wrong_turn_m: 0.015,
+            wrong_orientation_probability: 0.15,
+            wrong_orientation_rad: 0.12,
+            blocked_force_n: 1.5,
+            blocked_time_s: 0.2,
+            stall_time_s: 0.6,
+            stall_progress_m: 0.001,
+            correction_share: 0.8,
+            retry_back_s: 0.3,
+            retry_jitter_m: 0.002,
+            retry_jitter_rad: 0.04,
+            guidance_share: 0.3,
+            stuck_guidance_share: 0.8,
+            stuck_after_blocks: 3,
+            guidance_full_n: 1.0,
+            guidance_full_nm: 0.05,
+            hand_stiffness_n_per_m: 300.0,
+            hand_damping_n_s_per_m: 5.0,
+            hand_rot_stiffness_nm_per_rad: 0.5,
+            hand_rot_damping_nm_s_per_rad: 0.02,
+            max_force_n: 6.0,
+            max_torque_nm: 0.4,
+            seed: 1,
+        }
+    }
+
+    /// An untrained operator: slower, hesitant, often wrong, corrects half an error at a
+    /// time, leans on guidance (50 %).
+    pub fn novice() -> Self {
+        OperatorConfig {
+            reaction_delay_s: 0.22,
+            speed_m_per_s: 0.05,
+            angular_speed_rad_per_s: 0.6,
+            hesitation_rate_per_s: 0.2,
+            hesitation_min_s: 0.4,
+            hesitation_max_s: 1.5,
+            wrong_turn_probability: 0.25,
+            wrong_turn_m: 0.025,
+            wrong_orientation_probability: 0.5,
+            wrong_orientation_rad: 0.3,
+            blocked_force_n: 2.5,
+            blocked_time_s: 0.4,
+            stall_time_s: 1.2,
+            correction_share: 0.5,
+            retry_jitter_m: 0.004,
+            retry_jitter_rad: 0.08,
+            guidance_share: 0.5,
+            ..OperatorConfig::expert()
+        }
+    }
+
+    /// The preset named `name` (`expert` or `novice`).
+    pub fn preset(name: &str) -> Option<Self> {
+        match name {
+            "expert" => Some(OperatorConfig::expert()),
+            "novice" => Some(OperatorConfig::novice()),
+            _ => None,
+        }
+    }
+
+    /// The longest reaction delay accepted, s (sizes the perception buffer).
+    pub const MAX_REACTION_DELAY_S: f64 = 1.0;
+
+    /// Checks every field's range; the error names the field.
+    pub fn validate(&self) -> Result<(), DeviceError> {
+        let positive = [
+            (self.speed_m_per_s, "speed_m_per_s"),
+            (self.angular_speed_rad_per_s, "angular_speed_rad_per_s"),
+            (self.approach_time_s, "approach_time_s"),
+            (self.rotation_length_m, "rotation_length_m"),
+            (self.position_tolerance_m, "position_tolerance_m"),
+            (self.angle_tolerance_rad, "angle_tolerance_rad"),
+            (self.stall_time_s, "stall_time_s"),
+            (self.stall_progress_m, "stall_progress_m"),
+            (self.guidance_full_n, "guidance_full_n"),
+            (self.guidance_full_nm, "guidance_full_nm"),
+            (self.max_force_n, "max_force_n"),
+            (self.max_torque_nm, "max_torque_nm"),
+            (self.hand_stiffness_n_per_m, "hand_stiffness_n_per_m"),
+            (
+                self.hand_rot_stiffness_nm_per_rad,
+                "hand_rot_stiffness_nm_per_rad",
+            ),
+        ];
+        for (v, name) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(DeviceError::InvalidConfig(name));
+            }
+        }
+        let non_negative = [
+            (self.hesitation_rate_per_s, "hesitation_rate_per_s"),
+            (self.hesitation_min_s, "hesitation_min_s"),
+            (self.wrong_turn_m, "wrong_turn_m"),
+            (self.wrong_orientation_rad, "wrong_orientation_rad"),
+            (self.blocked_force_n, "blocked_force_n"),
+            (self.blocked_time_s, "blocked_time_s"),
+            (self.retry_back_s, "retry_back_s"),
+            (self.retry_jitter_m, "retry_jitter_m"),
+            (self.retry_jitter_rad, "retry_jitter_rad"),
+            (self.hand_damping_n_s_per_m, "hand_damping_n_s_per_m"),
+            (
+                self.hand_rot_damping_nm_s_per_rad,
+                "hand_rot_damping_nm_s_per_rad",
+            ),
+        ];
+        for (v, name) in non_negative {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(DeviceError::InvalidConfig(name));
+            }
+        }
+        let shares = [
+            (self.wrong_turn_probability, "wrong_turn_probability"),
+            (
+                self.wrong_orientation_probability,
+                "wrong_orientation_probability",
+            ),
+            (self.correction_share, "correction_share"),
+            (self.guidance_share, "guidance_share"),
+            (self.stuck_guidance_share, "stuck_guidance_share"),
+        ];
+        for (v, name) in shares {
+            if !(0.0..=1.0).contains(&v) {
+                return Err(DeviceError::InvalidConfig(name));
+            }
+        }
+        if !(self.reaction_delay_s.is_finite()
+            && (0.0..=Self::MAX_REACTION_DELAY_S).contains(&self.reaction_delay_s))
+        {
+            return Err(DeviceError::InvalidConfig("reaction_delay_s (0–1 s)"));
+        }
+        if !(self.hesitation_max_s.is_finite() && self.hesitation_max_s >= self.hesitation_min_s) {
+            return Err(DeviceError::InvalidConfig(
+                "hesitation_max_s (must be at least hesitation_min_s)",
+            ));
+        }
+        Ok(())
+    }
+}
