@@ -185,3 +185,92 @@ pub fn one_loop_at_a_time() -> std::sync::MutexGuard<'static, ()> {
     // A test that failed while holding it poisons it; the next test may still run.
     LOCK.lock().unwrap_or_else(|p| p.into_inner())
 }
+
+/// Watching a running loop's deadline misses through its state, to show that something
+/// (a view, a network cut) changes nothing in its timing.
+pub mod loop_watch {
+    use super::wait_for;
+    use ipc_types::services::StateReader;
+    use ipc_types::{FaultCode, HapticState};
+    use std::time::Duration;
+
+    /// Ticks per measured phase (0.5 s at 1 kHz).
+    pub const PHASE_TICKS: u64 = 500;
+    /// Phases per condition; the condition's figure is their median, so one stall from
+    /// another process on this shared VM (a co-tenant's RT benchmark can hold a core for
+    /// 100 ms: that is 100 misses in one tick) does not decide the outcome.
+    pub const PHASES: usize = 3;
+
+    /// What the loop did over one phase.
+    #[derive(Debug, Clone, Copy)]
+    pub struct Phase {
+        /// Stalls: readings (every 5 ms) at which the loop's deadline-miss count had grown.
+        /// A stall of the machine costs as many misses as it lasts in milliseconds (this VM's
+        /// wake-up floor reaches 15 ms), but counts once here; a loop coupled to something
+        /// slow would stall with it again and again, or stop.
+        pub stalls: u64,
+        /// Deadline misses over the phase.
+        pub misses: u64,
+        /// A fault was raised during the phase (seen going from none to a code).
+        pub fault_raised: bool,
+    }
+
+    impl Phase {
+        /// Asserts this condition stalls no more than `baseline` did plus its own count again
+        /// and 2 % of the phase's ticks (the VM is shared with other tests and sessions),
+        /// and raises no fault unless the baseline did.
+        pub fn assert_like(&self, baseline: &Phase, what: &str) {
+            let tolerance = baseline.stalls + PHASE_TICKS / 50;
+            assert!(
+                self.stalls <= baseline.stalls + tolerance,
+                "{what}: {} stalls ({} missed ticks) vs baseline {} stalls ({} missed ticks)",
+                self.stalls,
+                self.misses,
+                baseline.stalls,
+                baseline.misses
+            );
+            assert!(
+                !self.fault_raised || baseline.fault_raised,
+                "{what}: the loop raised a fault, the baseline did not"
+            );
+        }
+    }
+
+    /// `PHASES` phases under one condition: the median stall count (with its phase's
+    /// misses), and whether any phase raised a fault.
+    pub fn condition(state: &StateReader, name: &str) -> Phase {
+        let mut phases: Vec<Phase> = (0..PHASES).map(|_| phase(state, name)).collect();
+        phases.sort_by_key(|p| p.stalls);
+        Phase {
+            fault_raised: phases.iter().any(|p| p.fault_raised),
+            ..phases[PHASES / 2]
+        }
+    }
+
+    /// Watches the loop for the next `PHASE_TICKS` ticks (counted by its own tick sequence,
+    /// not by wall-clock time).
+    pub fn phase(state: &StateReader, name: &str) -> Phase {
+        let first: HapticState = *state.get();
+        let mut prev = first.fault;
+        let mut prev_misses = first.deadline_misses;
+        let mut stalls = 0;
+        let mut fault_raised = false;
+        let last = wait_for(
+            &format!("{name}: {PHASE_TICKS} ticks"),
+            Duration::from_secs(60),
+            || {
+                let s = *state.get();
+                fault_raised |= prev == FaultCode::NONE && s.fault != FaultCode::NONE;
+                prev = s.fault;
+                stalls += u64::from(s.deadline_misses > prev_misses);
+                prev_misses = s.deadline_misses;
+                (s.header.sequence >= first.header.sequence + PHASE_TICKS).then_some(s)
+            },
+        );
+        Phase {
+            stalls,
+            misses: last.deadline_misses - first.deadline_misses,
+            fault_raised,
+        }
+    }
+}

@@ -10,6 +10,7 @@ use ipc_types::{GuidanceFreshness, HapticState};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
+use tests::loop_watch::{PHASES, condition};
 use tests::{Proc, bin, norm, one_loop_at_a_time, unique_namespace, wait_for};
 
 /// A folder that makes processes started in it "host B": iceoryx2 reads
@@ -74,6 +75,8 @@ fn start_loop(ns: &str, summary: &Path) -> Proc {
             "0",
             "--no-mlock",
             "--no-contact",
+            "--scene",
+            SCENE,
             "--duration-s",
             "60",
             "--summary-json",
@@ -81,6 +84,11 @@ fn start_loop(ns: &str, summary: &Path) -> Proc {
         ],
     )
 }
+
+/// Automatic RRT-Connect solves it within a few thousand iterations (0.06 s median in
+/// release), a one-tree RRT of 0.5 mm steps never does in 12 s: which planner solves first
+/// is known.
+const SCENE: &str = "silencer";
 
 fn guidance_fresh(s: &HapticState) -> bool {
     s.guidance_sequence > 0
@@ -95,8 +103,9 @@ fn json(path: &Path) -> serde_json::Value {
 /// The remote planner receives the state at ≥ 90 % of the loop's rate and its guidance
 /// reaches the arm, fresh (neither rejected as from the future nor faded as an hour old),
 /// with host B's clock an hour ahead. A second planner on host A, which cannot solve (a
-/// one-tree RRT of 0.5 mm steps cannot reach a goal 0.9 m away in 12 s), serves the same loop: once the remote
-/// one solves, the loop follows it (the first to solve).
+/// one-tree RRT of 0.5 mm steps cannot wind through the silencer in 12 s), serves the same
+/// loop: once the remote one (automatic RRT-Connect) solves, the loop follows it (the first
+/// to solve).
 #[test]
 fn a_remote_planner_is_served_across_hosts_and_followed_once_it_solves() {
     let _serial = one_loop_at_a_time();
@@ -123,6 +132,10 @@ fn a_remote_planner_is_served_across_hosts_and_followed_once_it_solves() {
             "serve",
             "--namespace",
             &ns,
+            "--scene",
+            SCENE,
+            "--sampling",
+            "cs",
             "--duration-s",
             "12",
             "--json",
@@ -136,6 +149,8 @@ fn a_remote_planner_is_served_across_hosts_and_followed_once_it_solves() {
             "serve",
             "--namespace",
             &ns,
+            "--scene",
+            SCENE,
             "--seed",
             "2",
             "--algorithm",
@@ -193,7 +208,7 @@ fn a_remote_planner_is_served_across_hosts_and_followed_once_it_solves() {
 }
 
 /// Cutting the link (the loop host's bridge killed) fades the remote guidance out within
-/// time-to-live + fade while the loop ticks on; a new bridge on the same port restores it;
+/// time-to-live + fade while the loop ticks on, its deadline misses no worse than linked; a new bridge on the same port restores it;
 /// a remote planner killed and restarted is followed. Host B's clock is an hour behind.
 #[test]
 fn a_cut_link_fades_guidance_and_reconnecting_or_restarting_restores_it() {
@@ -210,7 +225,15 @@ fn a_cut_link_fades_guidance_and_reconnecting_or_restarting_restores_it() {
     });
     let mut a = bridge_a(&ns, port);
     let mut b = bridge_b(&dir, &ns, port, "-3600");
-    let planner_args = ["serve", "--namespace", &ns, "--ttl-ms", "100"];
+    let planner_args = [
+        "serve",
+        "--namespace",
+        &ns,
+        "--scene",
+        SCENE,
+        "--ttl-ms",
+        "100",
+    ];
     let mut planner = Proc::spawn_in(&dir, &bin("planner"), &planner_args);
     let fresh = |what: &str| {
         wait_for(what, Duration::from_secs(30), || {
@@ -219,6 +242,7 @@ fn a_cut_link_fades_guidance_and_reconnecting_or_restarting_restores_it() {
         })
     };
     fresh("fresh guidance from host B");
+    let linked = condition(&state, "linked");
 
     // Cut: ttl 100 ms + fade 200 ms, so 500 ticks later (by the loop's own count) F_s is 0.
     a.signal(libc::SIGKILL);
@@ -236,6 +260,10 @@ fn a_cut_link_fades_guidance_and_reconnecting_or_restarting_restores_it() {
         b.is_running(),
         "the remote bridge waits for the link to return"
     );
+    // The loop's timing does not notice the cut.
+    let cut = condition(&state, "cut");
+    eprintln!("deadline misses, median phase of {PHASES}: linked {linked:?}, cut {cut:?}");
+    cut.assert_like(&linked, "after the cut");
 
     // Reconnect: host B's bridge finds the new one on the same endpoint by itself.
     let mut a2 = bridge_a(&ns, port);
