@@ -40,6 +40,7 @@ pub fn two_spheres(triangles: usize) -> Scene {
         start: Se3::from_xyz(0.3, 0.0, 0.0),
         goal: Se3::from_xyz(-0.3, 0.0, 0.0),
         space: SpaceKind::Se3,
+        route: Vec::new(),
     }
 }
 

@@ -381,8 +381,13 @@ impl Operator {
     fn toward(&self, seen: &Perception, yielding: bool) -> Intent {
         let c = &self.config;
         let (e_p, e_r) = self.errors(seen);
-        let v_route = limited(e_p, c.speed_m_per_s, c.approach_time_s);
-        let w_route = limited(e_r, c.angular_speed_rad_per_s, c.approach_time_s);
+        // Position and orientation arrive together (a straight line and a slerp, as the
+        // planner interpolates), at the pace of the slower one.
+        let time_s = (e_p.norm() / c.speed_m_per_s)
+            .max(e_r.norm() / c.angular_speed_rad_per_s)
+            .max(c.approach_time_s);
+        let v_route = e_p / time_s;
+        let w_route = e_r / time_s;
         let mut intent = Intent {
             linear_velocity: v_route,
             angular_velocity: w_route,
@@ -509,15 +514,6 @@ impl Operator {
             self.rng.sample(StandardNormal),
         )
     }
-}
-
-/// `error` as a velocity of at most `max` that closes it in about `approach_s`.
-fn limited(error: Vector3<f64>, max: f64, approach_s: f64) -> Vector3<f64> {
-    let n = error.norm();
-    if n < 1e-12 {
-        return Vector3::zeros();
-    }
-    error * ((max / n).min(1.0 / approach_s))
 }
 
 #[cfg(test)]

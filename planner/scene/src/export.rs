@@ -68,6 +68,22 @@ impl Scene {
                 part_lines(&mut out, part, &mut meshes);
             }
         }
+        if !self.route.is_empty() {
+            let _ = writeln!(
+                out,
+                "\n# The operator's intended route between start and goal (demo and live experiments)."
+            );
+        }
+        for step in &self.route {
+            let _ = writeln!(out, "\n[[route]]");
+            pose_lines(&mut out, &step.pose);
+            if step.press_n != nalgebra::Vector3::zeros() {
+                let _ = writeln!(out, "press_n = {}", fmt3(step.press_n.into()));
+            }
+            if step.dwell_s != 0.0 {
+                let _ = writeln!(out, "dwell_s = {:?}", step.dwell_s);
+            }
+        }
         (out, meshes)
     }
 
@@ -126,6 +142,14 @@ mod tests {
         }
         if !close(&a.start, &b.start) || !close(&a.goal, &b.goal) {
             return Err("start or goal differ".into());
+        }
+        let same_step = |x: &super::super::RouteStep, y: &super::super::RouteStep| {
+            close(&x.pose, &y.pose) && x.press_n == y.press_n && x.dwell_s == y.dwell_s
+        };
+        if a.route.len() != b.route.len()
+            || !a.route.iter().zip(&b.route).all(|(x, y)| same_step(x, y))
+        {
+            return Err("routes differ".into());
         }
         for (pa, pb) in [
             (&a.obstacles, &b.obstacles),

@@ -28,7 +28,7 @@
 //! with toml's line and column; semantic errors name the field and the line of its table;
 //! mesh errors name the scene file, the part, the mesh file and the mesh's line.
 
-use super::{Bounds, MeshData, Part, Primitive, Scene, SceneError, SpaceKind};
+use super::{Bounds, MeshData, Part, Primitive, RouteStep, Scene, SceneError, SpaceKind};
 use crate::pose::Se3;
 use nalgebra::Vector3;
 use serde::Deserialize;
@@ -80,6 +80,20 @@ struct SceneFile {
     #[serde(default)]
     obstacles: Vec<Spanned<PartFile>>,
     moving_object: Vec<Spanned<PartFile>>,
+    #[serde(default)]
+    route: Vec<Spanned<RouteFile>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RouteFile {
+    position_m: [Finite; 3],
+    #[serde(default)]
+    rpy_rad: [Finite; 3],
+    #[serde(default)]
+    press_n: [Finite; 3],
+    #[serde(default)]
+    dwell_s: Finite,
 }
 
 #[derive(Deserialize)]
@@ -208,6 +222,16 @@ pub(super) fn parse(text: &str, origin: &str) -> Result<Scene, SceneError> {
     let obstacles = convert("obstacles", &raw.obstacles)?;
     let moving_object = convert("moving_object", &raw.moving_object)?;
     let (start, goal) = (raw.start.get_ref(), raw.goal.get_ref());
+    let mut route = Vec::with_capacity(raw.route.len());
+    for (i, item) in raw.route.iter().enumerate() {
+        spans.push((format!("route[{i}]"), item.span().start));
+        let r = item.get_ref();
+        route.push(RouteStep {
+            pose: pose(&r.position_m, &r.rpy_rad),
+            press_n: vec3(&r.press_n),
+            dwell_s: r.dwell_s.0,
+        });
+    }
     let scene = Scene {
         name: raw.name.clone().unwrap_or_else(|| default_name(origin)),
         obstacles,
@@ -222,6 +246,7 @@ pub(super) fn parse(text: &str, origin: &str) -> Result<Scene, SceneError> {
             SpaceFile::Se3 => SpaceKind::Se3,
             SpaceFile::Planar => SpaceKind::Planar,
         },
+        route,
     };
     scene.validate(origin).map_err(|e| match e {
         SceneError::Invalid {
@@ -311,6 +336,35 @@ radius_m = 0.1
             s.moving_object[0].primitive,
             Primitive::Sphere { radius_m: 0.1 }
         );
+    }
+
+    #[test]
+    fn a_route_parses_and_a_bad_step_is_named_with_its_line() {
+        let text = format!(
+            "{MINIMAL}\n[[route]]\nposition_m = [0.1, 0, 0]\n\n[[route]]\nposition_m = [0.2, 0, 0]\nrpy_rad = [0, 0, 1]\npress_n = [0, 0, -2]\ndwell_s = 0.5\n"
+        );
+        let s = Scene::from_toml_str(&text, "r.toml").expect("parses");
+        assert_eq!(s.route.len(), 2);
+        assert_eq!(s.route[0], RouteStep::to(Se3::from_xyz(0.1, 0.0, 0.0)));
+        assert_eq!(s.route[1].press_n, Vector3::new(0.0, 0.0, -2.0));
+        assert_eq!(s.route[1].dwell_s, 0.5);
+        assert!((s.route[1].pose.rot.angle() - 1.0).abs() < 1e-12);
+        let whole = s.operator_route();
+        assert_eq!(whole.len(), 4);
+        assert_eq!(whole[0].pose, s.start);
+        assert_eq!(whole[3].pose, s.goal);
+        let line = text.lines().count() - 4;
+        let e = err(&text.replace("[0.2, 0, 0]", "[9, 0, 0]"));
+        assert!(
+            e.contains(&format!("f.toml:{line}"))
+                && e.contains("route[1]")
+                && e.contains("outside"),
+            "{e}"
+        );
+        let e = err(&text.replace("dwell_s = 0.5", "dwell_s = -1"));
+        assert!(e.contains("route[1]") && e.contains("dwell_s"), "{e}");
+        let e = err(&text.replace("press_n", "push_n"));
+        assert!(e.contains("push_n"), "{e}");
     }
 
     fn err(text: &str) -> String {

@@ -1,5 +1,6 @@
 //! Planning scenes, shared by the haptic loop and the planner: static obstacles, the moving
-//! object, the bounds of its reference point, and the start and goal configurations.
+//! object, the bounds of its reference point, the start and goal configurations, and the
+//! route a (simulated) operator intends to take.
 //!
 //! Frames and units: the scene frame is right-handed with Z up, lengths in metres, angles
 //! in radians. Obstacle poses are in the scene frame; moving-object part poses are in the
@@ -124,6 +125,39 @@ pub enum SpaceKind {
     Planar,
 }
 
+/// One step of the route an operator intends to take, scene frame: where to bring the
+/// object next, and whether to press it against a surface on the way (H-RRT-C's sliding
+/// in contact).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RouteStep {
+    /// Configuration to bring the object to.
+    pub pose: Se3,
+    /// Force the operator presses with while heading here, N, scene frame (pushing the
+    /// object onto a surface to slide along it); zero for free motion.
+    pub press_n: Vector3<f64>,
+    /// Pause on arrival, s (≥ 0).
+    pub dwell_s: f64,
+}
+
+impl RouteStep {
+    /// A free-motion step to `pose`.
+    pub fn to(pose: Se3) -> Self {
+        RouteStep {
+            pose,
+            press_n: Vector3::zeros(),
+            dwell_s: 0.0,
+        }
+    }
+
+    /// This step pressing with `press_n` (N, scene frame).
+    pub fn pressing(self, press_n: [f64; 3]) -> Self {
+        RouteStep {
+            press_n: Vector3::from(press_n),
+            ..self
+        }
+    }
+}
+
 /// A complete planning scene. See the module docs for frames.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scene {
@@ -141,6 +175,10 @@ pub struct Scene {
     pub goal: Se3,
     /// Configuration space to plan in.
     pub space: SpaceKind,
+    /// The steps an operator takes between start and goal (the operator's intent, not a
+    /// solution: it may need the right orientation only roughly, and contact on the way);
+    /// empty: straight from start to goal. See [`Scene::operator_route`].
+    pub route: Vec<RouteStep>,
 }
 
 /// Why a scene could not be loaded or is invalid. Every variant names its origin (a file
@@ -265,6 +303,7 @@ impl Scene {
             start: Se3::from_xyz(-0.20, 0.0, 0.0),
             goal: Se3::from_xyz(0.20, 0.0, 0.0),
             space: SpaceKind::Se3,
+            route: builtin::wall_hole_route(hole_side_m),
         }
     }
 
@@ -392,7 +431,31 @@ impl Scene {
                 return Err(bad(field.into(), "position_m is outside bounds"));
             }
         }
+        for (i, step) in self.route.iter().enumerate() {
+            let field = format!("route[{i}]");
+            if !step.pose.is_finite() {
+                return Err(bad(field, "pose must be finite"));
+            }
+            if !b.contains(&step.pose.pos) {
+                return Err(bad(field, "position_m is outside bounds"));
+            }
+            if !step.press_n.iter().all(|v| v.is_finite()) {
+                return Err(bad(field, "press_n must be finite"));
+            }
+            if !(step.dwell_s.is_finite() && step.dwell_s >= 0.0) {
+                return Err(bad(field, "dwell_s must be finite and >= 0"));
+            }
+        }
         Ok(())
+    }
+
+    /// The operator's whole route: the start, the scene's route steps, the goal.
+    pub fn operator_route(&self) -> Vec<RouteStep> {
+        let mut r = Vec::with_capacity(self.route.len() + 2);
+        r.push(RouteStep::to(self.start));
+        r.extend_from_slice(&self.route);
+        r.push(RouteStep::to(self.goal));
+        r
     }
 }
 

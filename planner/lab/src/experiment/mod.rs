@@ -107,7 +107,7 @@ pub fn run_drawn(
     let scene =
         Scene::builtin(&spec.scene).ok_or_else(|| LabError::UnknownScene(spec.scene.clone()))?;
     let mut planner = Planner::new(&scene, spec.params.clone(), spec.seed)?;
-    let keyframes = user::keyframes(&spec.scene).unwrap_or_else(|| vec![scene.start, scene.goal]);
+    let keyframes = user::keyframes(&scene);
     // The operator's error has its own stream so that it does not depend on the planner.
     let mut user_rng = ChaCha8Rng::seed_from_u64(spec.seed ^ 0x5eed_0f05_e700);
     let mut sim = match spec.user {

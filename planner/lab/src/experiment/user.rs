@@ -25,6 +25,7 @@ use planner_core::sampling::{Contact, UserInput};
 use planner_core::space::ConfigSpace;
 use rand::{Rng, RngCore};
 use rand_distr::StandardNormal;
+use scene::Scene;
 use scene::pose::{Se3, exp_rotation};
 
 /// Coupling stiffness of the contact-seeking user (N/m, default 200: 1 cm of push is 2 N).
@@ -184,74 +185,11 @@ impl SimUser {
     }
 }
 
-/// The predetermined operator path of a built-in scene (keyframes, scene frame), through
-/// its passages with the orientation each needs; `None` for scenes without one.
-pub fn keyframes(scene: &str) -> Option<Vec<Se3>> {
-    use std::f64::consts::FRAC_PI_2;
-    let rpy = |x: f64, y: f64, z: f64, r: f64, p: f64, w: f64| {
-        Se3::from_rpy(Vector3::new(x, y, z), r, p, w)
-    };
-    let deg = std::f64::consts::PI / 180.0;
-    Some(match scene {
-        "maze" => vec![
-            rpy(-0.35, -0.35, 0.0, 0.0, 0.0, 0.0),
-            rpy(0.0, -0.2, 0.0, 0.0, 0.0, FRAC_PI_2),
-            rpy(0.0, 0.12, 0.0, 0.0, 0.0, FRAC_PI_2),
-            rpy(0.33, 0.12, 0.0, 0.0, 0.0, FRAC_PI_2),
-            rpy(0.33, 0.40, 0.0, 0.0, 0.0, 0.0),
-        ],
-        "tunnels" | "tunnels-1axis" | "tunnels-2axes" => {
-            let (a2, b2) = match scene {
-                "tunnels" => (false, true),
-                "tunnels-1axis" => (false, false),
-                _ => (true, true),
-            };
-            let ra = UnitQuaternion::from_euler_angles(
-                35.0 * deg,
-                if a2 { 20.0 * deg } else { 0.0 },
-                0.0,
-            );
-            let rb = UnitQuaternion::from_euler_angles(
-                -50.0 * deg,
-                0.0,
-                if b2 { 25.0 * deg } else { 0.0 },
-            );
-            // Cross each plate along its own normal, from 45 mm before its centre to 80 mm
-            // after (the stem trails the bar by 70 mm).
-            let (ca, cb) = (Vector3::new(0.15, 0.0, 0.0), Vector3::new(-0.15, 0.0, 0.0));
-            let (na, nb) = (ra * Vector3::x(), rb * Vector3::x());
-            vec![
-                Se3::from_xyz(0.40, 0.0, 0.0),
-                Se3::new(ca + na * 0.045, ra),
-                Se3::new(ca - na * 0.08, ra),
-                Se3::new(cb + nb * 0.045, rb),
-                Se3::new(cb - nb * 0.08, rb),
-                Se3::from_xyz(-0.40, 0.0, 0.0),
-            ]
-        }
-        "crossing-planes" => {
-            let up = UnitQuaternion::from_euler_angles(FRAC_PI_2, 0.0, 0.0);
-            vec![
-                Se3::from_xyz(-0.35, 0.0, 0.0),
-                Se3::from_xyz(0.0, 0.0, 0.0),
-                Se3::new(Vector3::zeros(), up),
-                Se3::new(Vector3::new(0.35, 0.0, 0.0), up),
-            ]
-        }
-        "silencer" => vec![
-            Se3::from_xyz(0.0, 0.0, 0.06),
-            Se3::from_xyz(-0.3, 0.0, 0.06),
-            Se3::from_xyz(-0.3, 0.0, -0.25),
-            Se3::from_xyz(-0.3, 0.55, -0.25),
-            Se3::from_xyz(-0.3, 0.55, 0.35),
-            Se3::from_xyz(0.0, 0.0, 0.35),
-        ],
-        "free" => vec![
-            Se3::from_xyz(-0.15, -0.15, -0.15),
-            Se3::from_xyz(0.15, 0.15, 0.15),
-        ],
-        _ => return None,
-    })
+/// The predetermined operator path of a scene: start, its route's steps, goal (scene
+/// frame; see [`Scene::operator_route`]). The lockstep operators ignore the route's press
+/// forces and dwells.
+pub fn keyframes(scene: &Scene) -> Vec<Se3> {
+    scene.operator_route().iter().map(|s| s.pose).collect()
 }
 
 #[cfg(test)]
@@ -260,22 +198,13 @@ mod tests {
     use planner_core::space::{Space, Weights};
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
-    use scene::Scene;
 
     #[test]
     fn operator_paths_are_free_densely_and_run_start_to_goal() {
-        for name in [
-            "maze",
-            "tunnels",
-            "tunnels-1axis",
-            "tunnels-2axes",
-            "crossing-planes",
-            "silencer",
-            "free",
-        ] {
+        for name in scene::BUILTIN_NAMES {
             let scene = Scene::builtin(name).expect("scene");
             let c = CollisionChecker::new(&scene);
-            let k = keyframes(name).expect("keyframes");
+            let k = keyframes(&scene);
             let space = Space::for_scene(&scene, Weights::default());
             assert!(space.distance(&k[0], &scene.start) < 1e-9, "{name} start");
             assert!(
@@ -293,7 +222,7 @@ mod tests {
         let scene = Scene::crossing_planes();
         let c = CollisionChecker::new(&scene);
         let space = Space::for_scene(&scene, Weights::default());
-        let k = keyframes("crossing-planes").expect("k");
+        let k = keyframes(&scene);
         let mut u = SimUser::pass_through(&space, k.clone(), 0.01);
         let a = u.step(&space, &c).q_user;
         let b = u.step(&space, &c).q_user;
@@ -318,7 +247,7 @@ mod tests {
         let scene = Scene::crossing_planes();
         let c = CollisionChecker::new(&scene);
         let space = Space::for_scene(&scene, Weights::default());
-        let k = keyframes("crossing-planes").expect("k");
+        let k = keyframes(&scene);
         let mut rng = ChaCha8Rng::seed_from_u64(1);
         let mut u = SimUser::contact_seeking(&space, k, 0.002, 0.3, &mut rng);
         // The first slabs' front face is at x = −0.25 m; the slit ends at x = −0.08 m.
