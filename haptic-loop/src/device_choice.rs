@@ -1,5 +1,5 @@
-//! Which device the loop drives (`sim`, `spacemouse`, `dhd`, `openhaptics`, `bridge`,
-//! `replay:FILE`), building it with an optional recorder around it, and describing a
+//! Which device the loop drives (`sim`, `sim-spacemouse`, `spacemouse`, `dhd`,
+//! `openhaptics`, `bridge`, `replay:FILE`), building it with an optional recorder around it, and describing a
 //! device's limits. Errors name the device and what to check (permissions, library path,
 //! driver).
 
@@ -13,12 +13,15 @@ use devices::{DeviceError, DeviceSpec, HapticDevice};
 
 use crate::Error;
 use crate::bridge::{BridgeConfig, BridgeDevice};
+use crate::session::scenario::SimInput;
 
 /// Which device the loop drives.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum DeviceChoice {
-    /// The simulated arm with the scripted operator.
+    /// The simulated arm held by a simulated operator.
     Sim,
+    /// A simulated SpaceMouse held by the simulated operator (rate control, no force).
+    SimSpaceMouse,
     /// A 3Dconnexion SpaceMouse (rate control of an avatar).
     SpaceMouse,
     /// A Force Dimension device (or Novint Falcon) through libdhd.
@@ -33,7 +36,9 @@ pub enum DeviceChoice {
 
 /// A device name that is none of the choices.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown device {0:?}: expected sim, spacemouse, dhd, openhaptics, bridge or replay:FILE")]
+#[error(
+    "unknown device {0:?}: expected sim, sim-spacemouse, spacemouse, dhd, openhaptics, bridge or replay:FILE"
+)]
 pub struct UnknownDevice(pub String);
 
 impl FromStr for DeviceChoice {
@@ -41,6 +46,7 @@ impl FromStr for DeviceChoice {
     fn from_str(s: &str) -> Result<Self, UnknownDevice> {
         Ok(match s {
             "sim" => DeviceChoice::Sim,
+            "sim-spacemouse" => DeviceChoice::SimSpaceMouse,
             "spacemouse" => DeviceChoice::SpaceMouse,
             "dhd" => DeviceChoice::Dhd,
             "openhaptics" => DeviceChoice::OpenHaptics,
@@ -58,6 +64,7 @@ impl DeviceChoice {
     pub fn name(&self) -> String {
         match self {
             DeviceChoice::Sim => "the simulated arm".into(),
+            DeviceChoice::SimSpaceMouse => "the simulated SpaceMouse".into(),
             DeviceChoice::SpaceMouse => "the SpaceMouse".into(),
             DeviceChoice::Dhd => "the Force Dimension device (libdhd)".into(),
             DeviceChoice::OpenHaptics => "the OpenHaptics device (libHD)".into(),
@@ -69,7 +76,7 @@ impl DeviceChoice {
     /// What to check when this device does not open.
     fn hint(&self) -> &'static str {
         match self {
-            DeviceChoice::Sim => "",
+            DeviceChoice::Sim | DeviceChoice::SimSpaceMouse => "",
             DeviceChoice::SpaceMouse => {
                 "check that it is plugged in (`haptic-loop devices`) and that you may open /dev/hidraw* (install devices/udev/70-hrrtc-devices.rules, re-plug)"
             }
@@ -115,16 +122,18 @@ pub struct DeviceOptions {
     pub record: Option<PathBuf>,
 }
 
-/// Builds the chosen device (not yet opened; `Tick::new` opens it). `sim` comes from the
-/// caller, which owns the simulated operator's set-up; `namespace` is the bridge's.
+/// Builds the chosen device (not yet opened; `Tick::new` opens it). Simulated devices come
+/// from `sim`, given which one: the caller owns the simulated operator's set-up;
+/// `namespace` is the bridge's.
 pub fn build(
     args: &DeviceOptions,
     namespace: &str,
-    sim: impl FnOnce() -> Result<Box<dyn HapticDevice>, Error>,
+    sim: impl FnOnce(SimInput) -> Result<Box<dyn HapticDevice>, Error>,
 ) -> Result<Box<dyn HapticDevice>, Error> {
     let choice = &args.device;
     let device: Box<dyn HapticDevice> = match choice {
-        DeviceChoice::Sim => sim()?,
+        DeviceChoice::Sim => sim(SimInput::Arm)?,
+        DeviceChoice::SimSpaceMouse => sim(SimInput::SpaceMouse)?,
         DeviceChoice::SpaceMouse => Box::new(
             SpaceMouse::new(SpaceMouseConfig::default()).map_err(|e| choice.open_error(e))?,
         ),
@@ -211,6 +220,10 @@ mod tests {
     fn device_choices_parse_and_bad_ones_are_explained() {
         assert_eq!("sim".parse::<DeviceChoice>(), Ok(DeviceChoice::Sim));
         assert_eq!(
+            "sim-spacemouse".parse::<DeviceChoice>(),
+            Ok(DeviceChoice::SimSpaceMouse)
+        );
+        assert_eq!(
             "openhaptics".parse::<DeviceChoice>(),
             Ok(DeviceChoice::OpenHaptics)
         );
@@ -231,7 +244,7 @@ mod tests {
             device_lib: lib.map(PathBuf::from),
             record: None,
         };
-        let no_sim = || -> Result<Box<dyn HapticDevice>, Error> { unreachable!("not sim") };
+        let no_sim = |_| -> Result<Box<dyn HapticDevice>, Error> { unreachable!("not sim") };
         let e = build(
             &args(DeviceChoice::Dhd, Some("/nonexistent/libdhd.so")),
             "default",

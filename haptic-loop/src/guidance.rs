@@ -35,6 +35,17 @@ impl Default for GuidanceConfig {
     }
 }
 
+impl GuidanceConfig {
+    /// Guidance off: F_s is bounded to zero (k = 0 at the arm), everything else default.
+    pub fn none() -> Self {
+        Self {
+            max_force_fraction: 0.0,
+            max_torque_fraction: 0.0,
+            ..Self::default()
+        }
+    }
+}
+
 /// F_s for one tick, scene frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RenderedGuidance {

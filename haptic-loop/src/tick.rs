@@ -56,6 +56,28 @@ impl StateSink for NoSink {
     fn publish(&mut self, _: &HapticState) {}
 }
 
+/// A configuration the tick watches for: the first tick whose object pose (the proxy, or
+/// the mapped device pose without contact) is within both tolerances of `pose` is
+/// recorded (the operator's time to reach the goal).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GoalZone {
+    /// The goal configuration, scene frame.
+    pub pose: Isometry3<f64>,
+    /// Position tolerance, m.
+    pub position_m: f64,
+    /// Orientation tolerance, rad.
+    pub angle_rad: f64,
+}
+
+impl GoalZone {
+    /// True when `pose` (scene frame) is within the zone.
+    #[inline]
+    pub fn contains(&self, pose: &Isometry3<f64>) -> bool {
+        (pose.translation.vector - self.pose.translation.vector).norm() <= self.position_m
+            && pose.rotation.angle_to(&self.pose.rotation) <= self.angle_rad
+    }
+}
+
 /// What shapes the tick; validated by the caller (see `config`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TickConfig {
@@ -102,6 +124,11 @@ pub struct Tick<D, G, S> {
     contact: Option<ContactStage>,
     contact_ticks: u64,
     max_penetration_m: f64,
+    goal: Option<GoalZone>,
+    first_ns: Option<u64>,
+    at_goal_ns: Option<u64>,
+    last_force_n: Option<Vector3<f64>>,
+    max_force_step_n: f64,
 }
 
 impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
@@ -132,7 +159,30 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
             contact: None,
             contact_ticks: 0,
             max_penetration_m: 0.0,
+            goal: None,
+            first_ns: None,
+            at_goal_ns: None,
+            last_force_n: None,
+            max_force_step_n: 0.0,
         })
+    }
+
+    /// Watches for the object reaching `goal` (see [`Tick::time_to_goal_s`]).
+    pub fn with_goal(mut self, goal: GoalZone) -> Self {
+        self.goal = Some(goal);
+        self
+    }
+
+    /// Seconds from the first tick to the first tick in the goal zone, if one was.
+    pub fn time_to_goal_s(&self) -> Option<f64> {
+        let (first, at) = (self.first_ns?, self.at_goal_ns?);
+        Some(at.saturating_sub(first) as f64 * 1e-9)
+    }
+
+    /// Largest change of the commanded force between two consecutive ticks, N (device
+    /// frame): what the hand feels as a step.
+    pub fn max_force_step_n(&self) -> f64 {
+        self.max_force_step_n
     }
 
     /// Turns contact rendering on with `stage` (built at init: voxmap, pointshell, coupling).
@@ -249,6 +299,14 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
             self.contact_ticks += u64::from(c.code == ContactCode::CONTACT);
             self.max_penetration_m = self.max_penetration_m.max(c.penetration_m);
         }
+        self.first_ns.get_or_insert(now_ns);
+        if self.at_goal_ns.is_none() && self.goal.is_some_and(|g| g.contains(&proxy)) {
+            self.at_goal_ns = Some(now_ns);
+        }
+        if let Some(last) = self.last_force_n {
+            self.max_force_step_n = self.max_force_step_n.max((out.force - last).norm());
+        }
+        self.last_force_n = Some(out.force);
         let results = TickResults {
             sequence: self.sequence,
             now_ns,

@@ -150,6 +150,8 @@ pub struct Operator {
     /// A retry's change of the target.
     jitter: Isometry3<f64>,
     blocks_here: u32,
+    /// Pressing on this step now.
+    pressing: bool,
     /// Time the felt resistance has lasted, s.
     resisted_s: f64,
     /// Best progress measure this attempt and when it was reached, s.
@@ -192,6 +194,7 @@ impl Operator {
             orientation_error: UnitQuaternion::identity(),
             jitter: Isometry3::identity(),
             blocks_here: 0,
+            pressing: false,
             resisted_s: 0.0,
             best: f64::INFINITY,
             best_at: 0.0,
@@ -262,6 +265,7 @@ impl Operator {
         self.last_t = Some(now.t_s);
         let seen = self.line.push(*now);
         let t = now.t_s;
+        self.update_pressing(&seen);
         if self.best.is_infinite() {
             self.begin_attempt(t);
         }
@@ -270,7 +274,7 @@ impl Operator {
             Mode::Hesitating { until } | Mode::Dwelling { until } if t < until => {
                 self.best_at = t;
                 Intent {
-                    press_n: self.press(),
+                    press_n: self.press_now(&seen),
                     ..Intent::STILL
                 }
             }
@@ -325,7 +329,7 @@ impl Operator {
             self.mode = Mode::Hesitating { until };
             self.stats.hesitations += 1;
             return Intent {
-                press_n: self.press(),
+                press_n: self.press_now(seen),
                 ..Intent::STILL
             };
         }
@@ -337,6 +341,7 @@ impl Operator {
             self.best_at = t;
         }
         let resistance = self.resistance(seen, &e_p);
+        let press = self.press_now(seen);
         if resistance > c.blocked_force_n {
             self.resisted_s += dt;
         } else if resistance < 0.5 * c.blocked_force_n {
@@ -346,23 +351,57 @@ impl Operator {
         if felt_block || t - self.best_at >= c.stall_time_s {
             self.blocked(t, &e_p);
             return Intent {
-                press_n: self.press(),
+                press_n: press,
                 ..Intent::STILL
             };
         }
         intent
     }
 
+    /// The force pressed with now: the step's press while within its slack, else none.
+    fn press_now(&self, seen: &Perception) -> Vector3<f64> {
+        match self.press_direction(seen) {
+            Some(_) => self.press(),
+            None => Vector3::zeros(),
+        }
+    }
+
     /// Position error (m) and rotation vector (rad) from the seen pose to the target, base
-    /// frame; on a sliding step the position error's part along the press is dropped.
+    /// frame; while pressing, the position error's part along the press is dropped.
     fn errors(&self, seen: &Perception) -> (Vector3<f64>, Vector3<f64>) {
         let target = self.target();
         let mut e_p = target.translation.vector - seen.pose.translation.vector;
-        if let Some(n) = self.route[self.step].press_n.try_normalize(1e-9) {
+        if let Some(n) = self.press_direction(seen) {
             e_p -= n * e_p.dot(&n);
         }
         let e_r = (target.rotation * seen.pose.rotation.inverse()).scaled_axis();
         (e_p, e_r)
+    }
+
+    /// The unit press direction of this step while pressing (see [`Operator::update_pressing`]).
+    fn press_direction(&self, _seen: &Perception) -> Option<Vector3<f64>> {
+        let n = self.route[self.step].press_n.try_normalize(1e-9)?;
+        self.pressing.then_some(n)
+    }
+
+    /// Pressing lets the surface set the height along the press, but an object far off that
+    /// height (it slipped past the surface's edge, or has not reached it) is brought back
+    /// first: pressing starts when the object is seen within `press_slack_m` of the step
+    /// along the press and stops beyond twice that.
+    fn update_pressing(&mut self, seen: &Perception) {
+        let Some(n) = self.route[self.step].press_n.try_normalize(1e-9) else {
+            self.pressing = false;
+            return;
+        };
+        let off = (self.target().translation.vector - seen.pose.translation.vector)
+            .dot(&n)
+            .abs();
+        let slack = self.config.press_slack_m;
+        self.pressing = if self.pressing {
+            off <= 2.0 * slack
+        } else {
+            off <= slack
+        };
     }
 
     /// The felt force against the wanted motion, N (0 without force feedback).
@@ -391,7 +430,7 @@ impl Operator {
         let mut intent = Intent {
             linear_velocity: v_route,
             angular_velocity: w_route,
-            press_n: self.press(),
+            press_n: self.press_now(seen),
         };
         let Some(felt) = seen.felt.filter(|_| yielding) else {
             return intent;
@@ -406,7 +445,7 @@ impl Operator {
         if let Some(d) = e_p.try_normalize(1e-9) {
             pull -= d * pull.dot(&d).min(0.0);
         }
-        if let Some(n) = self.press().try_normalize(1e-9) {
+        if let Some(n) = intent.press_n.try_normalize(1e-9) {
             pull -= n * pull.dot(&n);
         }
         let mut twist = felt.torque;

@@ -14,7 +14,7 @@ use crate::relay::Relay;
 use crate::runner::{self, LoopReport, RunnerConfig};
 use crate::stats::SecondSummary;
 use crate::tick::{Tick, TickConfig};
-use devices::sim::{ScriptedUserConfig, SimulatedArmConfig};
+use devices::sim::SimulatedArmConfig;
 use devices::{DeviceSpec, HapticDevice};
 use ipc_types::Guidance;
 use ipc_types::services::{self, ServiceError, StateReader, Subscriber};
@@ -40,8 +40,8 @@ pub struct LoopSetup {
     pub tick: TickConfig,
     /// Simulated arm.
     pub arm: SimulatedArmConfig,
-    /// Simulated operator.
-    pub user: ScriptedUserConfig,
+    /// Who holds a simulated device.
+    pub operator: scenario::SimOperator,
     /// Contact rendering parameters; `None` = contact off.
     pub contact: Option<ContactConfig>,
 }
@@ -77,6 +77,9 @@ pub struct Watch {
     path_subscriber: Subscriber<ipc_types::Path>,
     path: Option<(u64, f64)>,
     solved_at: Option<Duration>,
+    state: StateReader,
+    goal: crate::tick::GoalZone,
+    at_goal_at: Option<Duration>,
     /// Keeps this process's iceoryx2 node alive as long as its ports.
     _node: iceoryx2::node::Node<services::Ipc>,
 }
@@ -91,6 +94,25 @@ impl Watch {
             self.solved_at = Some(elapsed);
             tracing::info!("planner solved after {:.2} s", elapsed.as_secs_f64());
         }
+        if self.at_goal_at.is_none() {
+            let s = self.state.get();
+            if s.header.sequence > 0
+                && let Some(object) = ipc_types::convert::isometry(&s.proxy_pose)
+                && self.goal.contains(&object)
+            {
+                self.at_goal_at = Some(elapsed);
+                tracing::info!(
+                    "the object reached the goal after {:.2} s",
+                    elapsed.as_secs_f64()
+                );
+            }
+        }
+    }
+
+    /// Session age at which the object was first seen at the goal (polled every 20 ms; the
+    /// summary's `time_to_goal_s` is the tick-exact figure).
+    pub fn at_goal_at(&self) -> Option<Duration> {
+        self.at_goal_at
     }
 
     /// The newest guidance sample received (all zero before the first).
@@ -136,8 +158,14 @@ impl Progress {
                 if g.solved == 1 { "yes" } else { "no" }
             )
         };
+        let [x, y, z] = st.proxy_pose.position_m;
+        let touching = if st.contact == ipc_types::ContactCode::CONTACT {
+            ", in contact"
+        } else {
+            ""
+        };
         format!(
-            "[{:>5.1} s] {planner} | F_s {fs:.2} N ({}) | loop: {} ticks/s, wake p99 {:.0} µs, misses {}, fault {}",
+            "[{:>5.1} s] {planner} | object ({x:.3}, {y:.3}, {z:.3}) m{touching} | F_s {fs:.2} N ({}) | loop: {} ticks/s, wake p99 {:.0} µs, misses {}, fault {}",
             s.elapsed_s,
             st.guidance_freshness.name(),
             s.ticks,
@@ -158,17 +186,24 @@ pub struct SessionEnd {
     pub watch: Watch,
     /// Contact figures; `None` when contact was off.
     pub contact: Option<ContactSummary>,
+    /// Seconds from the loop's start until the object first reached the goal zone.
+    pub time_to_goal_s: Option<f64>,
+    /// Largest change of the commanded force between consecutive ticks, N.
+    pub max_force_step_n: f64,
 }
 
 impl SessionEnd {
     /// The session's summary.
     pub fn summary(&self) -> Summary {
-        Summary::new(
+        let mut s = Summary::new(
             self.report.clone(),
             self.run_s,
             &self.watch,
             self.contact.clone(),
-        )
+        );
+        s.time_to_goal_s = self.time_to_goal_s;
+        s.max_force_step_n = self.max_force_step_n;
+        s
     }
 }
 
@@ -205,6 +240,9 @@ pub fn run(
         path_subscriber: services::subscriber::<ipc_types::Path>(&node, &setup.namespace)?,
         path: None,
         solved_at: None,
+        state: services::state_reader(&node, &setup.namespace)?,
+        goal: scenario::goal_zone(&setup.scene),
+        at_goal_at: None,
         _node: node,
     };
     let mut tick =
@@ -212,6 +250,7 @@ pub fn run(
     if let Some(stage) = contact {
         tick = tick.with_contact(stage);
     }
+    tick = tick.with_goal(scenario::goal_zone(&setup.scene));
     let started = Instant::now();
     let handle = runner::spawn(tick, setup.runner, move |s| {
         tracing::info!("{}", progress.line(s));
@@ -237,5 +276,7 @@ pub fn run(
         run_s,
         watch,
         contact,
+        time_to_goal_s: tick.time_to_goal_s(),
+        max_force_step_n: tick.max_force_step_n(),
     })
 }

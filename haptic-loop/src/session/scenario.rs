@@ -1,14 +1,41 @@
 //! The simulated side of a session: where the device's centre sits in the scene, the
-//! mapping scale that fits start and goal into the arm's workspace, the scripted operator's
-//! route of the demo, and the simulated arm that carries it.
+//! mapping scale that fits the operator's route into the device's workspace, who holds
+//! the simulated device (the reacting operator on the scene's route, or the scripted one of
+//! the wall-hole demo), and the simulated arm or SpaceMouse it holds.
 
 use crate::Error;
 use crate::mapping::{Mapping, MappingConfig};
-use devices::sim::{ScriptedUser, SimulatedArm, Waypoint};
+use crate::tick::GoalZone;
+use devices::HapticDevice;
+use devices::sim::{
+    Operator, OperatorConfig, OperatorHand, RouteStep, ScriptedUser, ScriptedUserConfig,
+    SimulatedArm, SimulatedSpaceMouse, Waypoint,
+};
+use devices::spacemouse::SpaceMouseConfig;
 use nalgebra::{Isometry3, Translation3};
 use scene::Scene;
 
 use super::LoopSetup;
+
+/// Who holds the simulated device.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SimOperator {
+    /// The scripted operator of the wall-hole demo ([`demo_route`]): a timed path that
+    /// does not react to anything it feels.
+    Scripted(ScriptedUserConfig),
+    /// The reacting operator (`devices::sim::operator`) on the scene's route
+    /// ([`Scene::operator_route`]).
+    Reacting(OperatorConfig),
+}
+
+/// Which simulated device the operator holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SimInput {
+    /// The simulated 6-DOF haptic arm: the operator feels contact and guidance.
+    Arm,
+    /// A simulated SpaceMouse: rate control of an avatar, nothing felt.
+    SpaceMouse,
+}
 
 /// Scale (scene m per device m) used when the scene fits the arm at it.
 pub const DEFAULT_SCALE: f64 = 3.0;
@@ -17,20 +44,32 @@ pub const DEFAULT_SCALE: f64 = 3.0;
 /// to move around them.
 pub const WORKSPACE_SHARE: f64 = 0.9;
 
-/// Scene pose of the device's centre: the middle of start and goal, in the start's
-/// orientation, so both are reachable.
+/// Scene pose of the device's centre: the middle of the box around the operator's route
+/// (start, route steps, goal), in the start's orientation, so all of it is reachable.
 pub fn device_origin(scene: &Scene) -> Isometry3<f64> {
-    let mid = (scene.start.pos + scene.goal.pos) / 2.0;
-    Isometry3::from_parts(Translation3::from(mid), scene.start.rot)
+    let route = scene.operator_route();
+    let (mut lo, mut hi) = (scene.start.pos, scene.start.pos);
+    for step in &route {
+        lo = lo.inf(&step.pose.pos);
+        hi = hi.sup(&step.pose.pos);
+    }
+    Isometry3::from_parts(Translation3::from((lo + hi) / 2.0), scene.start.rot)
 }
 
-/// Distance of start and goal from the device's centre at `scale`, device m.
+/// Largest distance of the operator's route (start, steps, goal) from the device's centre
+/// at `scale`, device m.
 pub fn device_reach_m(scene: &Scene, scale: f64) -> f64 {
-    ((scene.goal.pos - scene.start.pos).norm() / 2.0) / scale
+    let centre = device_origin(scene).translation.vector;
+    scene
+        .operator_route()
+        .iter()
+        .map(|s| (s.pose.pos - centre).norm())
+        .fold(0.0, f64::max)
+        / scale
 }
 
-/// The smallest scale at which start and goal lie within [`WORKSPACE_SHARE`] of a workspace
-/// of radius `workspace_radius_m` (m).
+/// The smallest scale at which the operator's route lies within [`WORKSPACE_SHARE`] of a
+/// workspace of radius `workspace_radius_m` (m).
 pub fn smallest_fitting_scale(scene: &Scene, workspace_radius_m: f64) -> f64 {
     device_reach_m(scene, 1.0) / (workspace_radius_m * WORKSPACE_SHARE)
 }
@@ -83,19 +122,75 @@ pub fn demo_route(scene: &Scene) -> Vec<(Isometry3<f64>, f64)> {
 /// dwell in s at each waypoint), mapped to the device through `setup`'s mapping.
 pub fn simulated_arm(
     setup: &LoopSetup,
+    user: ScriptedUserConfig,
     route: &[(Isometry3<f64>, f64)],
 ) -> Result<SimulatedArm, Error> {
     let mapping = Mapping::new(&setup.tick.mapping);
     let waypoints = route
         .iter()
         .map(|(p, dwell)| Waypoint::new(mapping.to_device(p)).with_dwell(*dwell));
-    let sim_error = |source| Error::Device {
-        device: "the simulated arm".into(),
+    let user = ScriptedUser::new(user, waypoints).map_err(sim_error("the simulated arm"))?;
+    SimulatedArm::with_user(setup.arm.clone(), user).map_err(sim_error("the simulated arm"))
+}
+
+fn sim_error(device: &'static str) -> impl Fn(devices::DeviceError) -> Error {
+    move |source| Error::Device {
+        device: device.into(),
         error: source,
         hint: "",
-    };
-    let user = ScriptedUser::new(setup.user, waypoints).map_err(sim_error)?;
-    SimulatedArm::with_user(setup.arm.clone(), user).map_err(sim_error)
+    }
+}
+
+/// The scene's operator route mapped to the device (poses through the mapping, press
+/// forces rotated into the device frame; forces are not scaled).
+pub fn device_route(setup: &LoopSetup) -> Vec<RouteStep> {
+    let mapping = Mapping::new(&setup.tick.mapping);
+    setup
+        .scene
+        .operator_route()
+        .iter()
+        .map(|s| RouteStep {
+            pose: mapping.to_device(&s.pose.to_isometry()),
+            press_n: mapping.vector_to_device(&s.press_n),
+            dwell_s: s.dwell_s,
+        })
+        .collect()
+}
+
+/// The simulated device of `setup`: the arm or a SpaceMouse held by its operator (the
+/// scripted one only holds the arm, on the wall-hole demo's route).
+pub fn simulated_device(
+    setup: &LoopSetup,
+    input: SimInput,
+) -> Result<Box<dyn HapticDevice>, Error> {
+    match (setup.operator, input) {
+        (SimOperator::Scripted(user), SimInput::Arm) => Ok(Box::new(simulated_arm(
+            setup,
+            user,
+            &demo_route(&setup.scene),
+        )?)),
+        (SimOperator::Scripted(_), SimInput::SpaceMouse) => Err(Error::Device {
+            device: "the simulated SpaceMouse".into(),
+            error: devices::DeviceError::InvalidConfig("operator"),
+            hint: "the scripted operator only holds the arm: choose --operator expert or novice",
+        }),
+        (SimOperator::Reacting(config), SimInput::Arm) => {
+            let hand = OperatorHand::with_route(config, device_route(setup))
+                .map_err(sim_error("the simulated arm"))?;
+            Ok(Box::new(
+                SimulatedArm::with_operator(setup.arm.clone(), hand)
+                    .map_err(sim_error("the simulated arm"))?,
+            ))
+        }
+        (SimOperator::Reacting(config), SimInput::SpaceMouse) => {
+            let operator = Operator::new(config, device_route(setup))
+                .map_err(sim_error("the simulated SpaceMouse"))?;
+            Ok(Box::new(
+                SimulatedSpaceMouse::new(SpaceMouseConfig::default(), operator)
+                    .map_err(sim_error("the simulated SpaceMouse"))?,
+            ))
+        }
+    }
 }
 
 /// The mapping of `scene` to a device at `scale`, with button 1 as the clutch.
@@ -104,6 +199,15 @@ pub fn mapping_config(scene: &Scene, scale: f64) -> MappingConfig {
         position_scale: scale,
         origin: device_origin(scene),
         clutch_button: Some(1),
+    }
+}
+
+/// The zone in which the object counts as at the goal: 5 mm and 0.1 rad around it.
+pub fn goal_zone(scene: &Scene) -> GoalZone {
+    GoalZone {
+        pose: scene.goal.to_isometry(),
+        position_m: 0.005,
+        angle_rad: 0.1,
     }
 }
 

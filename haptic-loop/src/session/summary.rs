@@ -38,12 +38,19 @@ pub struct Summary {
     pub planner_iterations: u64,
     /// Planner nodes at the end.
     pub planner_nodes: u64,
+    /// Planner trees at the end (start, goal and local trees; their edges are nodes − trees).
+    pub planner_trees: u32,
     /// `planner_id` of the planner followed at the end (0: none, or one that sets none).
     pub planner_id: u32,
     /// Times the loop moved from one planner's guidance to another's (several planners).
     pub planner_switches: u64,
     /// Contact rendering figures; `null` when contact was off.
     pub contact: Option<ContactSummary>,
+    /// Seconds from the loop's start until the object (the proxy) first came within 5 mm
+    /// and 0.1 rad of the goal: the operator's time to reach it; `null` if it did not.
+    pub time_to_goal_s: Option<f64>,
+    /// Largest change of the commanded device force between two consecutive ticks, N.
+    pub max_force_step_n: f64,
 }
 
 /// What contact rendering did during a session.
@@ -113,10 +120,13 @@ impl Summary {
             wake_latency_us: report.wake_latency_us,
             planner_iterations: guidance.iterations,
             planner_nodes: guidance.nodes,
+            planner_trees: guidance.trees,
             planner_id: guidance.planner_id,
             planner_switches: watch.planner_switches(),
             loop_report: report,
             contact,
+            time_to_goal_s: None,
+            max_force_step_n: 0.0,
         }
     }
 }
@@ -178,6 +188,15 @@ impl fmt::Display for Summary {
             )?,
             None => writeln!(f, "contact:           off")?,
         }
+        match self.time_to_goal_s {
+            Some(t) => writeln!(f, "object at goal:    after {t:.2} s")?,
+            None => writeln!(f, "object at goal:    not reached")?,
+        }
+        writeln!(
+            f,
+            "force step:        largest {:.3} N between ticks",
+            self.max_force_step_n
+        )?;
         match self.allocations_per_tick {
             Some(a) => writeln!(
                 f,

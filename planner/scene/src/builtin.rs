@@ -250,15 +250,18 @@ impl Scene {
                 UnitQuaternion::from_euler_angles(0.5 * PI, 0.0, 0.0),
             ),
             space: SpaceKind::Se3,
-            // Slide flat through the horizontal slit pressing 1 N onto its floor, turn
-            // upright in the chamber, slide through the vertical slit pressing 1 N onto its
-            // side (H-RRT-C §V.B: "the user pushed the object against this surface").
+            // Into the horizontal slit flat, slide through it pressing 1 N onto its floor,
+            // turn upright in the chamber, into the vertical slit, slide through it pressing
+            // 1 N onto its side (H-RRT-C §V.B: "the user pushed the object against this
+            // surface").
             route: {
                 let up = UnitQuaternion::from_euler_angles(0.5 * PI, 0.0, 0.0);
                 vec![
                     RouteStep::to(Se3::from_xyz(-0.3, 0.0, 0.0)),
+                    RouteStep::to(Se3::from_xyz(-0.2, 0.0, 0.0)),
                     RouteStep::to(Se3::from_xyz(0.0, 0.0, 0.0)).pressing([0.0, 0.0, -1.0]),
                     RouteStep::to(Se3::new(Vector3::zeros(), up)),
+                    RouteStep::to(Se3::new(Vector3::new(0.13, 0.0, 0.0), up)),
                     RouteStep::to(Se3::new(Vector3::new(0.3, 0.0, 0.0), up))
                         .pressing([0.0, -1.0, 0.0]),
                 ]

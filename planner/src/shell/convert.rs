@@ -5,11 +5,13 @@ use crate::space::path_length;
 use crate::{Contact, Planner, Se3, UserInput};
 use ipc_types::{HapticState, Header, PATH_CAPACITY, Path, Pose};
 
-/// The operator input of one haptic state: `q_user` from `user_pose`, and contact (H-RRT-C
-/// contact mode) while the loop reports `ContactCode::CONTACT` with a unit normal. `None`
-/// when the pose is invalid.
+/// The operator input of one haptic state: `q_user` from `proxy_pose`, the object as the
+/// operator holds and sees it (the loop keeps it out of obstacles when it renders contact;
+/// without contact it is the hand's mapped pose, `user_pose`, which is also the fallback),
+/// and contact (H-RRT-C contact mode) while the loop reports `ContactCode::CONTACT` with a
+/// unit normal. `None` when no pose is valid.
 pub fn user_input(s: &HapticState) -> Option<UserInput> {
-    let q_user = se3(&s.user_pose)?;
+    let q_user = operator_pose(s)?;
     let v = |a: [f64; 3]| nalgebra::Vector3::new(a[0], a[1], a[2]);
     let normal = v(s.contact_normal);
     let finite = [
@@ -35,6 +37,12 @@ pub fn user_input(s: &HapticState) -> Option<UserInput> {
         })
         .flatten();
     Some(UserInput { q_user, contact })
+}
+
+/// The held object's configuration in a haptic state: the proxy, else the hand's mapped
+/// pose (H-RRT-C's q_device).
+pub fn operator_pose(s: &HapticState) -> Option<Se3> {
+    se3(&s.proxy_pose).or_else(|| se3(&s.user_pose))
 }
 
 /// The planner's pose type from a wire pose; `None` if invalid.
@@ -83,7 +91,12 @@ mod tests {
         s.user_pose = pose(&q);
         s.proxy_pose = pose(&Se3::from_xyz(0.09, 0.0, 0.0));
         let free = user_input(&s).expect("valid");
-        assert!(free.contact.is_none() && (free.q_user.pos - q.pos).norm() < 1e-12);
+        // q_device is the object as held (the proxy), not the hand inside the wall.
+        assert!(free.contact.is_none() && (free.q_user.pos.x - 0.09).abs() < 1e-12);
+        let mut no_proxy = s;
+        no_proxy.proxy_pose.orientation_xyzw = [f64::NAN; 4];
+        let q_hand = user_input(&no_proxy).expect("valid").q_user;
+        assert!((q_hand.pos - q.pos).norm() < 1e-12);
         s.contact = ipc_types::ContactCode::CONTACT;
         s.contact_normal = [-1.0, 0.0, 0.0];
         s.operator_force_n = [3.0, 0.0, 0.0];

@@ -30,7 +30,7 @@ pub mod roadmap;
 use crate::{Planner, PlannerParams, Scene, Se3};
 pub use error::ShellError;
 
-use convert::{se3, to_wire_path, user_input};
+use convert::{operator_pose, to_wire_path, user_input};
 use ipc_types::services::{self, GuidanceNotifier, Publisher};
 use ipc_types::{Guidance, GuidanceMode, Header};
 use receiver::{Operator, lock, receive_states};
@@ -252,7 +252,7 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> Result<ShellReport, S
             let q_user = op
                 .state
                 .filter(|_| seen_at.is_some())
-                .and_then(|s| se3(&s.user_pose));
+                .and_then(|s| operator_pose(&s));
             next_guidance = match seen_at {
                 // Phase-locked to the loop's ticks: a little after a state comes, so that
                 // each sample is computed from a tick's state as soon as it is read and

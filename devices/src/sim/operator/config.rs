@@ -27,6 +27,11 @@ pub struct OperatorConfig {
     pub position_tolerance_m: f64,
     /// ... and within this angle, rad. Default 0.05.
     pub angle_tolerance_rad: f64,
+    /// On a pressing step the operator presses (and lets the surface set the height along
+    /// the press) only while the object is within this distance of the step along the
+    /// press, m (and stops beyond twice that); farther off it first brings the object back.
+    /// Default 0.003.
+    pub press_slack_m: f64,
     /// Hesitations start at this rate while moving, 1/s (a Poisson process). Expert 0.05,
     /// novice 0.2.
     pub hesitation_rate_per_s: f64,
@@ -112,6 +117,7 @@ impl OperatorConfig {
             rotation_length_m: 0.02,
             position_tolerance_m: 0.002,
             angle_tolerance_rad: 0.05,
+            press_slack_m: 0.003,
             hesitation_rate_per_s: 0.05,
             hesitation_min_s: 0.2,
             hesitation_max_s: 0.6,
@@ -188,6 +194,7 @@ impl OperatorConfig {
             (self.rotation_length_m, "rotation_length_m"),
             (self.position_tolerance_m, "position_tolerance_m"),
             (self.angle_tolerance_rad, "angle_tolerance_rad"),
+            (self.press_slack_m, "press_slack_m"),
             (self.stall_time_s, "stall_time_s"),
             (self.stall_progress_m, "stall_progress_m"),
             (self.guidance_full_n, "guidance_full_n"),

@@ -289,11 +289,12 @@ fn a_blocked_hand_pushes_with_bounded_force_and_keeps_trying() {
 #[test]
 fn on_a_sliding_step_it_presses_and_slides() {
     let config = calm();
-    // Slide along a floor at z = 0 (the arm starts 5 mm above it), pressing down with 2 N.
+    // Slide along a floor at z = 0 (the arm starts 2 mm above it, within the press slack),
+    // pressing down with 2 N.
     let route = vec![
-        RouteStep::to(at(0.0, 0.0, 0.005)),
+        RouteStep::to(at(0.0, 0.0, 0.002)),
         RouteStep {
-            pose: at(0.06, 0.0, 0.005),
+            pose: at(0.06, 0.0, 0.002),
             press_n: Vector3::new(0.0, 0.0, -2.0),
             dwell_s: 0.0,
         },
@@ -324,6 +325,32 @@ fn on_a_sliding_step_it_presses_and_slides() {
         assert!(z.abs() < 1.5e-3, "z = {z}");
         assert!((fz + 2.0).abs() < 0.6, "fz = {fz}");
     }
+}
+
+#[test]
+fn far_off_the_pressed_surface_it_stops_pressing_and_comes_back() {
+    let config = calm();
+    let route = vec![
+        RouteStep::to(at(0.0, 0.0, 0.0)),
+        RouteStep {
+            pose: at(0.05, 0.0, 0.0),
+            press_n: Vector3::new(0.0, 0.0, -1.0),
+            dwell_s: 0.0,
+        },
+    ];
+    let mut op = Operator::new(config, route).unwrap();
+    op.decide(&seen(0.0, at(0.0, 0.0, 0.0), None));
+    // Within the slack: pressing, no vertical intent.
+    let i = op.decide(&seen(MS, at(0.0, 0.0, -0.002), None));
+    assert_eq!(i.press_n, Vector3::new(0.0, 0.0, -1.0));
+    assert_eq!(i.linear_velocity.z, 0.0);
+    // Sunk 10 mm below (past the surface's edge): no press, it lifts the object back.
+    for k in 2..300 {
+        op.decide(&seen(k as f64 * MS, at(0.0, 0.0, -0.01), None));
+    }
+    let i = op.intent();
+    assert_eq!(i.press_n, Vector3::zeros());
+    assert!(i.linear_velocity.z > 0.0, "{i:?}");
 }
 
 #[test]

@@ -3,7 +3,7 @@
 
 use anyhow::{Context, bail};
 use clap::Args;
-use devices::sim::{ScriptedUserConfig, SimulatedArmConfig};
+use devices::sim::{OperatorConfig, ScriptedUserConfig, SimulatedArmConfig};
 use haptic_loop::contact::{ContactConfig, Resolution};
 use haptic_loop::device_choice::{DeviceChoice, DeviceOptions};
 use haptic_loop::guidance::GuidanceConfig;
@@ -11,7 +11,7 @@ use haptic_loop::rt::RtOptions;
 use haptic_loop::runner::RunnerConfig;
 use haptic_loop::safety::SafetyConfig;
 use haptic_loop::session::LoopSetup;
-use haptic_loop::session::scenario::{self, DEFAULT_SCALE, WORKSPACE_SHARE};
+use haptic_loop::session::scenario::{self, DEFAULT_SCALE, SimOperator, WORKSPACE_SHARE};
 use haptic_loop::tick::TickConfig;
 use ipc_types::services;
 use scene::Scene;
@@ -45,16 +45,29 @@ pub struct LoopArgs {
     #[arg(long, default_value_t = 0)]
     pub spin_us: u64,
     /// Scene metres per device metre [default: 3, or the smallest scale (to 0.1) that
-    /// fits the scene's start and goal into the arm's workspace].
+    /// fits the operator's route (start, route steps, goal) into the device's workspace].
     #[arg(long)]
     pub scale: Option<f64>,
     /// Guidance fade after its time-to-live, ms.
     #[arg(long, default_value_t = 200.0)]
     pub fade_ms: f64,
-    /// Speed of the simulated operator's hand, m/s at the device.
+    /// Render no guidance force (F_s bounded to zero; the planner still plans and its
+    /// solution is still reported).
+    #[arg(long)]
+    pub no_guidance: bool,
+    /// Who holds a simulated device: `expert` or `novice` (an operator that follows the
+    /// scene's route and reacts to what it feels: see README "The simulated operator"), or
+    /// `scripted` (the wall-hole demo's timed path, which reacts to nothing) [default:
+    /// expert for demo, scripted for run].
+    #[arg(long, value_parser = ["expert", "novice", "scripted"])]
+    pub operator: Option<String>,
+    /// Seed of the simulated operator's random choices [default: demo's --seed, else 1].
+    #[arg(long)]
+    pub operator_seed: Option<u64>,
+    /// Speed of the scripted operator's hand, m/s at the device.
     #[arg(long, default_value_t = 0.02)]
     pub user_speed: f64,
-    /// RMS amplitude of the simulated operator's tremor, m (0 = none).
+    /// RMS amplitude of the scripted operator's tremor, m (0 = none).
     #[arg(long, default_value_t = 0.0)]
     pub tremor_m: f64,
     /// Voxel size of the contact voxmap and pointshell spacing, mm (0.25–20).
@@ -80,7 +93,8 @@ pub struct LoopArgs {
 /// Device options of `haptic-loop run`.
 #[derive(Debug, Args, Clone)]
 pub struct DeviceArgs {
-    /// Device: sim, spacemouse, dhd, openhaptics, bridge or replay:FILE.
+    /// Device: sim (simulated arm), sim-spacemouse (simulated SpaceMouse), spacemouse, dhd,
+    /// openhaptics, bridge or replay:FILE.
     #[arg(long, default_value = "sim", value_parser = DeviceChoice::from_str)]
     pub device: DeviceChoice,
     /// Vendor library for dhd / openhaptics (default: $HRRTC_DHD_LIB / $HRRTC_HD_LIB, else
@@ -129,19 +143,32 @@ pub struct DemoArgs {
     /// Keep running this long after the solution, so its guidance can be felt.
     #[arg(long, default_value_t = 3.0)]
     pub after_solve_s: f64,
-    /// Run at least this long, so the scripted operator reaches the wall.
-    #[arg(long, default_value_t = 8.0)]
+    /// Run at least this long.
+    #[arg(long, default_value_t = 0.0)]
     pub min_run_s: f64,
-    /// Planner RNG seed.
+    /// After the planner solved, keep going until the object has also reached the goal
+    /// (or the time limit): measures the operator's time to reach it.
+    #[arg(long)]
+    pub until_goal: bool,
+    /// Seed of the planner and of the simulated operator.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// The planner's sampling method (`planner serve --sampling`). The default is I-RRT's
-    /// POS+CS: the scripted operator is no person and keeps pushing where its route says,
-    /// so H-RRT-C's contact mode (`hrrtc`, only samples on the contact plane while in
-    /// contact) would wait for it forever.
-    #[arg(long, default_value = "pos+cs",
+    /// The planner's sampling method (`planner serve --sampling`): H-RRT-C (`hrrtc`),
+    /// I-RRT's `pos+cs`, `path`, ..., or `cs` (automatic: the operator is ignored).
+    #[arg(long, default_value = "hrrtc",
           value_parser = ["cs", "pos", "path", "pos+cs", "path+cs", "hrrtc"])]
     pub sampling: String,
+    /// H-RRT-C's authority α: the share of machine (uniform) samples (`planner serve
+    /// --alpha`).
+    #[arg(long)]
+    pub alpha: Option<f64>,
+    /// Device held by the simulated operator: the arm (`sim`) or a SpaceMouse
+    /// (`sim-spacemouse`).
+    #[arg(long, default_value = "sim", value_parser = ["sim", "sim-spacemouse"])]
+    pub device: String,
+    /// More `planner serve` options, as one string (e.g. "--local-trees --edges discrete").
+    #[arg(long, allow_hyphen_values = true)]
+    pub planner_args: Option<String>,
     /// The planner executable [default: `planner` beside this executable].
     #[arg(long)]
     pub planner_exe: Option<PathBuf>,
@@ -190,8 +217,9 @@ pub fn seconds_or_zero(name: &str, v: f64) -> anyhow::Result<Duration> {
 }
 
 impl LoopArgs {
-    /// Validates the arguments into a [`LoopSetup`].
-    pub fn to_setup(&self) -> anyhow::Result<LoopSetup> {
+    /// Validates the arguments into a [`LoopSetup`]; `operator` and `operator_seed` are the
+    /// command's defaults for `--operator` and `--operator-seed`.
+    pub fn to_setup(&self, operator: &str, operator_seed: u64) -> anyhow::Result<LoopSetup> {
         let scene = Scene::by_name_or_path(&self.scene)?;
         for c in scene.mesh_checks().iter().filter(|c| !c.is_ok()) {
             tracing::warn!(
@@ -247,9 +275,9 @@ impl LoopArgs {
                 let reach = scenario::device_reach_m(&scene, s);
                 if reach > radius * WORKSPACE_SHARE {
                     bail!(
-                        "--scale {s}: start and goal are {reach:.3} m from the device centre, \
-                         beyond the arm's {radius:.3} m workspace; use --scale {:.1} or more \
-                         (or leave --scale out to get the smallest that fits)",
+                        "--scale {s}: the operator's route reaches {reach:.3} m from the device \
+                         centre, beyond the device's {radius:.3} m workspace; use --scale {:.1} \
+                         or more (or leave --scale out to get the smallest that fits)",
                         (scenario::smallest_fitting_scale(&scene, radius) * 10.0).ceil() / 10.0
                     );
                 }
@@ -279,17 +307,28 @@ impl LoopArgs {
                 mapping: scenario::mapping_config(&scene, scale),
                 guidance: GuidanceConfig {
                     fade_s: self.fade_ms / 1000.0,
-                    ..GuidanceConfig::default()
+                    ..if self.no_guidance {
+                        GuidanceConfig::none()
+                    } else {
+                        GuidanceConfig::default()
+                    }
                 },
                 safety: SafetyConfig::default(),
                 period_s: 1.0 / self.rate_hz,
             },
             scene,
             arm,
-            user: ScriptedUserConfig {
-                linear_speed_m_per_s: self.user_speed,
-                tremor_amplitude_m: self.tremor_m,
-                ..ScriptedUserConfig::default()
+            operator: match self.operator.as_deref().unwrap_or(operator) {
+                "scripted" => SimOperator::Scripted(ScriptedUserConfig {
+                    linear_speed_m_per_s: self.user_speed,
+                    tremor_amplitude_m: self.tremor_m,
+                    ..ScriptedUserConfig::default()
+                }),
+                name => SimOperator::Reacting(OperatorConfig {
+                    seed: self.operator_seed.unwrap_or(operator_seed),
+                    ..OperatorConfig::preset(name)
+                        .with_context(|| format!("--operator: unknown preset {name:?}"))?
+                }),
             },
             contact,
         })

@@ -1,6 +1,7 @@
-//! `haptic-loop demo`: the loop on the simulated arm with a scripted operator, the planner
-//! as a child process (the `planner` executable), progress each second and a summary. Exit
-//! code 0 when solved within the time limit, 1 when not, 130 when interrupted unsolved.
+//! `haptic-loop demo`: the loop on the simulated arm (or SpaceMouse) held by a simulated
+//! operator following the scene's route, the planner as a child process (the `planner`
+//! executable, H-RRT-C by default), progress each second and a summary. Exit code 0 when
+//! solved within the time limit, 1 when not, 130 when interrupted unsolved.
 
 use crate::args::{self, DemoArgs};
 use anyhow::Context;
@@ -53,26 +54,42 @@ fn stop_planner(child: &mut Child) {
 
 /// Runs the command; see the module docs for the exit code.
 pub fn run(args: &DemoArgs, stop: &AtomicBool) -> anyhow::Result<i32> {
-    let setup = args.common.to_setup()?;
+    let setup = args.common.to_setup("expert", args.seed)?;
     let limit = args::seconds("time-limit-s", args.time_limit_s)?;
     let after = args::seconds_or_zero("after-solve-s", args.after_solve_s)?;
     let min_run = args::seconds_or_zero("min-run-s", args.min_run_s)?;
     let exe = planner_exe(args.planner_exe.as_ref())?;
+    let choice: DeviceChoice = args.device.parse()?;
+    let input = match choice {
+        DeviceChoice::SimSpaceMouse => scenario::SimInput::SpaceMouse,
+        _ => scenario::SimInput::Arm,
+    };
+    let mut device = scenario::simulated_device(&setup, input)?;
+    device.open().map_err(|e| choice.open_error(e))?;
     // Build the voxmap before anything starts: it takes seconds at fine voxel sizes.
-    let contact = setup.contact_stage(&setup.arm.spec())?;
-    let arm = scenario::simulated_arm(&setup, &scenario::demo_route(&setup.scene))?;
+    let contact = setup.contact_stage(device.spec())?;
 
-    let mut child = Command::new(&exe)
+    let mut command = Command::new(&exe);
+    command
         .args(["serve", "--namespace", &setup.namespace])
         .args(["--scene", &setup.scene_arg])
         .args(["--seed", &args.seed.to_string()])
-        .args(["--sampling", &args.sampling])
+        .args(["--sampling", &args.sampling]);
+    if let Some(alpha) = args.alpha {
+        command.args(["--alpha", &alpha.to_string()]);
+    }
+    if let Some(extra) = &args.planner_args {
+        command.args(extra.split_whitespace());
+    }
+    let mut child = command
         .spawn()
         .with_context(|| format!("cannot start the planner process ({})", exe.display()))?;
     tracing::info!(
-        "demo: haptic loop at {} Hz on the simulated arm, planner pid {}, scene '{}', time limit {} s",
+        "demo: haptic loop at {} Hz on {}, planner pid {} ({}), scene '{}', time limit {} s",
         setup.runner.rate_hz,
+        choice.name(),
         child.id(),
+        args.sampling,
         setup.scene.name,
         args.time_limit_s
     );
@@ -80,8 +97,8 @@ pub fn run(args: &DemoArgs, stop: &AtomicBool) -> anyhow::Result<i32> {
     let mut planner_exited = false;
     let end = session::run(
         &setup,
-        Box::new(arm),
-        |e| DeviceChoice::Sim.open_error(e),
+        device,
+        |e| choice.open_error(e),
         contact,
         stop,
         |watch, elapsed| {
@@ -91,7 +108,12 @@ pub fn run(args: &DemoArgs, stop: &AtomicBool) -> anyhow::Result<i32> {
                 );
                 planner_exited = true;
             }
-            match watch.solved_at() {
+            let reached = match (args.until_goal, watch.solved_at()) {
+                (false, Some(t)) => Some(t),
+                (true, Some(t)) => watch.at_goal_at().map(|g| g.max(t)),
+                (_, None) => None,
+            };
+            match reached {
                 Some(t) => elapsed >= (t + after).max(min_run),
                 None => elapsed >= limit,
             }

@@ -8,15 +8,14 @@ use std::sync::atomic::AtomicBool;
 
 /// Runs the command; the exit code is 0.
 pub fn run(args: &RunArgs, stop: &AtomicBool) -> anyhow::Result<i32> {
-    let setup = args.common.to_setup()?;
+    let setup = args.common.to_setup("scripted", 1)?;
     let duration = args
         .duration_s
         .map(|d| args::seconds("duration-s", d))
         .transpose()?;
     let choice = &args.device.device;
-    let mut device = device_choice::build(&args.device.options(), &setup.namespace, || {
-        let route = scenario::demo_route(&setup.scene);
-        Ok(Box::new(scenario::simulated_arm(&setup, &route)?))
+    let mut device = device_choice::build(&args.device.options(), &setup.namespace, |input| {
+        scenario::simulated_device(&setup, input)
     })?;
     // Open now: a backend's limits are final only once open, and the contact coupling is
     // sized from them. `Tick::new` opens it again, which the device trait allows.
