@@ -39,6 +39,19 @@ pub enum LabError {
         /// What plotters (or the PNG encoder beneath it) said.
         source: Box<dyn std::error::Error + Send + Sync>,
     },
+    /// A live method name is none of [`crate::live::METHOD_NAMES`].
+    #[error(
+        "unknown live method `{0}`: expected one of rrt-connect, pos+cs, path, irrtc-mouse, hrrtc, hrrtc-noguide, hrrtc-novice, hrrtc-mouse"
+    )]
+    UnknownMethod(String),
+    /// A live run's summary (the demo's `--summary-json`) could not be read.
+    #[error("{origin}: not a haptic-loop summary: {reason}")]
+    Summary {
+        /// The file.
+        origin: String,
+        /// What is wrong with it.
+        reason: String,
+    },
     /// No TrueType font for the text of plots was found in the usual system places
     /// (see [`crate::register_font`]).
     #[error("no TrueType font found (DejaVuSans.ttf)")]

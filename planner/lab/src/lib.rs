@@ -7,6 +7,8 @@
 //! - [`experiment`]: the papers' experiments, a simulated operator ([`experiment::user`])
 //!   in lockstep with the planner; [`experiment::sweep`] runs a whole sweep
 //!   (`planner experiment`) and [`experiment::report`] summarises it (CSV, markdown, plots).
+//! - [`live`]: live experiments' methods, run records and reports (the sessions
+//!   themselves are started by `planner experiment live`).
 //! - [`picture`]: top-down pictures of a roadmap, its solution and the operator's path.
 //! - [`LabError`]: what failed, naming the scene or the file.
 //!
@@ -18,6 +20,7 @@
 
 pub mod error;
 pub mod experiment;
+pub mod live;
 pub mod picture;
 pub mod solve;
 

@@ -15,15 +15,18 @@ use std::path::PathBuf;
 pub struct ExperimentArgs {
     /// `irrt`: sampling method × σ × ε_v on the maze with a pass-through operator (I-RRT
     /// §6). `hrrtc`: α on narrow tunnels and crossing planes with a contact-seeking
-    /// operator, beside automatic RRT-Connect (H-RRT-C Tables I and III).
-    #[arg(value_parser = ["irrt", "hrrtc"])]
+    /// operator, beside automatic RRT-Connect (H-RRT-C Tables I and III); both in lockstep.
+    /// `live`: real sessions of `haptic-loop demo` (loop, contact, simulated operator,
+    /// planner process) per scene × method × seed.
+    #[arg(value_parser = ["irrt", "hrrtc", "live"])]
     pub sweep: String,
-    /// Runs (seeds 1..=N) per configuration.
-    #[arg(long, default_value_t = 5)]
-    pub seeds: u64,
-    /// Wall-clock limit per run, s (unsolved runs count at the limit in medians).
-    #[arg(long, default_value_t = 10.0)]
-    pub time_limit: f64,
+    /// Runs (seeds 1..=N) per configuration [default: 5; live: 3].
+    #[arg(long)]
+    pub seeds: Option<u64>,
+    /// Wall-clock limit per run, s (unsolved runs count at the limit in medians)
+    /// [default: 10; live: 30].
+    #[arg(long)]
+    pub time_limit: Option<f64>,
     /// Output directory (created).
     #[arg(long, default_value = "experiment-out")]
     pub out: PathBuf,
@@ -42,12 +45,27 @@ pub struct ExperimentArgs {
     /// irrt: β of the +CS methods (one uniform sample in β).
     #[arg(long, default_value_t = 3.0)]
     pub beta: f64,
-    /// hrrtc: scenes, comma-separated built-ins.
+    /// hrrtc, live: scenes, comma-separated built-ins (live: or scene files with a route).
     #[arg(long, default_value = "tunnels,crossing-planes", value_delimiter = ',')]
     pub scenes: Vec<String>,
-    /// hrrtc: α values (share of machine samples), comma-separated.
+    /// hrrtc, live: α values (share of machine samples), comma-separated.
     #[arg(long, default_value = "0,0.1,0.5,0.9", value_delimiter = ',')]
     pub alphas: Vec<f64>,
+    /// live: methods, comma-separated: rrt-connect (automatic), pos+cs, path (I-RRT),
+    /// irrtc-mouse (contact sampling at α = 0 with the SpaceMouse operator), hrrtc (the
+    /// arm, one run per --alphas), hrrtc-noguide, hrrtc-novice, hrrtc-mouse (at --guide-alpha).
+    #[arg(
+        long,
+        default_value = "rrt-connect,pos+cs,path,irrtc-mouse,hrrtc,hrrtc-noguide",
+        value_delimiter = ','
+    )]
+    pub live_methods: Vec<String>,
+    /// live: α of hrrtc-noguide, hrrtc-novice and hrrtc-mouse.
+    #[arg(long, default_value_t = 0.5)]
+    pub guide_alpha: f64,
+    /// live: the haptic-loop executable [default: `haptic-loop` beside this executable].
+    #[arg(long)]
+    pub haptic_loop_exe: Option<PathBuf>,
     /// hrrtc: operator speed ε_v, weighted m per iteration.
     #[arg(long, default_value_t = 0.001)]
     pub hrrtc_eps: f64,
@@ -70,8 +88,9 @@ pub struct ExperimentArgs {
 impl ExperimentArgs {
     /// Validates the arguments into a [`SweepConfig`].
     pub fn to_config(&self) -> anyhow::Result<SweepConfig> {
-        let time_limit_s = positive("time-limit", self.time_limit)?;
-        if self.seeds == 0 {
+        let time_limit_s = positive("time-limit", self.time_limit.unwrap_or(10.0))?;
+        let seeds = self.seeds.unwrap_or(5);
+        if seeds == 0 {
             bail!("--seeds must be >= 1");
         }
         let (kind, specs) = if self.sweep == "irrt" {
@@ -88,7 +107,7 @@ impl ExperimentArgs {
                 &methods,
                 &self.sigmas,
                 &self.eps,
-                self.seeds,
+                seeds,
                 time_limit_s,
             );
             (SweepKind::Irrt, specs)
@@ -99,7 +118,7 @@ impl ExperimentArgs {
                 self.hrrtc_eps,
                 self.error_sigma,
                 self.local_trees,
-                self.seeds,
+                seeds,
                 time_limit_s,
             );
             (SweepKind::Hrrtc, specs)
@@ -107,7 +126,7 @@ impl ExperimentArgs {
         Ok(SweepConfig {
             kind,
             specs,
-            seeds: self.seeds,
+            seeds,
             time_limit_s,
             out: self.out.clone(),
             pictures: self.pictures,
@@ -119,6 +138,9 @@ impl ExperimentArgs {
 /// was written. The exit code is 0; pictures and plots that cannot be drawn are reported
 /// and skipped.
 pub fn run(a: &ExperimentArgs) -> anyhow::Result<i32> {
+    if a.sweep == "live" {
+        return crate::experiment_live::run(a);
+    }
     let sweep = Sweep::new(a.to_config()?)?;
     let bar = if a.quiet {
         indicatif::ProgressBar::hidden()

@@ -6,6 +6,7 @@
 
 mod common;
 mod experiment;
+mod experiment_live;
 mod scenes;
 mod serve;
 mod solve;

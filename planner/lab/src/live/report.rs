@@ -1,0 +1,298 @@
+//! Reports of a live sweep: runs as CSV, a summary per (scene, method) as markdown, and a
+//! plot of every run's time to solve. Medians count an unsolved run at the time limit
+//! (a lower bound then), as the lockstep reports do.
+
+use super::LiveRun;
+use crate::LabError;
+use crate::experiment::report::{median, register_font};
+use plotters::prelude::*;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// One (scene, method) of a live sweep.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LiveSummary {
+    /// Scene.
+    pub scene: String,
+    /// Method.
+    pub method: String,
+    /// Runs.
+    pub runs: usize,
+    /// Solved runs.
+    pub solved: usize,
+    /// Median time to solve, s (unsolved at the limit).
+    pub median_time_s: f64,
+    /// Median nodes and tree edges.
+    pub median_nodes: f64,
+    /// Median edges.
+    pub median_edges: f64,
+    /// Runs in which the object reached the goal.
+    pub reached: usize,
+    /// Median time until the object reached the goal, s (not reached: the limit).
+    pub median_goal_s: f64,
+    /// Median time from the solution to the object at the goal, s, over runs with both:
+    /// how long the operator still needed once a path existed.
+    pub median_goal_after_solve_s: f64,
+    /// Median share of the session in contact.
+    pub median_contact_share: f64,
+    /// Deepest penetration over the runs, mm, and in voxels.
+    pub max_penetration_mm: f64,
+    /// The same in voxels.
+    pub max_penetration_voxels: f64,
+    /// Largest force step between ticks over the runs, N.
+    pub max_force_step_n: f64,
+    /// Deadline misses over all ticks of the runs.
+    pub miss_share: f64,
+}
+
+/// Groups `runs` by (scene, method) in the order they first appear; `limit_s` stands in
+/// for unsolved and unreached times.
+pub fn summarize(runs: &[LiveRun], limit_s: f64) -> Vec<LiveSummary> {
+    let mut keys: Vec<(String, String)> = Vec::new();
+    for r in runs {
+        let k = (r.scene.clone(), r.method.clone());
+        if !keys.contains(&k) {
+            keys.push(k);
+        }
+    }
+    keys.into_iter()
+        .map(|(scene, method)| {
+            let g: Vec<&LiveRun> = runs
+                .iter()
+                .filter(|r| r.scene == scene && r.method == method)
+                .collect();
+            let or_limit = |v: f64| if v.is_finite() { v } else { limit_s };
+            let mut t: Vec<f64> = g
+                .iter()
+                .map(|r| {
+                    if r.solved {
+                        or_limit(r.time_to_solve_s)
+                    } else {
+                        limit_s
+                    }
+                })
+                .collect();
+            let mut nodes: Vec<f64> = g.iter().map(|r| r.nodes as f64).collect();
+            let mut edges: Vec<f64> = g.iter().map(|r| r.edges as f64).collect();
+            let mut goal: Vec<f64> = g.iter().map(|r| or_limit(r.time_to_goal_s)).collect();
+            let mut after: Vec<f64> = g
+                .iter()
+                .filter(|r| r.solved && r.time_to_goal_s.is_finite())
+                .map(|r| (r.time_to_goal_s - r.time_to_solve_s).max(0.0))
+                .collect();
+            let mut contact: Vec<f64> = g.iter().map(|r| r.contact_s / r.run_s.max(1e-9)).collect();
+            let pen = g.iter().map(|r| r.max_penetration_mm).fold(0.0, f64::max);
+            let voxels = g
+                .iter()
+                .filter(|r| r.voxel_mm > 0.0)
+                .map(|r| r.max_penetration_mm / r.voxel_mm)
+                .fold(0.0, f64::max);
+            let ticks: u64 = g.iter().map(|r| r.ticks).sum();
+            let misses: u64 = g.iter().map(|r| r.deadline_misses).sum();
+            LiveSummary {
+                runs: g.len(),
+                solved: g.iter().filter(|r| r.solved).count(),
+                median_time_s: median(&mut t),
+                median_nodes: median(&mut nodes),
+                median_edges: median(&mut edges),
+                reached: g.iter().filter(|r| r.time_to_goal_s.is_finite()).count(),
+                median_goal_s: median(&mut goal),
+                median_goal_after_solve_s: median(&mut after),
+                median_contact_share: median(&mut contact),
+                max_penetration_mm: pen,
+                max_penetration_voxels: voxels,
+                max_force_step_n: g.iter().map(|r| r.max_force_step_n).fold(0.0, f64::max),
+                miss_share: misses as f64 / ticks.max(1) as f64,
+                scene,
+                method,
+            }
+        })
+        .collect()
+}
+
+fn num(v: f64, decimals: usize) -> String {
+    if v.is_finite() {
+        format!("{v:.decimals$}")
+    } else {
+        String::new()
+    }
+}
+
+/// The runs as CSV (header first); missing values are empty fields.
+pub fn to_csv(runs: &[LiveRun]) -> String {
+    let mut out = String::from(
+        "scene,method,alpha,input,guidance,operator,seed,solved,time_to_solve_s,nodes,edges,\
+         time_to_goal_s,contact_s,max_penetration_mm,voxel_mm,max_force_step_n,ticks,\
+         deadline_misses,run_s\n",
+    );
+    for r in runs {
+        let _ = writeln!(
+            out,
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            r.scene,
+            r.method,
+            num(r.alpha, 3),
+            match r.input {
+                super::Input::Arm => "arm",
+                super::Input::Mouse => "mouse",
+            },
+            r.guidance,
+            r.operator,
+            r.seed,
+            r.solved,
+            num(r.time_to_solve_s, 3),
+            r.nodes,
+            r.edges,
+            num(r.time_to_goal_s, 3),
+            num(r.contact_s, 3),
+            num(r.max_penetration_mm, 4),
+            num(r.voxel_mm, 3),
+            num(r.max_force_step_n, 4),
+            r.ticks,
+            r.deadline_misses,
+            num(r.run_s, 2),
+        );
+    }
+    out
+}
+
+/// The summaries as a markdown table, with each scene's speed-up of every method over
+/// automatic RRT-Connect (ratio of medians) when that was run.
+pub fn to_markdown(summaries: &[LiveSummary], limit_s: f64) -> String {
+    let mut out = format!(
+        "Medians over seeds; unsolved runs count at the {limit_s} s limit, an object that \
+         never reached the goal at the limit too. Speed-up: automatic RRT-Connect's median \
+         time to solve over the method's, same scene.\n\n\
+         | scene | method | solved | median time to solve (s) | speed-up | nodes | edges | \
+         object at goal (s) | goal after solution (s) | in contact | peak penetration \
+         (mm / voxels) | largest force step (N) | deadline misses |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+    );
+    for s in summaries {
+        let auto = summaries
+            .iter()
+            .find(|a| a.scene == s.scene && a.method == "rrt-connect");
+        let speedup = auto.map_or(String::new(), |a| {
+            format!("{:.1}×", a.median_time_s / s.median_time_s.max(1e-9))
+        });
+        let _ = writeln!(
+            out,
+            "| {} | {} | {}/{} | {:.2} | {} | {:.0} | {:.0} | {:.2} ({}/{}) | {} | {:.0} % | {:.2} / {:.2} | {:.3} | {:.3} % |",
+            s.scene,
+            s.method,
+            s.solved,
+            s.runs,
+            s.median_time_s,
+            speedup,
+            s.median_nodes,
+            s.median_edges,
+            s.median_goal_s,
+            s.reached,
+            s.runs,
+            num(s.median_goal_after_solve_s, 2),
+            100.0 * s.median_contact_share,
+            s.max_penetration_mm,
+            s.max_penetration_voxels,
+            s.max_force_step_n,
+            100.0 * s.miss_share,
+        );
+    }
+    out
+}
+
+/// Every run's time to solve (log scale; unsolved at the limit, hollow) per method, one
+/// panel per scene, with each method's median as a bar. The error names the file.
+pub fn plot(runs: &[LiveRun], limit_s: f64, path: &Path) -> Result<(), LabError> {
+    if !register_font() {
+        return Err(LabError::NoFont);
+    }
+    draw(runs, limit_s, path).map_err(|source| LabError::Draw {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+type PlotResult = Result<(), Box<dyn std::error::Error + Send + Sync>>;
+
+fn draw(runs: &[LiveRun], limit_s: f64, path: &Path) -> PlotResult {
+    let summaries = summarize(runs, limit_s);
+    let mut scenes: Vec<String> = Vec::new();
+    let mut methods: Vec<String> = Vec::new();
+    for r in runs {
+        if !scenes.contains(&r.scene) {
+            scenes.push(r.scene.clone());
+        }
+        if !methods.contains(&r.method) {
+            methods.push(r.method.clone());
+        }
+    }
+    let height = 420 * scenes.len().max(1) as u32;
+    let root = BitMapBackend::new(path, (1400, height)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let panels = root.split_evenly((scenes.len().max(1), 1));
+    let shortest = runs
+        .iter()
+        .filter(|r| r.solved && r.time_to_solve_s > 0.0)
+        .map(|r| r.time_to_solve_s)
+        .fold(limit_s, f64::min);
+    let y = (shortest * 0.5).max(1e-3)..limit_s * 1.5;
+    let n = methods.len();
+    for (scene, panel) in scenes.iter().zip(panels.iter()) {
+        let mut chart = ChartBuilder::on(panel)
+            .caption(
+                format!("{scene}: time to solve in live sessions"),
+                ("sans-serif", 22),
+            )
+            .margin(10)
+            .x_label_area_size(50)
+            .y_label_area_size(60)
+            .build_cartesian_2d(-0.5..(n as f64 - 0.5), y.clone().log_scale())?;
+        let names = methods.clone();
+        chart
+            .configure_mesh()
+            .x_labels(n)
+            .x_label_formatter(&move |v| {
+                let i = v.round();
+                if (v - i).abs() < 1e-6 && i >= 0.0 {
+                    names.get(i as usize).cloned().unwrap_or_default()
+                } else {
+                    String::new()
+                }
+            })
+            .y_desc("time to solve (s), log")
+            .y_label_formatter(&|v| format!("{v:.2}"))
+            .draw()?;
+        for (i, m) in methods.iter().enumerate() {
+            let x = i as f64;
+            if let Some(s) = summaries
+                .iter()
+                .find(|s| &s.scene == scene && &s.method == m)
+            {
+                chart.draw_series(std::iter::once(PathElement::new(
+                    vec![(x - 0.3, s.median_time_s), (x + 0.3, s.median_time_s)],
+                    BLACK.stroke_width(3),
+                )))?;
+            }
+            let pts: Vec<(f64, f64, bool)> = runs
+                .iter()
+                .filter(|r| &r.scene == scene && &r.method == m)
+                .enumerate()
+                .map(|(k, r)| {
+                    let jitter = ((k % 7) as f64 - 3.0) * 0.04;
+                    let t = if r.solved { r.time_to_solve_s } else { limit_s };
+                    (x + jitter, t, r.solved)
+                })
+                .collect();
+            let c = if m == "rrt-connect" { RED } else { BLUE };
+            chart.draw_series(pts.iter().map(|&(px, py, solved)| {
+                if solved {
+                    Circle::new((px, py), 4, c.filled())
+                } else {
+                    Circle::new((px, py), 4, c.stroke_width(1))
+                }
+            }))?;
+        }
+    }
+    root.present()?;
+    Ok(())
+}
