@@ -68,7 +68,8 @@ pub fn unique_namespace(tag: &str) -> String {
     format!("it_{tag}_{}_{n}", std::process::id())
 }
 
-/// A child process killed (SIGKILL) when dropped, so a failing test leaves nothing behind.
+/// A child process stopped when dropped (see `Drop`), so a failing test leaves nothing
+/// behind.
 #[derive(Debug)]
 pub struct Proc {
     /// The child.
@@ -133,9 +134,14 @@ impl Proc {
 }
 
 impl Drop for Proc {
+    /// SIGTERM first (a `haptic-loop demo` then stops the planner it started), SIGKILL
+    /// after 2 s.
     fn drop(&mut self) {
         if self.is_running() {
-            let _ = self.child.kill();
+            self.signal(libc::SIGTERM);
+            if self.wait_timeout(Duration::from_secs(2)).is_none() {
+                let _ = self.child.kill();
+            }
         }
         let _ = self.child.wait();
     }

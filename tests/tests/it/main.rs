@@ -11,6 +11,7 @@ mod bridge;
 mod devices;
 mod external_c;
 mod issue_16;
+mod live;
 mod rt_deps;
 mod two_process;
 mod view;

@@ -1,0 +1,161 @@
+//! Issue 17: H-RRT-C through the live system. `haptic-loop demo` on every built-in scene:
+//! the loop at 1 kHz with contact on the simulated arm, held by the reacting operator
+//! following the scene's route, the planner (H-RRT-C) as its own process; and the live
+//! experiment harness on a tiny sweep.
+
+use std::path::Path;
+use std::time::Duration;
+use tests::{Proc, bin, one_loop_at_a_time, unique_namespace};
+
+/// Generous: the expert reaches every goal within about 10 s at release speed.
+const LIMIT_S: &str = "90";
+
+/// Runs the demo on `scene` (2 mm voxels: a quicker voxmap in this unoptimised build) and
+/// returns its summary; asserts exit code 0 (solved).
+fn demo(scene: &str) -> serde_json::Value {
+    let _serial = one_loop_at_a_time();
+    let ns = unique_namespace("live");
+    let summary = std::env::temp_dir().join(format!("{ns}.json"));
+    let mut p = Proc::spawn(
+        &bin("haptic-loop"),
+        &[
+            "demo",
+            "--scene",
+            scene,
+            "--namespace",
+            &ns,
+            "--voxel-mm",
+            "2",
+            "--no-mlock",
+            "--time-limit-s",
+            LIMIT_S,
+            "--after-solve-s",
+            "0.5",
+            "--summary-json",
+            summary.to_str().unwrap(),
+        ],
+    );
+    let st = p
+        .wait_timeout(Duration::from_secs(240))
+        .expect("the demo ends by itself");
+    let text = std::fs::read_to_string(&summary).expect("summary written");
+    let _ = std::fs::remove_file(&summary);
+    let s: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(st.code(), Some(0), "{scene}: not solved: {s}");
+    s
+}
+
+/// Solved with H-RRT-C, with contact that holds (penetration within 2 voxels, a bounded
+/// force step) and no allocation on the RT thread.
+fn solves_live(scene: &str) {
+    let s = demo(scene);
+    assert_eq!(s["solved"], true, "{scene}: {s}");
+    let t = s["time_to_solve_s"].as_f64().unwrap();
+    assert!(t > 0.0 && t < 90.0, "{scene}: {t} s");
+    let c = &s["contact"];
+    let pen_voxels = c["max_penetration_mm"].as_f64().unwrap() / c["voxel_mm"].as_f64().unwrap();
+    assert!(pen_voxels <= 2.0, "{scene}: {pen_voxels} voxels deep: {s}");
+    // The safety stage's rate limit bounds a step; a switch of guidance or level blends.
+    let step = s["max_force_step_n"].as_f64().unwrap();
+    assert!(step.is_finite() && step <= 8.0, "{scene}: {step} N step");
+    assert_eq!(s["allocations_per_tick"].as_f64(), Some(0.0), "{scene}");
+    eprintln!(
+        "{scene}: solved after {t:.2} s, object at goal {:?} s, {:.2} s in contact, {:.3} mm deep, largest step {step:.3} N, {} misses in {} ticks",
+        s["time_to_goal_s"],
+        c["contact_s"].as_f64().unwrap(),
+        c["max_penetration_mm"].as_f64().unwrap(),
+        s["deadline_misses"],
+        s["ticks"]
+    );
+}
+
+#[test]
+fn issue_17_live_hrrtc_solves_wall_hole() {
+    solves_live("wall-hole");
+}
+
+#[test]
+fn issue_17_live_hrrtc_solves_maze() {
+    solves_live("maze");
+}
+
+#[test]
+fn issue_17_live_hrrtc_solves_tunnels() {
+    solves_live("tunnels");
+}
+
+#[test]
+fn issue_17_live_hrrtc_solves_crossing_planes() {
+    solves_live("crossing-planes");
+}
+
+#[test]
+fn issue_17_live_hrrtc_solves_silencer() {
+    solves_live("silencer");
+}
+
+#[test]
+fn issue_17_live_hrrtc_solves_bug_trap() {
+    solves_live("bug-trap");
+}
+
+/// The harness on a tiny sweep (the free scene, automatic and H-RRT-C, one seed): a CSV
+/// with a header and one row per session, every row as wide as the header, and a summary.
+#[test]
+fn issue_17_live_sweep_writes_well_formed_csv() {
+    let _serial = one_loop_at_a_time();
+    let out = std::env::temp_dir().join(unique_namespace("livesweep"));
+    let exe = bin("haptic-loop");
+    let st = std::process::Command::new(bin("planner"))
+        .args([
+            "experiment",
+            "live",
+            "--scenes",
+            "free",
+            "--live-methods",
+            "rrt-connect,hrrtc",
+            "--alphas",
+            "0.5",
+            "--seeds",
+            "1",
+            "--time-limit",
+            "30",
+            "--quiet",
+            "--out",
+        ])
+        .arg(&out)
+        .arg("--haptic-loop-exe")
+        .arg(&exe)
+        .status()
+        .expect("planner experiment live");
+    assert!(st.success(), "{st}");
+    let csv = std::fs::read_to_string(out.join("runs.csv")).expect("runs.csv");
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 3, "{csv}");
+    let header: Vec<&str> = lines[0].split(',').collect();
+    assert_eq!(header[0], "scene");
+    for col in [
+        "method",
+        "seed",
+        "solved",
+        "time_to_solve_s",
+        "max_penetration_mm",
+    ] {
+        assert!(header.contains(&col), "{col} in {}", lines[0]);
+    }
+    let solved = header.iter().position(|c| *c == "solved").unwrap();
+    let time = header.iter().position(|c| *c == "time_to_solve_s").unwrap();
+    for row in &lines[1..] {
+        let f: Vec<&str> = row.split(',').collect();
+        assert_eq!(f.len(), header.len(), "{row}");
+        assert_eq!(f[0], "free");
+        assert_eq!(f[solved], "true", "{row}");
+        let t: f64 = f[time].parse().expect("a time");
+        assert!(t > 0.0 && t < 30.0, "{row}");
+    }
+    assert!(lines[1].contains(",rrt-connect,") && lines[2].contains(",hrrtc α=0.5,"));
+    let md = std::fs::read_to_string(out.join("summary.md")).expect("summary.md");
+    assert!(md.contains("| free | rrt-connect | 1/1 |"), "{md}");
+    assert!(Path::new(&out.join("summaries")).is_dir());
+    let _ = std::fs::remove_dir_all(out);
+}
