@@ -1,9 +1,13 @@
 //! Criterion benches of contact rendering: one contact step versus pointshell size (about
-//! 1k, 10k and 50k points) and voxel size, in free space and in resting contact, and the
+//! 1k, 10k and 50k points) and voxel size, in free space and in resting contact; the full
+//! tick of each built-in scene with its object pressed flat onto its largest fitting face
+//! and slid (the worst contact, `benches::face_contact`, as `tick-budget --scene`); and the
 //! voxmap build. `cargo bench -p benches --bench contact`.
 
 use benches::contact_fixture::{Fixture, Situation};
+use benches::face_contact::face_setup;
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use haptic_loop::tick::{NoGuidance, NoSink, PrevTiming, Tick};
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -29,6 +33,40 @@ fn step_vs_voxel(c: &mut Criterion) {
     g.finish();
 }
 
+/// One full 1 kHz tick (1 mm voxels, the default point budget) per built-in scene, in
+/// pressed, sliding face contact: the mean over the slide's cycle.
+fn face_tick_per_scene(c: &mut Criterion) {
+    let mut g = c.benchmark_group("contact/tick/face");
+    for name in [
+        "wall-hole",
+        "tunnels",
+        "crossing-planes",
+        "maze",
+        "bug-trap",
+        "silencer",
+    ] {
+        let scene = scene::Scene::builtin(name).expect("a built-in scene");
+        // An hour of sliding to and fro: longer than criterion's iterations take.
+        let (arm, config, stage, _) = face_setup(&scene, 1000.0, 3600.0, 0.001).expect(name);
+        let mut tick = Tick::new(arm, &config, NoGuidance, NoSink)
+            .expect("the simulated arm opens")
+            .with_contact(stage);
+        // Pressed in and sliding before timing starts.
+        let mut t_ns = 0u64;
+        for _ in 0..2_000 {
+            t_ns += 1_000_000;
+            tick.step(t_ns, PrevTiming::default());
+        }
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                t_ns += 1_000_000;
+                black_box(tick.step(t_ns, PrevTiming::default()).header.sequence)
+            })
+        });
+    }
+    g.finish();
+}
+
 fn voxmap_build(c: &mut Criterion) {
     let mut g = c.benchmark_group("contact/voxmap-build/wall-hole");
     g.sample_size(10).measurement_time(Duration::from_secs(10));
@@ -40,5 +78,11 @@ fn voxmap_build(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, step_vs_points, step_vs_voxel, voxmap_build);
+criterion_group!(
+    benches,
+    step_vs_points,
+    step_vs_voxel,
+    face_tick_per_scene,
+    voxmap_build
+);
 criterion_main!(benches);

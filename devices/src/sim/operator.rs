@@ -47,6 +47,8 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU32, Ordering};
 
 use crate::DeviceError;
 use perception::DelayLine;
@@ -115,6 +117,52 @@ pub struct OperatorStats {
     pub hesitations: u32,
 }
 
+/// The operator's counts, readable from another thread while it acts (a session reports
+/// them at its end; the device itself is owned by the real-time loop). Relaxed atomics:
+/// updated once per decision, allocation-free.
+#[derive(Debug, Default)]
+pub struct SharedStats {
+    step: AtomicU32,
+    steps_reached: AtomicU32,
+    blocks: AtomicU32,
+    wrong_turns: AtomicU32,
+    wrong_orientations: AtomicU32,
+    corrections: AtomicU32,
+    retries: AtomicU32,
+    hesitations: AtomicU32,
+}
+
+impl SharedStats {
+    /// The counts now, and the route step the operator heads for.
+    pub fn read(&self) -> (OperatorStats, u32) {
+        let g = |a: &AtomicU32| a.load(Ordering::Relaxed);
+        (
+            OperatorStats {
+                steps_reached: g(&self.steps_reached),
+                blocks: g(&self.blocks),
+                wrong_turns: g(&self.wrong_turns),
+                wrong_orientations: g(&self.wrong_orientations),
+                corrections: g(&self.corrections),
+                retries: g(&self.retries),
+                hesitations: g(&self.hesitations),
+            },
+            g(&self.step),
+        )
+    }
+
+    fn write(&self, s: &OperatorStats, step: usize) {
+        let p = |a: &AtomicU32, v: u32| a.store(v, Ordering::Relaxed);
+        p(&self.step, step as u32);
+        p(&self.steps_reached, s.steps_reached);
+        p(&self.blocks, s.blocks);
+        p(&self.wrong_turns, s.wrong_turns);
+        p(&self.wrong_orientations, s.wrong_orientations);
+        p(&self.corrections, s.corrections);
+        p(&self.retries, s.retries);
+        p(&self.hesitations, s.hesitations);
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Mode {
     Moving,
@@ -161,6 +209,7 @@ pub struct Operator {
     line: DelayLine,
     intent: Intent,
     stats: OperatorStats,
+    shared: Arc<SharedStats>,
 }
 
 impl Operator {
@@ -201,7 +250,13 @@ impl Operator {
             last_t: None,
             intent: Intent::STILL,
             stats: OperatorStats::default(),
+            shared: Arc::new(SharedStats::default()),
         })
+    }
+
+    /// Its counts as another thread can read them while it acts.
+    pub fn shared_stats(&self) -> Arc<SharedStats> {
+        self.shared.clone()
     }
 
     /// The configuration.
@@ -298,6 +353,7 @@ impl Operator {
             }
             Mode::Moving => self.moving(&seen, t, dt),
         };
+        self.shared.write(&self.stats, self.step);
         self.intent
     }
 
@@ -436,6 +492,7 @@ impl Operator {
             return intent;
         };
         let share = if self.blocks_here >= c.stuck_after_blocks {
+            // Stuck: it lets the guidance lead more.
             c.stuck_guidance_share
         } else {
             c.guidance_share
@@ -488,19 +545,21 @@ impl Operator {
             self.begin_attempt(t);
             return;
         }
-        // Nothing it knows to correct: back off, then try a little differently.
+        // Nothing it knows to correct: back off, then try a little differently, more
+        // carefully each time it is blocked at this step (the change halves).
         self.stats.retries += 1;
+        let care = 0.5f64.powi(self.blocks_here.saturating_sub(1).min(30) as i32);
         let back = e_p.try_normalize(1e-9).map_or_else(Vector3::zeros, |d| -d);
         self.mode = Mode::BackingOff {
             until: t + c.retry_back_s,
             direction: back,
         };
-        let sideways = self.gaussian3() * c.retry_jitter_m;
+        let sideways = self.gaussian3() * (c.retry_jitter_m * care);
         let sideways = match e_p.try_normalize(1e-9) {
             Some(d) => sideways - d * sideways.dot(&d),
             None => sideways,
         };
-        let turn = self.gaussian3() * c.retry_jitter_rad;
+        let turn = self.gaussian3() * (c.retry_jitter_rad * care);
         self.jitter = Isometry3::from_parts(
             Translation3::from(sideways),
             UnitQuaternion::from_scaled_axis(turn),

@@ -23,7 +23,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-pub use summary::{ContactSummary, Summary};
+pub use summary::{ContactSummary, OperatorSummary, Summary};
 
 /// The validated set-up of a session.
 #[derive(Debug, Clone)]

@@ -7,6 +7,7 @@ use crate::Error;
 use crate::mapping::{Mapping, MappingConfig};
 use crate::tick::GoalZone;
 use devices::HapticDevice;
+use devices::sim::operator::SharedStats;
 use devices::sim::{
     Operator, OperatorConfig, OperatorHand, RouteStep, ScriptedUser, ScriptedUserConfig,
     SimulatedArm, SimulatedSpaceMouse, Waypoint,
@@ -14,6 +15,7 @@ use devices::sim::{
 use devices::spacemouse::SpaceMouseConfig;
 use nalgebra::{Isometry3, Translation3};
 use scene::Scene;
+use std::sync::Arc;
 
 use super::LoopSetup;
 
@@ -157,18 +159,17 @@ pub fn device_route(setup: &LoopSetup) -> Vec<RouteStep> {
         .collect()
 }
 
+/// A simulated device and, when a reacting operator holds it, the operator's counts.
+pub type SimDevice = (Box<dyn HapticDevice>, Option<Arc<SharedStats>>);
+
 /// The simulated device of `setup`: the arm or a SpaceMouse held by its operator (the
 /// scripted one only holds the arm, on the wall-hole demo's route).
-pub fn simulated_device(
-    setup: &LoopSetup,
-    input: SimInput,
-) -> Result<Box<dyn HapticDevice>, Error> {
+pub fn simulated_device(setup: &LoopSetup, input: SimInput) -> Result<SimDevice, Error> {
     match (setup.operator, input) {
-        (SimOperator::Scripted(user), SimInput::Arm) => Ok(Box::new(simulated_arm(
-            setup,
-            user,
-            &demo_route(&setup.scene),
-        )?)),
+        (SimOperator::Scripted(user), SimInput::Arm) => Ok((
+            Box::new(simulated_arm(setup, user, &demo_route(&setup.scene))?),
+            None,
+        )),
         (SimOperator::Scripted(_), SimInput::SpaceMouse) => Err(Error::Device {
             device: "the simulated SpaceMouse".into(),
             error: devices::DeviceError::InvalidConfig("operator"),
@@ -177,17 +178,25 @@ pub fn simulated_device(
         (SimOperator::Reacting(config), SimInput::Arm) => {
             let hand = OperatorHand::with_route(config, device_route(setup))
                 .map_err(sim_error("the simulated arm"))?;
-            Ok(Box::new(
-                SimulatedArm::with_operator(setup.arm.clone(), hand)
-                    .map_err(sim_error("the simulated arm"))?,
+            let stats = hand.operator().shared_stats();
+            Ok((
+                Box::new(
+                    SimulatedArm::with_operator(setup.arm.clone(), hand)
+                        .map_err(sim_error("the simulated arm"))?,
+                ),
+                Some(stats),
             ))
         }
         (SimOperator::Reacting(config), SimInput::SpaceMouse) => {
             let operator = Operator::new(config, device_route(setup))
                 .map_err(sim_error("the simulated SpaceMouse"))?;
-            Ok(Box::new(
-                SimulatedSpaceMouse::new(SpaceMouseConfig::default(), operator)
-                    .map_err(sim_error("the simulated SpaceMouse"))?,
+            let stats = operator.shared_stats();
+            Ok((
+                Box::new(
+                    SimulatedSpaceMouse::new(SpaceMouseConfig::default(), operator)
+                        .map_err(sim_error("the simulated SpaceMouse"))?,
+                ),
+                Some(stats),
             ))
         }
     }

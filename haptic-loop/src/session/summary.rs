@@ -51,6 +51,46 @@ pub struct Summary {
     pub time_to_goal_s: Option<f64>,
     /// Largest change of the commanded device force between two consecutive ticks, N.
     pub max_force_step_n: f64,
+    /// What the simulated operator did; `null` for a scripted operator or a real device.
+    pub operator: Option<OperatorSummary>,
+}
+
+/// What a reacting simulated operator did in a session.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct OperatorSummary {
+    /// Route step it was heading for at the end (0 = the start).
+    pub step: u32,
+    /// Route steps it reached.
+    pub steps_reached: u32,
+    /// Times it felt or saw itself blocked.
+    pub blocks: u32,
+    /// Wrong turns and wrong orientations it drew.
+    pub wrong_turns: u32,
+    /// Wrong orientations it drew.
+    pub wrong_orientations: u32,
+    /// Corrections of a wrong turn or orientation.
+    pub corrections: u32,
+    /// Retries after a block with nothing to correct.
+    pub retries: u32,
+    /// Hesitations.
+    pub hesitations: u32,
+}
+
+impl OperatorSummary {
+    /// The operator's counts as `stats` holds them now.
+    pub fn of(stats: &devices::sim::operator::SharedStats) -> Self {
+        let (s, step) = stats.read();
+        OperatorSummary {
+            step,
+            steps_reached: s.steps_reached,
+            blocks: s.blocks,
+            wrong_turns: s.wrong_turns,
+            wrong_orientations: s.wrong_orientations,
+            corrections: s.corrections,
+            retries: s.retries,
+            hesitations: s.hesitations,
+        }
+    }
 }
 
 /// What contact rendering did during a session.
@@ -127,6 +167,7 @@ impl Summary {
             contact,
             time_to_goal_s: None,
             max_force_step_n: 0.0,
+            operator: None,
         }
     }
 }
@@ -197,6 +238,20 @@ impl fmt::Display for Summary {
             "force step:        largest {:.3} N between ticks",
             self.max_force_step_n
         )?;
+        if let Some(o) = &self.operator {
+            writeln!(
+                f,
+                "operator:          at route step {} ({} reached); {} blocks, {} corrections, {} retries, {} hesitations; {} wrong turns, {} wrong orientations",
+                o.step,
+                o.steps_reached,
+                o.blocks,
+                o.corrections,
+                o.retries,
+                o.hesitations,
+                o.wrong_turns,
+                o.wrong_orientations
+            )?;
+        }
         match self.allocations_per_tick {
             Some(a) => writeln!(
                 f,

@@ -305,12 +305,24 @@ pub fn run(config: &BridgeConfig, stop: Arc<AtomicBool>) -> Result<BridgeReport,
             .map_err(declare_error(&pong_key))?
     };
 
-    // Received samples: Zenoh's threads queue them for the import thread, which owns the
-    // iceoryx2 ports (they are not `Send`).
+    // Guidance on the loop's host goes to the loop's relay from Zenoh's own callback, through
+    // thread-safe ports of the same services: no second thread to wake on the latency path.
+    let direct_guidance = match config.side {
+        Side::Loop => Some(direct_guidance(
+            config,
+            ns,
+            counters.clone(),
+            delays.clone(),
+            &session,
+        )?),
+        Side::Planner => None,
+    };
+    // The other received samples: Zenoh's threads queue them for the import thread, which
+    // owns those iceoryx2 ports (they are not `Send`).
     let (tx, rx) = std::sync::mpsc::sync_channel::<Incoming>(IMPORT_QUEUE);
     let imported: &[&str] = match config.side {
-        Side::Loop if config.roadmap => &["guidance", "path", "roadmap"],
-        Side::Loop => &["guidance", "path"],
+        Side::Loop if config.roadmap => &["path", "roadmap"],
+        Side::Loop => &["path"],
         Side::Planner => &["state"],
     };
     let mut import_subs = Vec::new();
@@ -399,11 +411,72 @@ pub fn run(config: &BridgeConfig, stop: Arc<AtomicBool>) -> Result<BridgeReport,
     let _ = import.join();
     let _ = export.join();
     drop(import_subs);
+    drop(direct_guidance);
     drop(ping_sub);
     drop(pong_sub);
     let _ = session.close().wait();
     setup?;
     Ok(report(&counters, &delays, started))
+}
+
+/// The loop side's guidance path: a Zenoh subscriber whose callback checks, re-stamps and
+/// sends each sample to the local guidance service and notifies the relay. Dropping the
+/// returned pair undeclares the subscriber, then closes the ports.
+fn direct_guidance(
+    config: &BridgeConfig,
+    keys: &str,
+    counters: Arc<Counters>,
+    delays: Arc<Mutex<PeerDelays>>,
+    session: &zenoh::Session,
+) -> Result<(zenoh::pubsub::Subscriber<()>, Arc<GuidancePorts>), BridgeError> {
+    let (node, _) = services::create_node_in::<services::IpcThreadsafe>(&format!(
+        "bridge_guidance_{}",
+        std::process::id()
+    ))?;
+    let ports = Arc::new(GuidancePorts {
+        publisher: services::publisher_in::<services::IpcThreadsafe, Guidance>(
+            &node,
+            &config.namespace,
+        )?,
+        notifier: services::guidance_notifier_in::<services::IpcThreadsafe>(
+            &node,
+            &config.namespace,
+        )?,
+        last_warning: Mutex::new(None),
+        _node: node,
+    });
+    let k = key(keys, "guidance");
+    let out = ports.clone();
+    let sub = session
+        .declare_subscriber(&k)
+        .callback(move |sample| {
+            let incoming = Incoming {
+                arrival_ns: ipc_types::monotonic_ns(),
+                bytes: sample.payload().to_bytes().into_owned(),
+            };
+            bump(&counters.received, Kind::GUIDANCE);
+            let mut warned = lock(&out.last_warning);
+            if let Some((_, g)) = accept::<Guidance>(&incoming, &counters, &delays, &mut warned) {
+                if out.publisher.send_copy(g).is_ok() {
+                    bump(&counters.delivered, Kind::GUIDANCE);
+                } else {
+                    bump(&counters.dropped, Kind::GUIDANCE);
+                }
+                // The relay also polls: a failed wake-up costs only latency.
+                let _ = out.notifier.notify();
+            }
+        })
+        .wait()
+        .map_err(declare_error(&k))?;
+    Ok((sub, ports))
+}
+
+/// The loop side's guidance ports, shared with Zenoh's callback threads.
+struct GuidancePorts {
+    publisher: iceoryx2::port::publisher::Publisher<services::IpcThreadsafe, Guidance, ()>,
+    notifier: iceoryx2::port::notifier::Notifier<services::IpcThreadsafe>,
+    last_warning: Mutex<Option<Instant>>,
+    _node: iceoryx2::node::Node<services::IpcThreadsafe>,
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
@@ -573,8 +646,6 @@ fn accept<T: Carried>(
 #[allow(clippy::large_enum_variant)]
 enum LocalOut {
     Loop {
-        guidance: services::Publisher<Guidance>,
-        event: services::GuidanceNotifier,
         path: services::Publisher<Path>,
         roadmap: Option<services::Publisher<Roadmap>>,
     },
@@ -596,8 +667,6 @@ fn import_thread(
         let (node, _) = services::create_node(&format!("bridge_in_{}", std::process::id()))?;
         let out = match config.side {
             Side::Loop => LocalOut::Loop {
-                guidance: services::publisher::<Guidance>(&node, ns)?,
-                event: services::guidance_notifier(&node, ns)?,
                 path: services::publisher::<Path>(&node, ns)?,
                 roadmap: if config.roadmap {
                     Some(services::publisher::<Roadmap>(&node, ns)?)
@@ -644,20 +713,7 @@ fn import_thread(
                     Kind::STATE
                 })
             }
-            LocalOut::Loop {
-                guidance,
-                event,
-                path,
-                roadmap,
-            } => match kind {
-                Kind::GUIDANCE => {
-                    accept::<Guidance>(&incoming, counters, delays, warn).and_then(|(_, g)| {
-                        let sent = guidance.send_copy(g).is_ok();
-                        // The relay also polls: a failed wake-up costs only latency.
-                        let _ = event.notify();
-                        sent.then_some(Kind::GUIDANCE)
-                    })
-                }
+            LocalOut::Loop { path, roadmap } => match kind {
                 Kind::PATH => {
                     accept::<Path>(&incoming, counters, delays, warn).and_then(|(h, p)| {
                         let id = (h.sender, p.header.writer_pid, p.header.sequence);

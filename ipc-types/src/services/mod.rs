@@ -97,6 +97,10 @@ pub type Publisher<T> = iceoryx2::port::publisher::Publisher<Ipc, T, ()>;
 pub type Subscriber<T> = iceoryx2::port::subscriber::Subscriber<Ipc, T, ()>;
 /// Notifier of [`GUIDANCE_EVENT`] (planner).
 pub type GuidanceNotifier = iceoryx2::port::notifier::Notifier<Ipc>;
+/// The same shared-memory transport as [`Ipc`] with ports that are `Send + Sync` (their
+/// state behind a mutex), for a process that writes from a thread it does not own (the
+/// bridge, from Zenoh's callbacks). Ports of both kinds meet on the same services.
+pub type IpcThreadsafe = ipc_threadsafe::Service;
 /// Listener of [`GUIDANCE_EVENT`] (the loop's relay thread).
 pub type GuidanceListener = iceoryx2::port::listener::Listener<Ipc>;
 
@@ -190,6 +194,13 @@ pub fn iceoryx_config() -> &'static Config {
 /// install their own), after removing the resources of dead nodes so that a crashed
 /// predecessor cannot block a service. Returns the node and how many dead nodes were cleaned.
 pub fn create_node(name: &str) -> Result<(Node<Ipc>, usize), ServiceError> {
+    create_node_in::<Ipc>(name)
+}
+
+/// [`create_node`] for the transport `S` (e.g. [`IpcThreadsafe`]).
+pub fn create_node_in<S: iceoryx2::service::Service>(
+    name: &str,
+) -> Result<(Node<S>, usize), ServiceError> {
     let cleaned = cleanup_dead_nodes();
     let node_error = |reason: String| ServiceError::Node {
         node: name.to_owned(),
@@ -202,7 +213,7 @@ pub fn create_node(name: &str) -> Result<(Node<Ipc>, usize), ServiceError> {
         .config(iceoryx_config())
         .name(&node_name)
         .signal_handling_mode(SignalHandlingMode::Disabled)
-        .create::<Ipc>()
+        .create::<S>()
         .map_err(|e| node_error(format!("cannot create node: {e:?}")))?;
     Ok((node, cleaned))
 }
@@ -312,13 +323,13 @@ impl Topic for DriverCommand {
     const QOS: Qos = LATEST_VALUE;
 }
 
-fn topic<T: Topic>(
-    node: &Node<Ipc>,
+fn topic<S: iceoryx2::service::Service, T: Topic>(
+    node: &Node<S>,
     namespace: &str,
 ) -> Result<
     (
         String,
-        iceoryx2::service::port_factory::publish_subscribe::PortFactory<Ipc, T, ()>,
+        iceoryx2::service::port_factory::publish_subscribe::PortFactory<S, T, ()>,
     ),
     ServiceError,
 > {
@@ -348,7 +359,15 @@ pub fn publisher<T: Topic>(
     node: &Node<Ipc>,
     namespace: &str,
 ) -> Result<Publisher<T>, ServiceError> {
-    let (service, factory) = topic::<T>(node, namespace)?;
+    publisher_in::<Ipc, T>(node, namespace)
+}
+
+/// [`publisher`] for the transport `S` (e.g. [`IpcThreadsafe`]).
+pub fn publisher_in<S: iceoryx2::service::Service, T: Topic>(
+    node: &Node<S>,
+    namespace: &str,
+) -> Result<iceoryx2::port::publisher::Publisher<S, T, ()>, ServiceError> {
+    let (service, factory) = topic::<S, T>(node, namespace)?;
     factory.publisher_builder().create().map_err(port_error(
         service,
         "publisher",
@@ -361,7 +380,7 @@ pub fn subscriber<T: Topic>(
     node: &Node<Ipc>,
     namespace: &str,
 ) -> Result<Subscriber<T>, ServiceError> {
-    let (service, factory) = topic::<T>(node, namespace)?;
+    let (service, factory) = topic::<Ipc, T>(node, namespace)?;
     factory.subscriber_builder().create().map_err(port_error(
         service,
         "subscriber",
@@ -372,13 +391,13 @@ pub fn subscriber<T: Topic>(
     ))
 }
 
-fn guidance_event(
-    node: &Node<Ipc>,
+fn guidance_event<S: iceoryx2::service::Service>(
+    node: &Node<S>,
     namespace: &str,
 ) -> Result<
     (
         String,
-        iceoryx2::service::port_factory::event::PortFactory<Ipc>,
+        iceoryx2::service::port_factory::event::PortFactory<S>,
     ),
     ServiceError,
 > {
@@ -402,6 +421,14 @@ pub fn guidance_notifier(
     node: &Node<Ipc>,
     namespace: &str,
 ) -> Result<GuidanceNotifier, ServiceError> {
+    guidance_notifier_in::<Ipc>(node, namespace)
+}
+
+/// [`guidance_notifier`] for the transport `S` (e.g. [`IpcThreadsafe`]).
+pub fn guidance_notifier_in<S: iceoryx2::service::Service>(
+    node: &Node<S>,
+    namespace: &str,
+) -> Result<iceoryx2::port::notifier::Notifier<S>, ServiceError> {
     let (service, factory) = guidance_event(node, namespace)?;
     factory
         .notifier_builder()

@@ -174,6 +174,12 @@ pub struct LiveRun {
     pub deadline_misses: u64,
     /// Session length, s.
     pub run_s: f64,
+    /// Times the operator was blocked (0 without a reacting operator).
+    pub blocks: u32,
+    /// Its corrections of a wrong turn or orientation.
+    pub corrections: u32,
+    /// Its retries after a block with nothing to correct.
+    pub retries: u32,
 }
 
 /// The parts of `haptic-loop --summary-json` a run reads.
@@ -189,6 +195,14 @@ struct DemoSummary {
     deadline_misses: u64,
     run_s: f64,
     contact: Option<DemoContact>,
+    operator: Option<DemoOperator>,
+}
+
+#[derive(Deserialize)]
+struct DemoOperator {
+    blocks: u32,
+    corrections: u32,
+    retries: u32,
 }
 
 #[derive(Deserialize)]
@@ -235,6 +249,9 @@ impl LiveRun {
             ticks: s.ticks,
             deadline_misses: s.deadline_misses,
             run_s: s.run_s,
+            blocks: s.operator.as_ref().map_or(0, |o| o.blocks),
+            corrections: s.operator.as_ref().map_or(0, |o| o.corrections),
+            retries: s.operator.as_ref().map_or(0, |o| o.retries),
         })
     }
 }

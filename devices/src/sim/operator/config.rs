@@ -66,16 +66,18 @@ pub struct OperatorConfig {
     /// After a block with nothing to correct: back off for this long, s, then retry with a
     /// small random change. Default 0.3.
     pub retry_back_s: f64,
-    /// Sideways change of a retry, m (σ per axis). Expert 0.002, novice 0.004.
+    /// Sideways change of a first retry at a step, m (σ per axis; halved at each further
+    /// block there). Expert 0.002, novice 0.004.
     pub retry_jitter_m: f64,
-    /// Orientation change of a retry, rad (σ per axis). Expert 0.04, novice 0.08.
+    /// Orientation change of a first retry, rad (σ per axis; halved likewise). Expert 0.03,
+    /// novice 0.06.
     pub retry_jitter_rad: f64,
     /// Share of the operator's intent that comes from a guidance force it feels at
     /// `guidance_full_n` or more (0–1; weaker forces give a proportionally smaller share).
     /// Expert 0.3, novice 0.5.
     pub guidance_share: f64,
     /// The same share once blocked `stuck_after_blocks` times at one step: stuck, it lets
-    /// the guidance lead. Expert 0.8, novice 0.8.
+    /// the guidance lead more. Expert 0.5, novice 0.7.
     pub stuck_guidance_share: f64,
     /// Blocks at one step after which the operator counts itself stuck. Default 3.
     pub stuck_after_blocks: u32,
@@ -132,9 +134,9 @@ impl OperatorConfig {
             correction_share: 0.8,
             retry_back_s: 0.3,
             retry_jitter_m: 0.002,
-            retry_jitter_rad: 0.04,
+            retry_jitter_rad: 0.03,
             guidance_share: 0.3,
-            stuck_guidance_share: 0.8,
+            stuck_guidance_share: 0.5,
             stuck_after_blocks: 3,
             guidance_full_n: 1.0,
             guidance_full_nm: 0.05,
@@ -167,8 +169,9 @@ impl OperatorConfig {
             stall_time_s: 1.2,
             correction_share: 0.5,
             retry_jitter_m: 0.004,
-            retry_jitter_rad: 0.08,
+            retry_jitter_rad: 0.06,
             guidance_share: 0.5,
+            stuck_guidance_share: 0.7,
             ..OperatorConfig::expert()
         }
     }

@@ -64,7 +64,7 @@ pub fn run(args: &DemoArgs, stop: &AtomicBool) -> anyhow::Result<i32> {
         DeviceChoice::SimSpaceMouse => scenario::SimInput::SpaceMouse,
         _ => scenario::SimInput::Arm,
     };
-    let mut device = scenario::simulated_device(&setup, input)?;
+    let (mut device, operator) = scenario::simulated_device(&setup, input)?;
     device.open().map_err(|e| choice.open_error(e))?;
     // Build the voxmap before anything starts: it takes seconds at fine voxel sizes.
     let contact = setup.contact_stage(device.spec())?;
@@ -122,7 +122,8 @@ pub fn run(args: &DemoArgs, stop: &AtomicBool) -> anyhow::Result<i32> {
     if !planner_exited {
         stop_planner(&mut child);
     }
-    let summary = end?.summary();
+    let mut summary = end?.summary();
+    summary.operator = operator.as_deref().map(session::OperatorSummary::of);
     crate::finish(&summary, args.common.summary_json.as_deref())?;
     if stop.load(Ordering::Acquire) && !summary.solved {
         return Ok(130);

@@ -14,8 +14,11 @@ pub fn run(args: &RunArgs, stop: &AtomicBool) -> anyhow::Result<i32> {
         .map(|d| args::seconds("duration-s", d))
         .transpose()?;
     let choice = &args.device.device;
+    let mut operator = None;
     let mut device = device_choice::build(&args.device.options(), &setup.namespace, |input| {
-        scenario::simulated_device(&setup, input)
+        let (device, stats) = scenario::simulated_device(&setup, input)?;
+        operator = stats;
+        Ok(device)
     })?;
     // Open now: a backend's limits are final only once open, and the contact coupling is
     // sized from them. `Tick::new` opens it again, which the device trait allows.
@@ -37,6 +40,8 @@ pub fn run(args: &RunArgs, stop: &AtomicBool) -> anyhow::Result<i32> {
         stop,
         |_, elapsed| duration.is_some_and(|d| elapsed >= d),
     )?;
-    crate::finish(&end.summary(), args.common.summary_json.as_deref())?;
+    let mut summary = end.summary();
+    summary.operator = operator.as_deref().map(session::OperatorSummary::of);
+    crate::finish(&summary, args.common.summary_json.as_deref())?;
     Ok(0)
 }

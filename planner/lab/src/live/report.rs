@@ -123,12 +123,12 @@ pub fn to_csv(runs: &[LiveRun]) -> String {
     let mut out = String::from(
         "scene,method,alpha,input,guidance,operator,seed,solved,time_to_solve_s,nodes,edges,\
          time_to_goal_s,contact_s,max_penetration_mm,voxel_mm,max_force_step_n,ticks,\
-         deadline_misses,run_s\n",
+         deadline_misses,run_s,blocks,corrections,retries\n",
     );
     for r in runs {
         let _ = writeln!(
             out,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.scene,
             r.method,
             num(r.alpha, 3),
@@ -151,6 +151,9 @@ pub fn to_csv(runs: &[LiveRun]) -> String {
             r.ticks,
             r.deadline_misses,
             num(r.run_s, 2),
+            r.blocks,
+            r.corrections,
+            r.retries,
         );
     }
     out

@@ -9,7 +9,9 @@ const SUMMARY: &str = r#"{
   "planner_id": 1, "planner_switches": 0,
   "contact": {"contact_s": 1.5, "max_penetration_mm": 0.4, "voxel_mm": 1.0, "points": 10,
               "voxmap_mb": 1.0, "voxmap_build_s": 1.0, "level": 0, "level_changes": 0},
-  "time_to_goal_s": 5.25, "max_force_step_n": 0.3
+  "time_to_goal_s": 5.25, "max_force_step_n": 0.3,
+  "operator": {"step": 3, "steps_reached": 3, "blocks": 2, "wrong_turns": 0,
+               "wrong_orientations": 1, "corrections": 1, "retries": 1, "hesitations": 0}
 }"#;
 
 #[test]
@@ -66,6 +68,7 @@ fn a_summary_becomes_a_run_and_bad_ones_are_named() {
     assert_eq!(r.time_to_goal_s, 5.25);
     assert_eq!(r.max_penetration_mm, 0.4);
     assert_eq!(r.alpha, 0.1);
+    assert_eq!((r.blocks, r.corrections, r.retries), (2, 1, 1));
     let e = LiveRun::from_summary("t", m, 1, "{\"solved\": true}", "bad.json")
         .unwrap_err()
         .to_string();
