@@ -25,7 +25,8 @@ pub mod shell;
 
 pub use planner_core::{
     Algorithm, CollisionChecker, Combine, ConfigSpace, Contact, EdgeCheck, Extend, ExtendA,
-    IterReport, MachineSampler, PlanarSpace, Planner, PlannerError, PlannerParams, Sampling,
-    SamplingError, Scene, SceneError, Se3, Se3Space, Source, Space, Stats, UserInput, Weights,
+    HumanMode, IterReport, MachineSampler, PlanarSpace, Planner, PlannerError, PlannerParams,
+    Sampling, SamplingError, Scene, SceneError, Se3, Se3Space, Source, Space, Stats, UserInput,
+    Weights,
 };
 pub use planner_core::{collision, guidance, params, path, rrt, sampling, space, tree};

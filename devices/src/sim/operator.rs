@@ -105,7 +105,7 @@ pub struct OperatorStats {
     pub steps_reached: u32,
     /// Times it felt or saw itself blocked.
     pub blocks: u32,
-    /// Wrong turns taken, and of those dropped.
+    /// Wrong turns taken.
     pub wrong_turns: u32,
     /// Wrong orientations drawn.
     pub wrong_orientations: u32,
@@ -329,7 +329,7 @@ impl Operator {
             Mode::Hesitating { until } | Mode::Dwelling { until } if t < until => {
                 self.best_at = t;
                 Intent {
-                    press_n: self.press_now(&seen),
+                    press_n: self.press_now(),
                     ..Intent::STILL
                 }
             }
@@ -385,7 +385,7 @@ impl Operator {
             self.mode = Mode::Hesitating { until };
             self.stats.hesitations += 1;
             return Intent {
-                press_n: self.press_now(seen),
+                press_n: self.press_now(),
                 ..Intent::STILL
             };
         }
@@ -397,7 +397,7 @@ impl Operator {
             self.best_at = t;
         }
         let resistance = self.resistance(seen, &e_p);
-        let press = self.press_now(seen);
+        let press = self.press_now();
         if resistance > c.blocked_force_n {
             self.resisted_s += dt;
         } else if resistance < 0.5 * c.blocked_force_n {
@@ -415,8 +415,8 @@ impl Operator {
     }
 
     /// The force pressed with now: the step's press while within its slack, else none.
-    fn press_now(&self, seen: &Perception) -> Vector3<f64> {
-        match self.press_direction(seen) {
+    fn press_now(&self) -> Vector3<f64> {
+        match self.press_direction() {
             Some(_) => self.press(),
             None => Vector3::zeros(),
         }
@@ -427,7 +427,7 @@ impl Operator {
     fn errors(&self, seen: &Perception) -> (Vector3<f64>, Vector3<f64>) {
         let target = self.target();
         let mut e_p = target.translation.vector - seen.pose.translation.vector;
-        if let Some(n) = self.press_direction(seen) {
+        if let Some(n) = self.press_direction() {
             e_p -= n * e_p.dot(&n);
         }
         let e_r = (target.rotation * seen.pose.rotation.inverse()).scaled_axis();
@@ -435,7 +435,7 @@ impl Operator {
     }
 
     /// The unit press direction of this step while pressing (see [`Operator::update_pressing`]).
-    fn press_direction(&self, _seen: &Perception) -> Option<Vector3<f64>> {
+    fn press_direction(&self) -> Option<Vector3<f64>> {
         let n = self.route[self.step].press_n.try_normalize(1e-9)?;
         self.pressing.then_some(n)
     }
@@ -486,7 +486,7 @@ impl Operator {
         let mut intent = Intent {
             linear_velocity: v_route,
             angular_velocity: w_route,
-            press_n: self.press_now(seen),
+            press_n: self.press_now(),
         };
         let Some(felt) = seen.felt.filter(|_| yielding) else {
             return intent;

@@ -31,7 +31,7 @@ pub mod space;
 pub mod tree;
 
 pub use collision::{CollisionChecker, EdgeCheck};
-pub use params::{Algorithm, ExtendA, MachineSampler, PlannerError, PlannerParams};
+pub use params::{Algorithm, ExtendA, HumanMode, MachineSampler, PlannerError, PlannerParams};
 pub use rrt::{Extend, IterReport, Planner, Source, Stats};
 pub use sampling::{Contact, Sampling, SamplingError, UserInput};
 pub use scene::pose::Se3;

@@ -58,6 +58,21 @@ impl MachineSampler {
     }
 }
 
+/// What H-RRT-C's human mode samples (Algorithm 2, line 11: `q_current ← q_device`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HumanMode {
+    /// q_device at every human-mode sample, as the paper writes it. The live planner
+    /// iterates tens of times per haptic state, and a still operator (holding at the goal,
+    /// or pausing) gives the same configuration over and over: once the tree holds it,
+    /// those samples add nothing.
+    Every,
+    /// q_device when it moved since the last q_device sampled (by
+    /// [`crate::rrt::FRESH_USER_FRACTION`] of the edge resolution); otherwise a sample near
+    /// the operator's travelled path (I-RRT PATH: a Gaussian of σ `user_sigma` around one
+    /// of its points), so the operator's demonstration keeps helping after it stopped.
+    Fresh,
+}
+
 /// Tuning of [`crate::rrt::Planner`]. Distances are weighted distances (weighted m, see
 /// [`crate::space`]); with the default weights 0.01 weighted m is 1 cm or 0.1 rad.
 #[derive(Clone, Debug, PartialEq)]
@@ -100,6 +115,8 @@ pub struct PlannerParams {
     pub goal_bias: f64,
     /// HapticSampling tuning.
     pub contact: ContactParams,
+    /// What H-RRT-C's human mode samples (default [`HumanMode::Fresh`]).
+    pub human_mode: HumanMode,
     /// Random shortcut attempts on a new solution (default 100; 0 keeps the raw path).
     pub shortcut_attempts: u32,
 }
@@ -118,6 +135,7 @@ impl Default for PlannerParams {
             extend_a: ExtendA::Greedy,
             sampling: Sampling::Uniform,
             machine_sampler: MachineSampler::Uniform,
+            human_mode: HumanMode::Fresh,
             user_sigma: 0.03,
             fr_alpha: 0.5,
             local_trees: false,

@@ -23,7 +23,7 @@
 
 use crate::collision::CollisionChecker;
 use crate::guidance::{PathGuide, barycenter_force};
-use crate::params::{Algorithm, ExtendA, MachineSampler, PlannerError, PlannerParams};
+use crate::params::{Algorithm, ExtendA, HumanMode, MachineSampler, PlannerError, PlannerParams};
 use crate::sampling::{Sampling, UserInput, apply_delta, contact_sample};
 use crate::space::{ConfigSpace, Space};
 use crate::tree::{NodeId, Tree};
@@ -62,6 +62,11 @@ pub enum Source {
 
 /// Bridge tests tried for one bridge sample before it falls back to a uniform one.
 pub const BRIDGE_TRIES: u32 = 32;
+
+/// H-RRT-C's human mode with [`HumanMode::Fresh`]: q_device counts as new once it moved by
+/// this share of the edge resolution (0.5 mm or 0.005 rad at the defaults) from the last
+/// q_device sampled.
+pub const FRESH_USER_FRACTION: f64 = 0.1;
 
 /// What one iteration did.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -130,6 +135,8 @@ pub struct Planner {
     local_cursor: usize,
     /// The operator's previous configuration (for F_u).
     prev_user: Option<Se3>,
+    /// The last q_device H-RRT-C's human mode sampled.
+    last_human: Option<Se3>,
     /// The operator's travelled path (PATH sampling), one entry per `step / 4` moved.
     user_path: Vec<Se3>,
     raw_solution: Option<Vec<Se3>>,
@@ -168,6 +175,7 @@ impl Planner {
             merges: 0,
             local_cursor: 0,
             prev_user: None,
+            last_human: None,
             user_path: Vec::new(),
             raw_solution: None,
             solution: None,
@@ -244,8 +252,12 @@ impl Planner {
         let Some(u) = input else {
             return self.machine_sample();
         };
-        if let (Sampling::Hrrtc { .. }, Some(c)) = (sampling, &u.contact) {
-            // Contact mode (Algorithm 2, line 3): always HapticSampling.
+        if let (Sampling::Hrrtc { alpha }, Some(c)) = (sampling, &u.contact) {
+            // Contact mode (Algorithm 2, line 3): HapticSampling; with shared authority a
+            // share α of machine samples as in free space.
+            if self.params.contact.shared_authority && self.rng.random::<f64>() < alpha {
+                return self.machine_sample();
+            }
             if let Some(q) = contact_sample(&self.space, c, &self.params.contact, &mut self.rng) {
                 return (q, Source::Contact);
             }
@@ -263,14 +275,30 @@ impl Planner {
                 let centre = apply_delta(&self.space, &u.q_user, &fr);
                 self.space.sample_near(&centre, sigma, &mut self.rng)
             }
-            Sampling::Path { .. } => {
-                let i = self.rng.random_range(0..self.user_path.len().max(1));
-                let centre = self.user_path.get(i).copied().unwrap_or(u.q_user);
-                self.space.sample_near(&centre, sigma, &mut self.rng)
+            Sampling::Path { .. } => self.near_user_path(&u.q_user, sigma),
+            Sampling::Hrrtc { .. } => {
+                let fresh = self.last_human.is_none_or(|last| {
+                    self.space.distance(&last, &u.q_user)
+                        >= FRESH_USER_FRACTION * self.params.edge_resolution
+                });
+                match self.params.human_mode {
+                    HumanMode::Fresh if !fresh => self.near_user_path(&u.q_user, sigma),
+                    _ => {
+                        self.last_human = Some(u.q_user);
+                        u.q_user
+                    }
+                }
             }
-            Sampling::Hrrtc { .. } => u.q_user,
         };
         (q, Source::User)
+    }
+
+    /// I-RRT PATH: a Gaussian (σ `sigma`) around a uniformly chosen point of the operator's
+    /// travelled path (`q_user` while it has none).
+    fn near_user_path(&mut self, q_user: &Se3, sigma: f64) -> Se3 {
+        let i = self.rng.random_range(0..self.user_path.len().max(1));
+        let centre = self.user_path.get(i).copied().unwrap_or(*q_user);
+        self.space.sample_near(&centre, sigma, &mut self.rng)
     }
 
     /// A sample without the operator, by [`PlannerParams::machine_sampler`].

@@ -11,8 +11,12 @@
 //! - `+CS`: "one sampling of three is chosen with the uniform method" (I-RRT §6, β = 3):
 //!   we read β as one uniform sample in β, so the operator-driven share is `1 − 1/β`.
 //! - H-RRT-C free mode: with probability α (authority) a uniform sample ("machine mode"),
-//!   else `q_device` itself ("human mode").
-//! - H-RRT-C contact mode, while the haptic loop reports contact: [`haptic_ellipse`].
+//!   else `q_device` itself ("human mode"; with [`crate::params::HumanMode::Fresh`], the
+//!   default, a q_device already sampled gives a PATH sample near the operator's travelled
+//!   path instead).
+//! - H-RRT-C contact mode, while the haptic loop reports contact: [`haptic_ellipse`]
+//!   (only, as Algorithm 2; with [`ContactParams::shared_authority`] a share α of machine
+//!   samples as in free space).
 
 use crate::space::ConfigSpace;
 use nalgebra::{Vector3, Vector6};
@@ -153,6 +157,11 @@ pub struct ContactParams {
     /// Offset of samples along n_c, out of the surface (m, default 0.002): the proxy
     /// touches, so samples on the plane itself would mostly collide.
     pub normal_offset_m: f64,
+    /// Keep H-RRT-C's authority sharing in contact too: with probability α a machine
+    /// sample instead of HapticSampling (default false: Algorithm 2 as the paper writes
+    /// it, where contact mode samples only the ellipse, so an operator who stays in contact
+    /// stops the machine's exploration).
+    pub shared_authority: bool,
 }
 
 impl Default for ContactParams {
@@ -162,6 +171,7 @@ impl Default for ContactParams {
             max_semi_axis_m: 0.2,
             rotation_sigma_rad: 0.1,
             normal_offset_m: 0.002,
+            shared_authority: false,
         }
     }
 }

@@ -38,10 +38,12 @@ pub struct LiveMethod {
     pub guidance: bool,
     /// Operator preset.
     pub operator: String,
+    /// More `planner serve` options.
+    pub planner_args: Option<String>,
 }
 
 /// The method names [`LiveMethod::parse`] accepts.
-pub const METHOD_NAMES: [&str; 8] = [
+pub const METHOD_NAMES: [&str; 9] = [
     "rrt-connect",
     "pos+cs",
     "path",
@@ -50,6 +52,7 @@ pub const METHOD_NAMES: [&str; 8] = [
     "hrrtc-noguide",
     "hrrtc-novice",
     "hrrtc-mouse",
+    "hrrtc-shared",
 ];
 
 impl LiveMethod {
@@ -61,6 +64,7 @@ impl LiveMethod {
             input,
             guidance: true,
             operator: "expert".to_owned(),
+            planner_args: None,
         }
     }
 
@@ -72,7 +76,10 @@ impl LiveMethod {
     ///   the operator on the SpaceMouse;
     /// - `hrrtc`: H-RRT-C with the operator on the arm, one method per α of `alphas`;
     /// - `hrrtc-noguide`, `hrrtc-novice`, `hrrtc-mouse`: H-RRT-C at `guide_alpha` without
-    ///   guidance, with the novice, on the SpaceMouse.
+    ///   guidance, with the novice, on the SpaceMouse;
+    /// - `hrrtc-shared`: H-RRT-C at `guide_alpha` keeping the authority share in contact
+    ///   (`planner serve --contact-authority shared`), with the novice, who is blocked
+    ///   and stays in contact most.
     pub fn parse(name: &str, alphas: &[f64], guide_alpha: f64) -> Result<Vec<Self>, LabError> {
         let hrrtc = |tag: &str, a: f64, input| {
             LiveMethod::new(format!("{tag} α={a}"), "hrrtc", Some(a), input)
@@ -104,6 +111,11 @@ impl LiveMethod {
                 ..hrrtc(name, guide_alpha, Input::Arm)
             }],
             "hrrtc-mouse" => vec![hrrtc(name, guide_alpha, Input::Mouse)],
+            "hrrtc-shared" => vec![LiveMethod {
+                operator: "novice".into(),
+                planner_args: Some("--contact-authority shared".into()),
+                ..hrrtc(name, guide_alpha, Input::Arm)
+            }],
             _ => return Err(LabError::UnknownMethod(name.to_owned())),
         })
     }
@@ -128,6 +140,10 @@ impl LiveMethod {
         }
         if !self.guidance {
             a.push("--no-guidance".into());
+        }
+        if let Some(extra) = &self.planner_args {
+            a.push("--planner-args".into());
+            a.push(extra.clone());
         }
         a
     }

@@ -298,12 +298,29 @@ fn hrrtc_authority_and_contact_mode() {
     use nalgebra::Vector3;
     let scene = Scene::wall_with_hole();
     let user = Se3::from_xyz(-0.1, 0.1, 0.0);
-    // α = 0: every free-space sample is q_device itself.
-    let mut p = Planner::new(&scene, with(crate::Sampling::Hrrtc { alpha: 0.0 }), 1).expect("p");
+    // α = 0, as the paper writes it: every free-space sample is q_device itself.
+    let every = PlannerParams {
+        human_mode: crate::HumanMode::Every,
+        ..with(crate::Sampling::Hrrtc { alpha: 0.0 })
+    };
+    let mut p = Planner::new(&scene, every, 1).expect("p");
     for _ in 0..20 {
         let r = p.iterate(Some(&user));
         assert_eq!((r.sample, r.source), (Some(user), Source::User));
     }
+    // Fresh (the default): q_device once; while it stays put, samples near its path; a
+    // moved q_device is sampled again.
+    let mut p = Planner::new(&scene, with(crate::Sampling::Hrrtc { alpha: 0.0 }), 1).expect("p");
+    assert_eq!(p.iterate(Some(&user)).sample, Some(user));
+    for _ in 0..20 {
+        let r = p.iterate(Some(&user));
+        let q = r.sample.expect("a sample");
+        assert_eq!(r.source, Source::User);
+        assert_ne!(q, user);
+        assert!((q.pos - user.pos).norm() < 0.3, "{q:?}");
+    }
+    let moved = Se3::from_xyz(-0.1, 0.1, 0.002);
+    assert_eq!(p.iterate(Some(&moved)).sample, Some(moved));
     // α = 1: always uniform.
     let mut p = Planner::new(&scene, with(crate::Sampling::Hrrtc { alpha: 1.0 }), 1).expect("p");
     assert!((0..20).all(|_| p.iterate(Some(&user)).source == Source::Uniform));
@@ -334,6 +351,19 @@ fn hrrtc_authority_and_contact_mode() {
         // Lifted 2 mm off the face, spread more along z (the motion) than along y.
         assert!((q.pos.x - (proxy.pos.x - 0.002)).abs() < 1e-12, "{q:?}");
     }
+    // Shared authority: in contact too, a share α of machine samples (α = 0.3: about 30 %).
+    let mut shared = with(crate::Sampling::Hrrtc { alpha: 0.3 });
+    shared.contact.shared_authority = true;
+    let mut p = Planner::new(&scene, shared, 4).expect("p");
+    let sources: Vec<Source> = (0..400)
+        .map(|_| p.iterate_input(Some(&input)).source)
+        .collect();
+    let machine = sources.iter().filter(|s| **s == Source::Uniform).count();
+    assert!((80..160).contains(&machine), "{machine}");
+    assert_eq!(
+        sources.iter().filter(|s| **s == Source::Contact).count(),
+        400 - machine
+    );
 }
 
 #[test]

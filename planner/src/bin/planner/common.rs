@@ -132,6 +132,17 @@ pub struct SamplingArgs {
     /// Grow I-RRT local trees at operator and bridge samples the main trees cannot reach.
     #[arg(long)]
     pub local_trees: bool,
+    /// H-RRT-C in contact: `paper` (Algorithm 2: only HapticSampling while the operator is
+    /// in contact) or `shared` (a share α of machine samples in contact too, as in free
+    /// space).
+    #[arg(long, default_value = "paper", value_parser = ["paper", "shared"])]
+    pub contact_authority: String,
+    /// H-RRT-C's human mode: `fresh` (q_device when it moved since the last one sampled,
+    /// else a PATH sample near the operator's travelled path, so a still operator keeps
+    /// helping) or `every` (q_device at every human-mode sample, as the paper writes
+    /// Algorithm 2).
+    #[arg(long, default_value = "fresh", value_parser = ["fresh", "every"])]
+    pub human_mode: String,
 }
 
 impl SamplingArgs {
@@ -141,6 +152,12 @@ impl SamplingArgs {
             .with_context(|| format!("unknown --sampling {}", self.sampling))?;
         params.user_sigma = self.sigma;
         params.fr_alpha = self.fr_alpha;
+        params.contact.shared_authority = self.contact_authority == "shared";
+        params.human_mode = if self.human_mode == "every" {
+            planner::HumanMode::Every
+        } else {
+            planner::HumanMode::Fresh
+        };
         params.local_trees = self.local_trees;
         params.validate()?;
         Ok(())
