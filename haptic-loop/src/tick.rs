@@ -179,8 +179,9 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
         Some(at.saturating_sub(first) as f64 * 1e-9)
     }
 
-    /// Largest change of the commanded force between two consecutive ticks, N (device
-    /// frame): what the hand feels as a step.
+    /// Largest change of the commanded force between two consecutive fault-free ticks, N
+    /// (device frame): what the hand feels as a step (a fault's drop to zero force is left
+    /// out: it is the fail-safe, counted as a fault).
     pub fn max_force_step_n(&self) -> f64 {
         self.max_force_step_n
     }
@@ -303,10 +304,15 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
         if self.at_goal_ns.is_none() && self.goal.is_some_and(|g| g.contains(&proxy)) {
             self.at_goal_ns = Some(now_ns);
         }
-        if let Some(last) = self.last_force_n {
-            self.max_force_step_n = self.max_force_step_n.max((out.force - last).norm());
+        // Between fault-free ticks only: a fault zeroes the force at once, by design.
+        if fault == FaultCode::NONE {
+            if let Some(last) = self.last_force_n {
+                self.max_force_step_n = self.max_force_step_n.max((out.force - last).norm());
+            }
+            self.last_force_n = Some(out.force);
+        } else {
+            self.last_force_n = None;
         }
-        self.last_force_n = Some(out.force);
         let results = TickResults {
             sequence: self.sequence,
             now_ns,
@@ -585,5 +591,41 @@ mod tests {
         let s = *t.step(1001 * MS, PrevTiming::default());
         assert_eq!(s.fault, FaultCode::DEVICE_READ);
         assert_eq!(s.commanded_wrench, ipc_types::Wrench::ZERO);
+    }
+
+    #[test]
+    fn force_steps_and_the_goal_zone_are_measured() {
+        // 2 N of guidance ramped in: steps stay within the ramp's; the fault's drop to zero
+        // (the fail-safe) is not counted as a step.
+        let g = guidance(1, [0.05, 0.0, 0.0]);
+        let goal = GoalZone {
+            pose: Isometry3::translation(0.0, 0.0, 0.0),
+            position_m: 0.005,
+            angle_rad: 0.1,
+        };
+        let mut t = Tick::new(arm(), &bare(), Fixed(g), NoSink)
+            .unwrap()
+            .with_goal(goal);
+        for i in 1..=1000 {
+            t.step(i * MS, PrevTiming::default());
+        }
+        let ramped = t.max_force_step_n();
+        assert!(ramped > 0.0 && ramped < 0.1, "{ramped} N");
+        t.device_mut().inject_fault(Some(DeviceError::ReadFailed));
+        t.step(1001 * MS, PrevTiming::default());
+        assert_eq!(t.max_force_step_n(), ramped);
+        // The arm starts at the origin: in the goal zone at the first tick.
+        assert_eq!(t.time_to_goal_s(), Some(0.0));
+        let far = GoalZone {
+            pose: Isometry3::translation(0.5, 0.0, 0.0),
+            ..goal
+        };
+        let mut t = Tick::new(arm(), &bare(), Fixed(g), NoSink)
+            .unwrap()
+            .with_goal(far);
+        for i in 1..=100 {
+            t.step(i * MS, PrevTiming::default());
+        }
+        assert_eq!(t.time_to_goal_s(), None);
     }
 }

@@ -217,14 +217,21 @@ pub mod loop_watch {
         pub stalls: u64,
         /// Deadline misses over the phase.
         pub misses: u64,
-        /// A fault was raised during the phase (seen going from none to a code).
-        pub fault_raised: bool,
+        /// The first fault raised during the phase (seen going from none to a code), or
+        /// `FaultCode::NONE`.
+        pub fault_raised: FaultCode,
     }
 
     impl Phase {
         /// Asserts this condition stalls no more than `baseline` did plus its own count again
         /// and 2 % of the phase's ticks (the VM is shared with other tests and sessions),
         /// and raises no fault unless the baseline did.
+        ///
+        /// `OVERRUN_STREAK` is the fault a machine stall raises by itself (a 33 ms stall of
+        /// this VM misses 33 ticks in a row; a CI run whose loop missed 29 % of its ticks
+        /// raised a fault in the view-killed condition with the same stall count as while the
+        /// view ran). It is timing, which the stall comparison judges, so it does not fail
+        /// the condition on its own; every other code does.
         pub fn assert_like(&self, baseline: &Phase, what: &str) {
             let tolerance = baseline.stalls + PHASE_TICKS / 50;
             assert!(
@@ -235,9 +242,13 @@ pub mod loop_watch {
                 baseline.stalls,
                 baseline.misses
             );
+            let timing = self.fault_raised == FaultCode::OVERRUN_STREAK;
             assert!(
-                !self.fault_raised || baseline.fault_raised,
-                "{what}: the loop raised a fault, the baseline did not"
+                self.fault_raised == FaultCode::NONE
+                    || timing
+                    || baseline.fault_raised != FaultCode::NONE,
+                "{what}: the loop raised fault {:?}, the baseline did not",
+                self.fault_raised
             );
         }
     }
@@ -248,7 +259,11 @@ pub mod loop_watch {
         let mut phases: Vec<Phase> = (0..PHASES).map(|_| phase(state, name)).collect();
         phases.sort_by_key(|p| p.stalls);
         Phase {
-            fault_raised: phases.iter().any(|p| p.fault_raised),
+            fault_raised: phases
+                .iter()
+                .map(|p| p.fault_raised)
+                .find(|&f| f != FaultCode::NONE)
+                .unwrap_or(FaultCode::NONE),
             ..phases[PHASES / 2]
         }
     }
@@ -260,13 +275,15 @@ pub mod loop_watch {
         let mut prev = first.fault;
         let mut prev_misses = first.deadline_misses;
         let mut stalls = 0;
-        let mut fault_raised = false;
+        let mut fault_raised = FaultCode::NONE;
         let last = wait_for(
             &format!("{name}: {PHASE_TICKS} ticks"),
             Duration::from_secs(60),
             || {
                 let s = *state.get();
-                fault_raised |= prev == FaultCode::NONE && s.fault != FaultCode::NONE;
+                if fault_raised == FaultCode::NONE && prev == FaultCode::NONE {
+                    fault_raised = s.fault;
+                }
                 prev = s.fault;
                 stalls += u64::from(s.deadline_misses > prev_misses);
                 prev_misses = s.deadline_misses;

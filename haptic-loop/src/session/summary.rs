@@ -49,7 +49,8 @@ pub struct Summary {
     /// Seconds from the loop's start until the object (the proxy) first came within 5 mm
     /// and 0.1 rad of the goal: the operator's time to reach it; `null` if it did not.
     pub time_to_goal_s: Option<f64>,
-    /// Largest change of the commanded device force between two consecutive ticks, N.
+    /// Largest change of the commanded device force between two consecutive fault-free
+    /// ticks, N (a fault's fail-safe drop to zero is counted in `loop_report.faults`).
     pub max_force_step_n: f64,
     /// What the simulated operator did; `null` for a scripted operator or a real device.
     pub operator: Option<OperatorSummary>,
