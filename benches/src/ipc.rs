@@ -376,6 +376,7 @@ mod tests {
             fifo_priority: None,
             cpu: None,
             lock_memory: false,
+            cpu_latency_us: None,
         };
         let (sent, write_ns) = writer.run(&spec, rt).unwrap();
         assert_eq!(write_ns.percentiles_us().count, sent);

@@ -74,6 +74,9 @@ pub struct LoopReport {
     pub pinned: bool,
     /// Memory locked.
     pub memory_locked: bool,
+    /// The CPU wake-up latency requested from the kernel (PM QoS) while the loop ran, µs;
+    /// `None` if none was requested or the request failed.
+    pub cpu_latency_us: Option<u32>,
     /// Guidance samples rejected as invalid.
     pub guidance_rejected: u64,
     /// Faults latched.
@@ -225,6 +228,7 @@ impl<D, G, S> LoopHandle<D, G, S> {
             fifo: setup.fifo,
             pinned: setup.pinned,
             memory_locked: setup.memory_locked,
+            cpu_latency_us: setup.cpu_latency.as_ref().map(|r| r.us),
             guidance_rejected: tick.guidance_rejected(),
             faults: tick.faults_total(),
         };

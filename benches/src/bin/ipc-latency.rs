@@ -223,6 +223,7 @@ fn main() -> anyhow::Result<()> {
         fifo_priority: (args.priority > 0).then_some(args.priority),
         cpu: args.cpu,
         lock_memory: true,
+        cpu_latency_us: Some(0),
     };
     let secs = args.baseline_seconds;
     let base = |pattern, rate_hz, poll| Bare {

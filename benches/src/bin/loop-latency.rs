@@ -52,6 +52,10 @@ struct Args {
     /// Pin both to this CPU.
     #[arg(long)]
     cpu: Option<usize>,
+    /// Neither the loop nor the floor requests a 0 µs CPU wake-up latency (PM QoS,
+    /// `/dev/cpu_dma_latency`; both do by default): shows what the request buys.
+    #[arg(long)]
+    no_cpu_latency_request: bool,
     /// Floor tool: `auto` (cyclictest if installed, else the built-in sleeper),
     /// `cyclictest`, or `builtin`.
     #[arg(long, default_value = "auto")]
@@ -216,6 +220,7 @@ fn main() -> anyhow::Result<()> {
         fifo_priority: (args.priority > 0).then_some(args.priority),
         cpu: args.cpu,
         lock_memory: true,
+        cpu_latency_us: (!args.no_cpu_latency_request).then_some(0),
     };
     let period_ns = (1e9 / args.rate_hz).round() as u64;
     let phase = Duration::from_secs_f64(args.seconds);
@@ -511,6 +516,11 @@ fn cyclictest(args: &Args, period_ns: u64, phase: Duration) -> anyhow::Result<Fl
     ]);
     if let Some(cpu) = args.cpu {
         cmd.arg(format!("-a{cpu}"));
+    }
+    // cyclictest requests a 0 µs CPU wake-up latency by default, as the loop does; without
+    // the request on the loop's side, neither side makes it (--laptop).
+    if args.no_cpu_latency_request {
+        cmd.arg("--laptop");
     }
     let out = cmd
         .output()

@@ -90,6 +90,7 @@ fn main() -> anyhow::Result<()> {
                 fifo_priority: (args.priority > 0).then_some(args.priority),
                 cpu: None,
                 lock_memory: true,
+                cpu_latency_us: Some(0),
             },
             ticks: (duration.as_secs_f64() * 1000.0) as u64,
             voxel_m: Some(args.voxel_mm / 1000.0),

@@ -99,7 +99,7 @@ impl Intent {
 }
 
 /// What the operator did so far.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
 pub struct OperatorStats {
     /// Route steps reached (the last one included once held).
     pub steps_reached: u32,

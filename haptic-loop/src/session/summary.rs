@@ -5,6 +5,7 @@ use crate::runner::LoopReport;
 use crate::stats::Percentiles;
 use crate::tick::{GuidanceSource, StateSink, Tick};
 use devices::HapticDevice;
+use devices::sim::operator::{OperatorStats, SharedStats};
 use ipc_types::Guidance;
 use serde::Serialize;
 use std::fmt;
@@ -56,41 +57,23 @@ pub struct Summary {
     pub operator: Option<OperatorSummary>,
 }
 
-/// What a reacting simulated operator did in a session.
+/// What a reacting simulated operator did in a session: the route step it was heading for
+/// at the end (0 = the start) and its counts (`OperatorStats`, flattened into the JSON).
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct OperatorSummary {
-    /// Route step it was heading for at the end (0 = the start).
+    /// Route step it was heading for at the end.
     pub step: u32,
-    /// Route steps it reached.
-    pub steps_reached: u32,
-    /// Times it felt or saw itself blocked.
-    pub blocks: u32,
-    /// Wrong turns and wrong orientations it drew.
-    pub wrong_turns: u32,
-    /// Wrong orientations it drew.
-    pub wrong_orientations: u32,
-    /// Corrections of a wrong turn or orientation.
-    pub corrections: u32,
-    /// Retries after a block with nothing to correct.
-    pub retries: u32,
-    /// Hesitations.
-    pub hesitations: u32,
+    /// Steps reached, blocks, wrong turns and orientations, corrections, retries,
+    /// hesitations.
+    #[serde(flatten)]
+    pub counts: OperatorStats,
 }
 
 impl OperatorSummary {
     /// The operator's counts as `stats` holds them now.
-    pub fn of(stats: &devices::sim::operator::SharedStats) -> Self {
-        let (s, step) = stats.read();
-        OperatorSummary {
-            step,
-            steps_reached: s.steps_reached,
-            blocks: s.blocks,
-            wrong_turns: s.wrong_turns,
-            wrong_orientations: s.wrong_orientations,
-            corrections: s.corrections,
-            retries: s.retries,
-            hesitations: s.hesitations,
-        }
+    pub fn of(stats: &SharedStats) -> Self {
+        let (counts, step) = stats.read();
+        OperatorSummary { step, counts }
     }
 }
 
@@ -239,11 +222,11 @@ impl fmt::Display for Summary {
             "force step:        largest {:.3} N between ticks",
             self.max_force_step_n
         )?;
-        if let Some(o) = &self.operator {
+        if let Some(OperatorSummary { step, counts: o }) = &self.operator {
             writeln!(
                 f,
                 "operator:          at route step {} ({} reached); {} blocks, {} corrections, {} retries, {} hesitations; {} wrong turns, {} wrong orientations",
-                o.step,
+                step,
                 o.steps_reached,
                 o.blocks,
                 o.corrections,
@@ -266,8 +249,14 @@ impl fmt::Display for Summary {
         }
         write!(
             f,
-            "real-time:         SCHED_FIFO {}, pinned {}, memory locked {}",
-            self.loop_report.fifo, self.loop_report.pinned, self.loop_report.memory_locked
+            "real-time:         SCHED_FIFO {}, pinned {}, memory locked {}, CPU wake-up latency request {}",
+            self.loop_report.fifo,
+            self.loop_report.pinned,
+            self.loop_report.memory_locked,
+            match self.loop_report.cpu_latency_us {
+                Some(us) => format!("{us} µs"),
+                None => "none".to_owned(),
+            }
         )
     }
 }

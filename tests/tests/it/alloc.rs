@@ -98,6 +98,7 @@ fn rt_thread_allocates_nothing_over_6000_ticks_with_ipc_and_contact() {
                 fifo_priority: None,
                 cpu: None,
                 lock_memory: false,
+                cpu_latency_us: None,
             },
             spin_ns: 0,
             max_ticks: Some(6000),

@@ -41,6 +41,14 @@ pub struct LoopArgs {
     /// Do not lock memory (mlockall).
     #[arg(long)]
     pub no_mlock: bool,
+    /// CPU wake-up latency to request from the kernel while the loop runs, µs (PM QoS,
+    /// /dev/cpu_dma_latency): 0 keeps idle CPUs polling instead of halting, as cyclictest
+    /// does; on a VM this removes the hypervisor's wake-up delay from the loop.
+    #[arg(long, default_value_t = 0)]
+    pub cpu_latency_us: u32,
+    /// Make no CPU wake-up latency request (saves power; idle CPUs may wake late).
+    #[arg(long)]
+    pub no_cpu_latency_request: bool,
     /// Spin this many µs before each deadline instead of sleeping (trades CPU for jitter).
     #[arg(long, default_value_t = 0)]
     pub spin_us: u64,
@@ -299,6 +307,7 @@ impl LoopArgs {
                     fifo_priority: (self.priority > 0).then_some(self.priority),
                     cpu: self.cpu,
                     lock_memory: !self.no_mlock,
+                    cpu_latency_us: (!self.no_cpu_latency_request).then_some(self.cpu_latency_us),
                 },
                 spin_ns: self.spin_us * 1000,
                 max_ticks: None,
