@@ -8,6 +8,7 @@
 mod arm;
 mod body;
 mod config;
+mod grip;
 pub mod operator;
 mod path;
 mod sensor;

@@ -5,7 +5,7 @@
 use nalgebra::Vector3;
 
 use super::operator::{DECISION_PERIOD_S, Operator, Perception};
-use crate::spacemouse::{RateControl, SpaceMouseConfig};
+use crate::spacemouse::{RateControl, SpaceMouseConfig, apply_pseudo_force};
 use crate::{DeviceError, DeviceSpec, DeviceState, HapticDevice, Wrench};
 
 /// A SpaceMouse held by a simulated [`Operator`]. The operator sees the avatar's pose and
@@ -115,15 +115,8 @@ impl HapticDevice for SimulatedSpaceMouse {
         if !self.open {
             return Err(DeviceError::NotOpen);
         }
-        if !wrench.is_finite() {
-            return Err(DeviceError::InvalidData);
-        }
         // As the real SpaceMouse: the wrench is the pseudo-force on the avatar.
-        self.rate.set_guidance(wrench.saturated(
-            self.config.max_pseudo_force_n,
-            self.config.max_pseudo_torque_nm,
-        ));
-        Ok(())
+        apply_pseudo_force(&mut self.rate, &self.config, wrench)
     }
 
     fn close(&mut self) {

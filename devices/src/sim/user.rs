@@ -4,9 +4,9 @@
 use nalgebra::{Isometry3, Vector3};
 use serde::{Deserialize, Serialize};
 
+use super::grip::{Grip, Setpoint};
 use super::path::{Waypoint, WaypointPath};
 use super::tremor::Tremor;
-use crate::types::clamp_norm;
 use crate::{DeviceError, Wrench};
 
 /// Parameters of [`ScriptedUser`]. Every field has a default, so a partial TOML/JSON table
@@ -58,6 +58,18 @@ impl Default for ScriptedUserConfig {
 }
 
 impl ScriptedUserConfig {
+    /// The hand's grip.
+    pub(crate) fn grip(&self) -> Grip {
+        Grip {
+            stiffness_n_per_m: self.hand_stiffness_n_per_m,
+            damping_n_s_per_m: self.hand_damping_n_s_per_m,
+            rot_stiffness_nm_per_rad: self.hand_rot_stiffness_nm_per_rad,
+            rot_damping_nm_s_per_rad: self.hand_rot_damping_nm_s_per_rad,
+            max_force_n: self.max_force_n,
+            max_torque_nm: self.max_torque_nm,
+        }
+    }
+
     /// Checks gains and limits are finite and non-negative, speeds positive and the
     /// tremor corner inside (0, 500) Hz.
     pub fn validate(&self) -> Result<(), DeviceError> {
@@ -192,21 +204,20 @@ impl ScriptedUser {
     ) -> Wrench {
         let c = &self.config;
         let sp = self.path.at(t_s);
-        let target = sp.pose.translation.vector + self.tremor.offset_at(t_s);
-        let force = (target - ee_pose.translation.vector) * c.hand_stiffness_n_per_m
-            + (sp.linear_velocity - ee_linear_velocity) * c.hand_damping_n_s_per_m;
-        let rotation_error = (sp.pose.rotation * ee_pose.rotation.inverse()).scaled_axis();
-        let torque = rotation_error * c.hand_rot_stiffness_nm_per_rad
-            + (sp.angular_velocity - ee_angular_velocity) * c.hand_rot_damping_nm_s_per_rad;
-        let wrench = Wrench::new(
-            clamp_norm(force, c.max_force_n),
-            clamp_norm(torque, c.max_torque_nm),
-        );
-        self.last_wrench = if wrench.is_finite() {
-            wrench
-        } else {
-            Wrench::ZERO
+        let mut pose = sp.pose;
+        pose.translation.vector += self.tremor.offset_at(t_s);
+        let setpoint = Setpoint {
+            pose,
+            linear_velocity: sp.linear_velocity,
+            angular_velocity: sp.angular_velocity,
         };
+        self.last_wrench = c.grip().wrench(
+            &setpoint,
+            ee_pose,
+            ee_linear_velocity,
+            ee_angular_velocity,
+            Vector3::zeros(),
+        );
         self.last_wrench
     }
 }

@@ -278,16 +278,7 @@ impl HapticDevice for SpaceMouse {
         if !self.open {
             return Err(DeviceError::NotOpen);
         }
-        if !wrench.is_finite() {
-            return Err(DeviceError::InvalidData);
-        }
-        // Input-only: the wrench is the pseudo-force on the avatar, bounded by our limits
-        // (spec.saturate would zero it because there is no force output).
-        self.rate.set_guidance(wrench.saturated(
-            self.config.max_pseudo_force_n,
-            self.config.max_pseudo_torque_nm,
-        ));
-        Ok(())
+        apply_pseudo_force(&mut self.rate, &self.config, wrench)
     }
 
     fn close(&mut self) {
@@ -304,3 +295,18 @@ impl HapticDevice for SpaceMouse {
 
 #[cfg(test)]
 mod tests;
+
+/// A SpaceMouse's `write`: the device is input-only, so the wrench is the pseudo-force on
+/// the rate-controlled avatar, bounded by the config's limits (`spec.saturate` would zero
+/// it, there being no force output). A non-finite wrench is refused.
+pub(crate) fn apply_pseudo_force(
+    rate: &mut RateControl,
+    config: &SpaceMouseConfig,
+    wrench: &Wrench,
+) -> Result<(), DeviceError> {
+    if !wrench.is_finite() {
+        return Err(DeviceError::InvalidData);
+    }
+    rate.set_guidance(wrench.saturated(config.max_pseudo_force_n, config.max_pseudo_torque_nm));
+    Ok(())
+}

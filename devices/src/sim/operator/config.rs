@@ -3,6 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::DeviceError;
+use crate::sim::grip::Grip;
 
 /// Parameters of [`Operator`](super::Operator) and of the hand that holds the arm
 /// ([`OperatorHand`](super::OperatorHand)). Lengths, speeds and forces are at the device
@@ -108,6 +109,18 @@ impl Default for OperatorConfig {
 }
 
 impl OperatorConfig {
+    /// The hand's grip.
+    pub(crate) fn grip(&self) -> Grip {
+        Grip {
+            stiffness_n_per_m: self.hand_stiffness_n_per_m,
+            damping_n_s_per_m: self.hand_damping_n_s_per_m,
+            rot_stiffness_nm_per_rad: self.hand_rot_stiffness_nm_per_rad,
+            rot_damping_nm_s_per_rad: self.hand_rot_damping_nm_s_per_rad,
+            max_force_n: self.max_force_n,
+            max_torque_nm: self.max_torque_nm,
+        }
+    }
+
     /// A trained operator: quick to react, few mistakes, corrects most of an error at once,
     /// lets guidance take 30 % of its intent.
     pub fn expert() -> Self {

@@ -4,6 +4,7 @@
 use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 
 use super::{DECISION_PERIOD_S, Intent, Operator, Perception};
+use crate::sim::grip::Setpoint;
 use crate::types::clamp_norm;
 use crate::{DeviceError, Wrench};
 
@@ -104,18 +105,18 @@ impl OperatorHand {
         let q = UnitQuaternion::from_scaled_axis(clamp_norm(off, turn_reach)) * ee_pose.rotation;
         self.setpoint = Isometry3::from_parts(p.into(), q);
 
-        let force = (p - ee_pose.translation.vector) * c.hand_stiffness_n_per_m
-            + (self.intent.linear_velocity - ee_linear_velocity) * c.hand_damping_n_s_per_m
-            + self.intent.press_n;
-        let torque = (q * ee_pose.rotation.inverse()).scaled_axis()
-            * c.hand_rot_stiffness_nm_per_rad
-            + (self.intent.angular_velocity - ee_angular_velocity)
-                * c.hand_rot_damping_nm_s_per_rad;
-        let w = Wrench::new(
-            clamp_norm(force, c.max_force_n),
-            clamp_norm(torque, c.max_torque_nm),
+        let setpoint = Setpoint {
+            pose: self.setpoint,
+            linear_velocity: self.intent.linear_velocity,
+            angular_velocity: self.intent.angular_velocity,
+        };
+        self.last_wrench = c.grip().wrench(
+            &setpoint,
+            ee_pose,
+            ee_linear_velocity,
+            ee_angular_velocity,
+            self.intent.press_n,
         );
-        self.last_wrench = if w.is_finite() { w } else { Wrench::ZERO };
         self.last_wrench
     }
 }
