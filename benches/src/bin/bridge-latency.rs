@@ -19,6 +19,8 @@
 //!    sequence number (the bridges re-stamp samples, so their stamps are not used).
 //!
 //! The goal's ratio is bridge / bare at p50 for each direction, the median over rounds.
+//! Both phases run under a 0 µs CPU wake-up latency request, as on a host whose haptic loop
+//! is running (`--no-cpu-latency-request` to leave it out).
 //!
 //! `cargo build --release -p hrrtc-bridge -p benches && target/release/bridge-latency --seconds 5`
 
@@ -59,6 +61,11 @@ struct Args {
     /// Write the results as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
+    /// Make no 0 µs CPU wake-up latency request during the run. By default it holds one
+    /// (PM QoS), as a host running the haptic loop does while the loop runs; both phases
+    /// have it.
+    #[arg(long)]
+    no_cpu_latency_request: bool,
 }
 
 /// One direction's latencies in one phase.
@@ -107,6 +114,17 @@ fn main() -> anyhow::Result<()> {
             bridge.display()
         );
     }
+    let _cpu_latency = if args.no_cpu_latency_request {
+        None
+    } else {
+        match haptic_loop::rt::CpuLatencyRequest::open(0) {
+            Ok(r) => Some(r),
+            Err(e) => {
+                eprintln!("no CPU wake-up latency request (/dev/cpu_dma_latency: {e})");
+                None
+            }
+        }
+    };
     let mut rounds = Vec::new();
     for r in 0..args.rounds {
         let bare = bare_zenoh(&args, 17_600 + 2 * r as u16)?;

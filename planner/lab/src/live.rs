@@ -43,14 +43,16 @@ pub struct LiveMethod {
 }
 
 /// The method names [`LiveMethod::parse`] accepts.
-pub const METHOD_NAMES: [&str; 9] = [
+pub const METHOD_NAMES: [&str; 11] = [
     "rrt-connect",
     "pos+cs",
     "path",
     "irrtc-mouse",
     "hrrtc",
+    "hrrtc-paper",
     "hrrtc-noguide",
     "hrrtc-novice",
+    "hrrtc-novice-noguide",
     "hrrtc-mouse",
     "hrrtc-shared",
 ];
@@ -75,8 +77,12 @@ impl LiveMethod {
     /// - `irrtc-mouse`: I-RRT-C, contact sampling with authority α = 0 (H-RRT-C Table II),
     ///   the operator on the SpaceMouse;
     /// - `hrrtc`: H-RRT-C with the operator on the arm, one method per α of `alphas`;
-    /// - `hrrtc-noguide`, `hrrtc-novice`, `hrrtc-mouse`: H-RRT-C at `guide_alpha` without
-    ///   guidance, with the novice, on the SpaceMouse;
+    /// - `hrrtc-paper`: the same with Algorithm 2's human mode as the paper writes it
+    ///   (`planner serve --human-mode every`: q_device sampled even when it repeats), one
+    ///   method per α;
+    /// - `hrrtc-noguide`, `hrrtc-novice`, `hrrtc-novice-noguide`, `hrrtc-mouse`: H-RRT-C at
+    ///   `guide_alpha` without guidance, with the novice, with the novice and no guidance,
+    ///   on the SpaceMouse;
     /// - `hrrtc-shared`: H-RRT-C at `guide_alpha` keeping the authority share in contact
     ///   (`planner serve --contact-authority shared`), with the novice, who is blocked
     ///   and stays in contact most.
@@ -102,12 +108,24 @@ impl LiveMethod {
                 .iter()
                 .map(|&a| hrrtc("hrrtc", a, Input::Arm))
                 .collect(),
+            "hrrtc-paper" => alphas
+                .iter()
+                .map(|&a| LiveMethod {
+                    planner_args: Some("--human-mode every".into()),
+                    ..hrrtc(name, a, Input::Arm)
+                })
+                .collect(),
             "hrrtc-noguide" => vec![LiveMethod {
                 guidance: false,
                 ..hrrtc(name, guide_alpha, Input::Arm)
             }],
             "hrrtc-novice" => vec![LiveMethod {
                 operator: "novice".into(),
+                ..hrrtc(name, guide_alpha, Input::Arm)
+            }],
+            "hrrtc-novice-noguide" => vec![LiveMethod {
+                operator: "novice".into(),
+                guidance: false,
                 ..hrrtc(name, guide_alpha, Input::Arm)
             }],
             "hrrtc-mouse" => vec![hrrtc(name, guide_alpha, Input::Mouse)],

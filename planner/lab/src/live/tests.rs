@@ -42,6 +42,11 @@ fn method_names_expand_to_demo_options() {
     let g = &LiveMethod::parse("hrrtc-noguide", &[], 0.3).unwrap()[0];
     assert!(g.demo_args().contains(&"--no-guidance".to_owned()));
     assert_eq!(g.alpha, Some(0.3));
+    let p = LiveMethod::parse("hrrtc-paper", &[0.1, 0.9], 0.5).unwrap();
+    assert_eq!(p.len(), 2);
+    assert_eq!(p[1].name, "hrrtc-paper α=0.9");
+    let args = p[0].demo_args().join(" ");
+    assert!(args.contains("--human-mode every"), "{args}");
     let a = &LiveMethod::parse("rrt-connect", &[], 0.5).unwrap()[0];
     assert_eq!(a.sampling, "cs");
     for name in METHOD_NAMES {

@@ -53,15 +53,16 @@ pub struct ExperimentArgs {
     pub alphas: Vec<f64>,
     /// live: methods, comma-separated: rrt-connect (automatic), pos+cs, path (I-RRT),
     /// irrtc-mouse (contact sampling at α = 0 with the SpaceMouse operator), hrrtc (the
-    /// arm, one run per --alphas), hrrtc-noguide, hrrtc-novice, hrrtc-mouse, hrrtc-shared
-    /// (the novice, keeping α in contact) (at --guide-alpha).
+    /// arm, one run per --alphas), hrrtc-paper (the same with the paper's human mode,
+    /// `--human-mode every`), hrrtc-noguide, hrrtc-novice, hrrtc-novice-noguide, hrrtc-mouse,
+    /// hrrtc-shared (the novice, keeping α in contact) (at --guide-alpha).
     #[arg(
         long,
         default_value = "rrt-connect,pos+cs,path,irrtc-mouse,hrrtc,hrrtc-noguide",
         value_delimiter = ','
     )]
     pub live_methods: Vec<String>,
-    /// live: α of hrrtc-noguide, hrrtc-novice, hrrtc-mouse and hrrtc-shared.
+    /// live: α of hrrtc-noguide, hrrtc-novice(-noguide), hrrtc-mouse and hrrtc-shared.
     #[arg(long, default_value_t = 0.5)]
     pub guide_alpha: f64,
     /// live: the haptic-loop executable [default: `haptic-loop` beside this executable].
