@@ -217,8 +217,9 @@ pub mod loop_watch {
         pub stalls: u64,
         /// Deadline misses over the phase.
         pub misses: u64,
-        /// The first fault raised during the phase (seen going from none to a code), or
-        /// `FaultCode::NONE`.
+        /// A fault raised during the phase (seen going from none to a code): the first
+        /// other than `OVERRUN_STREAK` if there was one (see [`Phase::assert_like`]), else
+        /// `OVERRUN_STREAK` or `FaultCode::NONE`.
         pub fault_raised: FaultCode,
     }
 
@@ -253,6 +254,18 @@ pub mod loop_watch {
         }
     }
 
+    /// Of a fault already kept and one newly raised, the one that says more: a fault other
+    /// than `OVERRUN_STREAK` is never hidden by an earlier overrun streak.
+    fn telling(kept: FaultCode, raised: FaultCode) -> FaultCode {
+        if kept == FaultCode::NONE
+            || (kept == FaultCode::OVERRUN_STREAK && raised != FaultCode::NONE)
+        {
+            raised
+        } else {
+            kept
+        }
+    }
+
     /// `PHASES` phases under one condition: the median stall count (with its phase's
     /// misses), and whether any phase raised a fault.
     pub fn condition(state: &StateReader, name: &str) -> Phase {
@@ -261,9 +274,7 @@ pub mod loop_watch {
         Phase {
             fault_raised: phases
                 .iter()
-                .map(|p| p.fault_raised)
-                .find(|&f| f != FaultCode::NONE)
-                .unwrap_or(FaultCode::NONE),
+                .fold(FaultCode::NONE, |kept, p| telling(kept, p.fault_raised)),
             ..phases[PHASES / 2]
         }
     }
@@ -281,8 +292,8 @@ pub mod loop_watch {
             Duration::from_secs(60),
             || {
                 let s = *state.get();
-                if fault_raised == FaultCode::NONE && prev == FaultCode::NONE {
-                    fault_raised = s.fault;
+                if prev == FaultCode::NONE {
+                    fault_raised = telling(fault_raised, s.fault);
                 }
                 prev = s.fault;
                 stalls += u64::from(s.deadline_misses > prev_misses);
