@@ -12,7 +12,11 @@
 //!   uses, on trees of uniformly sampled configurations, each beside the linear scan it
 //!   replaces (`.../linear`);
 //! - `fa/<scene>`: F_a (`Planner::attractive_force`, I-RRT's barycenter of the p nearest
-//!   labelled nodes) at random operator configurations, on trees grown for 2000 iterations.
+//!   labelled nodes) at random operator configurations, on trees grown for 2000 iterations;
+//! - `guide/<scene>`: F_a once solved (path following: reachability checks of the path's
+//!   stretches near the operator) at configurations within 3 cm / 0.3 rad (σ) of the
+//!   solution path, for the scenes automatic RRT-Connect solves within 200 000 iterations
+//!   (seed 1). The planner publishes guidance at 100 Hz, so 100 µs here is 1 % of a core.
 //!
 //! `cargo bench -p benches --bench planner` (all) or `... -- collision` (one group).
 
@@ -192,5 +196,41 @@ fn fa(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, collision, iterate, solve, nearest, fa);
+fn guide(c: &mut Criterion) {
+    let mut g = c.benchmark_group("guide");
+    g.warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(3));
+    for name in ["maze", "silencer", "tunnels", "crossing-planes"] {
+        let scene = Scene::builtin(name).expect("built-in");
+        let mut p = Planner::new(&scene, PlannerParams::default(), 1).expect("planner");
+        for _ in 0..200_000 {
+            if p.iterate(None).solved {
+                break;
+            }
+        }
+        let Some(path) = p.solution().map(<[_]>::to_vec) else {
+            eprintln!("guide/{name}: not solved within 200 000 iterations, skipped");
+            continue;
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let space = p.space();
+        let queries: Vec<_> = (0..256)
+            .map(|k| {
+                let w = k % (path.len() - 1);
+                let on = space.interpolate(&path[w], &path[w + 1], (k as f64 * 0.618) % 1.0);
+                space.sample_near(&on, 0.03, &mut rng)
+            })
+            .collect();
+        let mut i = 0;
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                i = (i + 1) % queries.len();
+                black_box(p.attractive_force(black_box(&queries[i])))
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, collision, iterate, solve, nearest, fa, guide);
 criterion_main!(benches);

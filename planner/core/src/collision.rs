@@ -381,6 +381,24 @@ impl CollisionChecker {
         }
     }
 
+    /// Whether the object can move in a straight line (see [`ConfigSpace::interpolate`])
+    /// from `from` to `to` without passing through an obstacle, by discrete checks every
+    /// `resolution`. The configurations within `skip` (weighted m) of `from` are not
+    /// checked, so a pose that touches or slightly penetrates a surface (a haptic proxy in
+    /// contact) can still leave it; beyond `skip` the motion must be free, so a target
+    /// behind the surface is not reachable. For guidance, never for certifying edges.
+    pub fn reachable_from_contact(&self, from: &Se3, to: &Se3, skip: f64) -> bool {
+        let d = self.space.distance(from, to);
+        if !d.is_finite() || !from.is_finite() {
+            return false;
+        }
+        if d <= skip {
+            return self.is_free(to);
+        }
+        let a = self.space.interpolate(from, to, skip.max(0.0) / d);
+        self.is_free(&a) && self.discrete_edge_free_from(&a, to)
+    }
+
     /// The certification of the module docs for an edge whose ends are free. Depth first,
     /// so the intervals kept are at most the bisection depth (≤ log2 of
     /// λ / [`CERTIFIED_MIN_CLEARANCE_M`]) plus one per level.
@@ -473,6 +491,28 @@ mod tests {
     use nalgebra::{UnitQuaternion, Vector3};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
+
+    #[test]
+    fn reachable_from_contact_leaves_a_surface_but_never_crosses_a_wall() {
+        let c = CollisionChecker::new(&Scene::wall_with_hole());
+        // The object's x-max face 0.5 mm inside the wall's face x = −0.01, beside the hole.
+        let pressed = Se3::from_xyz(-0.0595, 0.15, 0.0);
+        assert!(c.penetration_m(&pressed) > 0.0004);
+        let back = Se3::from_xyz(-0.15, 0.15, 0.0);
+        assert!(!c.edge_free(&pressed, &back));
+        assert!(c.reachable_from_contact(&pressed, &back, 0.003));
+        // Not when the skipped part is shorter than the way out of the wall.
+        assert!(!c.reachable_from_contact(&pressed, &back, 0.0));
+        // Through the wall: never, whatever the skip up to the wall's thickness.
+        let behind = Se3::from_xyz(0.15, 0.15, 0.0);
+        assert!(c.is_free(&behind));
+        for skip in [0.0, 0.003, 0.02] {
+            assert!(!c.reachable_from_contact(&pressed, &behind, skip), "{skip}");
+        }
+        // Sliding along the face in contact is not a free motion either.
+        assert!(!c.reachable_from_contact(&pressed, &Se3::from_xyz(-0.0595, 0.2, 0.0), 0.003));
+        assert!(!c.reachable_from_contact(&Se3::from_xyz(f64::NAN, 0.0, 0.0), &back, 0.003));
+    }
 
     #[test]
     fn default_scene_geometry() {

@@ -589,8 +589,9 @@ impl Planner {
     /// `(Δp (m), Δr (rad))`. Before a solution: towards the label-weighted barycenter of the
     /// `p` nodes nearest to `q_user`, all from the tree holding the single nearest node
     /// ("all the neighbours should remain in the same connected component", I-RRT §5.1;
-    /// local trees count). After: along the solution path, `lookahead` beyond the path
-    /// point nearest to `q_user`.
+    /// local trees count). After: along the solution path, `lookahead` beyond the nearest
+    /// path point that `q_user` can reach in a straight line ([`PathGuide::force`]; its
+    /// checks count in [`Stats::collision_checks`]).
     pub fn attractive_force(&self, q_user: &Se3) -> Vector6<f64> {
         let mut scratch = Vec::with_capacity(self.params.neighbours);
         self.attractive_force_with(q_user, &mut scratch)
@@ -606,7 +607,11 @@ impl Planner {
         }
         let q = self.space.project(q_user);
         if let Some(guide) = &self.guide {
-            return guide.force(&self.space, &q, self.params.lookahead);
+            let reach = |a: &Se3, b: &Se3| {
+                self.checker
+                    .reachable_from_contact(a, b, crate::guidance::GUIDANCE_CONTACT_SKIP)
+            };
+            return guide.force(&self.space, &q, self.params.lookahead, &reach);
         }
         let mut best = (START, f64::INFINITY);
         for (i, t) in self.trees.iter().enumerate() {
