@@ -14,7 +14,10 @@
 //!    `--rate-hz`) and the planner (publishes `Guidance` on B and notifies B's guidance
 //!    event at `--guidance-rate-hz`); a reader thread spins on B's blackboard (the
 //!    transport alone, as a phase-locked planner reading just after the write) and a relay
-//!    thread waits on A's guidance event, as the loop's relay does. Each latency is from
+//!    thread waits on A's guidance event, as the loop's relay does. One direction at a
+//!    time, as in phase 1: first the state alone, then the guidance alone (the spinning
+//!    reader takes a core of a 2-core machine, which would slow the guidance path beside
+//!    it; a real planner spins only around the expected write). Each latency is from
 //!    the stamp taken just before the local write to the reading thread's clock, by
 //!    sequence number (the bridges re-stamp samples, so their stamps are not used).
 //!
@@ -333,87 +336,100 @@ fn through_bridges(
     let _b = spawn("planner", &ns_b, "--connect")?;
     std::thread::sleep(Duration::from_millis(1500));
 
-    let state_sent: Arc<Vec<AtomicU64>> = Arc::new((0..RING).map(|_| AtomicU64::new(0)).collect());
-    let guidance_sent: Arc<Vec<AtomicU64>> =
-        Arc::new((0..RING).map(|_| AtomicU64::new(0)).collect());
-    let stop = Arc::new(AtomicBool::new(false));
-    // Reader of B's state blackboard, spinning.
-    let state_reader = {
-        let (stop, sent, ns_b) = (stop.clone(), state_sent.clone(), ns_b.clone());
-        std::thread::spawn(move || -> anyhow::Result<NsHistogram> {
-            let (node, _) = services::create_node("bench_bridge_rx")?;
-            let mut hist = NsHistogram::new();
-            // B's blackboard is the planner-side bridge's: wait until it exists.
-            let reader = loop {
-                if let Ok(r) = services::state_reader(&node, &ns_b) {
-                    break r;
-                }
-                std::thread::sleep(Duration::from_millis(10));
-            };
-            let mut last = 0;
-            while !stop.load(Ordering::Acquire) {
-                let seq = reader.get().header.sequence;
-                if seq != last && seq != 0 {
-                    let now = ipc_types::monotonic_ns();
-                    let t = sent[seq as usize % RING].load(Ordering::Acquire);
-                    if t != 0 {
-                        hist.record(now.saturating_sub(t));
+    // One direction at a time, as in the bare phase: the state reader spins (a core of
+    // this 2-core machine), which would slow the guidance path beside it.
+    let state = {
+        let sent: Arc<Vec<AtomicU64>> = Arc::new((0..RING).map(|_| AtomicU64::new(0)).collect());
+        let stop = Arc::new(AtomicBool::new(false));
+        // Reader of B's state blackboard, spinning.
+        let reader = {
+            let (stop, sent, ns_b) = (stop.clone(), sent.clone(), ns_b.clone());
+            std::thread::spawn(move || -> anyhow::Result<NsHistogram> {
+                let (node, _) = services::create_node("bench_bridge_rx")?;
+                let mut hist = NsHistogram::new();
+                // B's blackboard is the planner-side bridge's: wait until it exists.
+                let reader = loop {
+                    if let Ok(r) = services::state_reader(&node, &ns_b) {
+                        break r;
                     }
-                    last = seq;
-                }
-                std::hint::spin_loop();
-            }
-            Ok(hist)
-        })
-    };
-    // A's guidance, as the loop's relay receives it.
-    let relay = {
-        let (stop, sent, ns_a) = (stop.clone(), guidance_sent.clone(), ns_a.clone());
-        std::thread::spawn(move || -> anyhow::Result<NsHistogram> {
-            let (node, _) = services::create_node("bench_bridge_relay")?;
-            let sub = services::subscriber::<Guidance>(&node, &ns_a)?;
-            let listener = services::guidance_listener(&node, &ns_a)?;
-            let mut hist = NsHistogram::new();
-            while !stop.load(Ordering::Acquire) {
-                let _ = listener.timed_wait(|_| {}, Duration::from_millis(1));
-                while let Ok(Some(g)) = sub.receive() {
-                    let now = ipc_types::monotonic_ns();
-                    let t = sent[g.header.sequence as usize % RING].load(Ordering::Acquire);
-                    if t != 0 {
-                        hist.record(now.saturating_sub(t));
+                    std::thread::sleep(Duration::from_millis(10));
+                };
+                let mut last = 0;
+                while !stop.load(Ordering::Acquire) {
+                    let seq = reader.get().header.sequence;
+                    if seq != last && seq != 0 {
+                        let now = ipc_types::monotonic_ns();
+                        let t = sent[seq as usize % RING].load(Ordering::Acquire);
+                        if t != 0 {
+                            hist.record(now.saturating_sub(t));
+                        }
+                        last = seq;
                     }
+                    std::hint::spin_loop();
                 }
-            }
-            Ok(hist)
-        })
-    };
-    std::thread::sleep(Duration::from_millis(200));
-    // The loop's writes and the planner's, on one timeline.
-    let period = (1e9 / args.rate_hz) as u64;
-    let every = (args.rate_hz / args.guidance_rate_hz).round().max(1.0) as u64;
-    let n = (args.seconds * args.rate_hz) as u64;
-    let mut next = ipc_types::monotonic_ns();
-    let mut g_seq = 0u64;
-    for seq in 1..=n {
-        next += period;
-        ipc_types::sleep_until_ns(next);
-        let mut s = HapticState {
-            header: Header {
-                sequence: seq,
-                timestamp_ns: ipc_types::monotonic_ns(),
-                writer_pid: pid,
-                reserved: 0,
-            },
-            user_pose: ipc_types::Pose::IDENTITY,
-            proxy_pose: ipc_types::Pose::IDENTITY,
-            ..HapticState::default()
+                Ok(hist)
+            })
         };
-        let t = ipc_types::monotonic_ns();
-        s.published_ns = t;
-        state_sent[seq as usize % RING].store(t, Ordering::Release);
-        state_writer.update_with_copy(s);
-        if seq % every == 0 {
-            g_seq += 1;
+        std::thread::sleep(Duration::from_millis(200));
+        let period = (1e9 / args.rate_hz) as u64;
+        let n = (args.seconds * args.rate_hz) as u64;
+        let mut next = ipc_types::monotonic_ns();
+        for seq in 1..=n {
+            next += period;
+            ipc_types::sleep_until_ns(next);
+            let mut s = HapticState {
+                header: Header {
+                    sequence: seq,
+                    timestamp_ns: ipc_types::monotonic_ns(),
+                    writer_pid: pid,
+                    reserved: 0,
+                },
+                user_pose: ipc_types::Pose::IDENTITY,
+                proxy_pose: ipc_types::Pose::IDENTITY,
+                ..HapticState::default()
+            };
+            let t = ipc_types::monotonic_ns();
+            s.published_ns = t;
+            sent[seq as usize % RING].store(t, Ordering::Release);
+            state_writer.update_with_copy(s);
+        }
+        std::thread::sleep(Duration::from_millis(100));
+        stop.store(true, Ordering::Release);
+        reader
+            .join()
+            .map_err(|_| anyhow::anyhow!("reader panicked"))??
+    };
+    let guidance = {
+        let sent: Arc<Vec<AtomicU64>> = Arc::new((0..RING).map(|_| AtomicU64::new(0)).collect());
+        let stop = Arc::new(AtomicBool::new(false));
+        // A's guidance, as the loop's relay receives it.
+        let relay = {
+            let (stop, sent, ns_a) = (stop.clone(), sent.clone(), ns_a.clone());
+            std::thread::spawn(move || -> anyhow::Result<NsHistogram> {
+                let (node, _) = services::create_node("bench_bridge_relay")?;
+                let sub = services::subscriber::<Guidance>(&node, &ns_a)?;
+                let listener = services::guidance_listener(&node, &ns_a)?;
+                let mut hist = NsHistogram::new();
+                while !stop.load(Ordering::Acquire) {
+                    let _ = listener.timed_wait(|_| {}, Duration::from_millis(1));
+                    while let Ok(Some(g)) = sub.receive() {
+                        let now = ipc_types::monotonic_ns();
+                        let t = sent[g.header.sequence as usize % RING].load(Ordering::Acquire);
+                        if t != 0 {
+                            hist.record(now.saturating_sub(t));
+                        }
+                    }
+                }
+                Ok(hist)
+            })
+        };
+        std::thread::sleep(Duration::from_millis(200));
+        let period = (1e9 / args.guidance_rate_hz) as u64;
+        let n = (args.seconds * args.guidance_rate_hz) as u64;
+        let mut next = ipc_types::monotonic_ns();
+        for g_seq in 1..=n {
+            next += period;
+            ipc_types::sleep_until_ns(next);
             let g = Guidance {
                 header: Header {
                     sequence: g_seq,
@@ -426,20 +442,16 @@ fn through_bridges(
                 planner_id: 1,
                 ..Guidance::default()
             };
-            guidance_sent[g_seq as usize % RING]
-                .store(ipc_types::monotonic_ns(), Ordering::Release);
+            sent[g_seq as usize % RING].store(ipc_types::monotonic_ns(), Ordering::Release);
             let _ = guidance_pub.send_copy(g);
             let _ = guidance_event.notify();
         }
-    }
-    std::thread::sleep(Duration::from_millis(100));
-    stop.store(true, Ordering::Release);
-    let state = state_reader
-        .join()
-        .map_err(|_| anyhow::anyhow!("reader panicked"))??;
-    let guidance = relay
-        .join()
-        .map_err(|_| anyhow::anyhow!("relay panicked"))??;
+        std::thread::sleep(Duration::from_millis(100));
+        stop.store(true, Ordering::Release);
+        relay
+            .join()
+            .map_err(|_| anyhow::anyhow!("relay panicked"))??
+    };
     Ok(Row {
         state_us: state.percentiles_us(),
         guidance_us: guidance.percentiles_us(),
