@@ -28,6 +28,7 @@ mod driver;
 mod guidance;
 pub mod latency;
 pub mod layout;
+pub mod pacing;
 mod path;
 mod roadmap;
 pub mod services;

@@ -55,7 +55,8 @@ struct Args {
     /// Guidance rate, Hz (the planner's).
     #[arg(long, default_value_t = 100.0)]
     guidance_rate_hz: f64,
-    /// The loop-side bridge's state poll period, µs (`hrrtc-bridge --state-poll-us`).
+    /// The loop-side bridge's state poll period, µs (`hrrtc-bridge --state-poll-us`), used
+    /// until it has locked onto the (SCHED_FIFO) writer's ticks.
     #[arg(long, default_value_t = 100)]
     state_poll_us: u64,
     /// The `hrrtc-bridge` executable (default: beside this one).
@@ -371,27 +372,45 @@ fn through_bridges(
             })
         };
         std::thread::sleep(Duration::from_millis(200));
+        // Written from a SCHED_FIFO thread, as the loop's RT thread writes it: the
+        // loop-side bridge phase-locks its reads only to a real-time writer.
         let period = (1e9 / args.rate_hz) as u64;
         let n = (args.seconds * args.rate_hz) as u64;
-        let mut next = ipc_types::monotonic_ns();
-        for seq in 1..=n {
-            next += period;
-            ipc_types::sleep_until_ns(next);
-            let mut s = HapticState {
-                header: Header {
-                    sequence: seq,
-                    timestamp_ns: ipc_types::monotonic_ns(),
-                    writer_pid: pid,
-                    reserved: 0,
-                },
-                user_pose: ipc_types::Pose::IDENTITY,
-                proxy_pose: ipc_types::Pose::IDENTITY,
-                ..HapticState::default()
-            };
-            let t = ipc_types::monotonic_ns();
-            s.published_ns = t;
-            sent[seq as usize % RING].store(t, Ordering::Release);
-            state_writer.update_with_copy(s);
+        let writer = {
+            let sent = sent.clone();
+            std::thread::spawn(move || {
+                let fifo = ipc_types::set_thread_fifo_priority(80).is_ok();
+                let mut next = ipc_types::monotonic_ns();
+                for seq in 1..=n {
+                    next += period;
+                    ipc_types::sleep_until_ns(next);
+                    let mut s = HapticState {
+                        header: Header {
+                            sequence: seq,
+                            timestamp_ns: ipc_types::monotonic_ns(),
+                            writer_pid: pid,
+                            reserved: 0,
+                        },
+                        user_pose: ipc_types::Pose::IDENTITY,
+                        proxy_pose: ipc_types::Pose::IDENTITY,
+                        ..HapticState::default()
+                    };
+                    let t = ipc_types::monotonic_ns();
+                    s.published_ns = t;
+                    sent[seq as usize % RING].store(t, Ordering::Release);
+                    state_writer.update_with_copy(s);
+                }
+                fifo
+            })
+        };
+        if !writer
+            .join()
+            .map_err(|_| anyhow::anyhow!("state writer panicked"))?
+        {
+            eprintln!(
+                "no SCHED_FIFO for the state writer: the loop-side bridge polled every {} µs",
+                args.state_poll_us
+            );
         }
         std::thread::sleep(Duration::from_millis(100));
         stop.store(true, Ordering::Release);

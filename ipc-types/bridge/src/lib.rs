@@ -25,6 +25,7 @@ pub mod frame;
 
 use clock::{HostClock, PeerDelays};
 use frame::{Carried, FrameError, FrameHeader, Kind};
+use ipc_types::pacing;
 use ipc_types::services::{self, ServiceError};
 use ipc_types::{Guidance, HapticState, Path, Roadmap};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -72,7 +73,9 @@ pub struct BridgeConfig {
     pub connect_timeout_s: f64,
     /// Loop side: send at most this many states per second (`None`: every new tick).
     pub state_rate_hz: Option<f64>,
-    /// Loop side: how often the state blackboard is polled, µs (the loop does not notify).
+    /// Loop side: how often the state blackboard is polled, µs (the loop does not notify),
+    /// until the bridge has locked onto a real-time loop's ticks (`ipc_types::pacing`), and
+    /// for a loop without real-time rights.
     pub state_poll_us: u64,
     /// Carry roadmap increments (about 90 KB each, 20 per second per planner).
     pub roadmap: bool,
@@ -317,13 +320,34 @@ pub fn run(config: &BridgeConfig, stop: Arc<AtomicBool>) -> Result<BridgeReport,
         )?),
         Side::Planner => None,
     };
+    // Likewise the state on the planner's host goes into the local blackboard from Zenoh's
+    // callback (the blackboard's writer is `Send`; a mutex makes it shareable): no import
+    // thread to wake between the network and the planner's reader.
+    let state_node = match config.side {
+        Side::Planner => Some(services::create_node(&format!(
+            "bridge_state_{}",
+            std::process::id()
+        ))?),
+        Side::Loop => None,
+    };
+    let direct_state = match &state_node {
+        Some((node, _)) => Some(direct_state(
+            config,
+            node,
+            ns,
+            counters.clone(),
+            delays.clone(),
+            &session,
+        )?),
+        None => None,
+    };
     // The other received samples: Zenoh's threads queue them for the import thread, which
     // owns those iceoryx2 ports (they are not `Send`).
     let (tx, rx) = std::sync::mpsc::sync_channel::<Incoming>(IMPORT_QUEUE);
     let imported: &[&str] = match config.side {
         Side::Loop if config.roadmap => &["path", "roadmap"],
         Side::Loop => &["path"],
-        Side::Planner => &["state"],
+        Side::Planner => &[],
     };
     let mut import_subs = Vec::new();
     for leaf in imported {
@@ -412,6 +436,9 @@ pub fn run(config: &BridgeConfig, stop: Arc<AtomicBool>) -> Result<BridgeReport,
     let _ = export.join();
     drop(import_subs);
     drop(direct_guidance);
+    // The subscriber first, then the writer its callback held, then the writer's node.
+    drop(direct_state);
+    drop(state_node);
     drop(ping_sub);
     drop(pong_sub);
     let _ = session.close().wait();
@@ -469,6 +496,42 @@ fn direct_guidance(
         .wait()
         .map_err(declare_error(&k))?;
     Ok((sub, ports))
+}
+
+/// The planner side's state path: a Zenoh subscriber whose callback checks and re-stamps
+/// each sample and writes it to the local `HapticState` blackboard as its writer (the pid
+/// is this bridge's: readers check the writer's liveness by it). Dropping the subscriber
+/// drops the writer; `node` must outlive both.
+fn direct_state(
+    config: &BridgeConfig,
+    node: &iceoryx2::node::Node<services::Ipc>,
+    keys: &str,
+    counters: Arc<Counters>,
+    delays: Arc<Mutex<PeerDelays>>,
+    session: &zenoh::Session,
+) -> Result<zenoh::pubsub::Subscriber<()>, BridgeError> {
+    let writer = Mutex::new(services::state_writer(node, &config.namespace)?);
+    let warned = Mutex::new(None);
+    let pid = std::process::id();
+    let k = key(keys, "state");
+    session
+        .declare_subscriber(&k)
+        .callback(move |sample| {
+            let incoming = Incoming {
+                arrival_ns: ipc_types::monotonic_ns(),
+                bytes: sample.payload().to_bytes().into_owned(),
+            };
+            bump(&counters.received, Kind::STATE);
+            if let Some((_, mut s)) =
+                accept::<HapticState>(&incoming, &counters, &delays, &mut lock(&warned))
+            {
+                s.header.writer_pid = pid;
+                lock(&writer).update_with_copy(s);
+                bump(&counters.delivered, Kind::STATE);
+            }
+        })
+        .wait()
+        .map_err(declare_error(&k))
 }
 
 /// The loop side's guidance ports, shared with Zenoh's callback threads.
@@ -649,9 +712,8 @@ enum LocalOut {
         path: services::Publisher<Path>,
         roadmap: Option<services::Publisher<Roadmap>>,
     },
-    Planner {
-        state: services::StateWriter,
-    },
+    /// The planner side: nothing arrives through the queue.
+    Nothing,
 }
 
 fn import_thread(
@@ -674,9 +736,8 @@ fn import_thread(
                     None
                 },
             },
-            Side::Planner => LocalOut::Planner {
-                state: services::state_writer(&node, ns)?,
-            },
+            // Its state goes straight from Zenoh's callback ([`direct_state`]).
+            Side::Planner => LocalOut::Nothing,
         };
         Ok((node, out))
     })();
@@ -690,7 +751,6 @@ fn import_thread(
             return;
         }
     };
-    let pid = std::process::id();
     let mut warned: [Option<Instant>; 7] = [None; 7];
     // Paths are re-sent each second: hand each one on once.
     let mut last_path: Option<(u64, u32, u64)> = None;
@@ -704,15 +764,7 @@ fn import_thread(
         bump(&counters.received, kind);
         let warn = &mut warned[(kind.0 as usize).min(6)];
         let delivered = match &out {
-            LocalOut::Planner { state } => {
-                accept::<HapticState>(&incoming, counters, delays, warn).map(|(_, mut s)| {
-                    // The local blackboard's writer is this bridge: readers check its
-                    // liveness (and real-time threads) by this pid.
-                    s.header.writer_pid = pid;
-                    state.update_with_copy(s);
-                    Kind::STATE
-                })
-            }
+            LocalOut::Nothing => None,
             LocalOut::Loop { path, roadmap } => match kind {
                 Kind::PATH => {
                     accept::<Path>(&incoming, counters, delays, warn).and_then(|(h, p)| {
@@ -844,6 +896,8 @@ fn export_thread(
         tracing::debug!("cannot set the export thread's timer slack");
     }
     let mut next_poll = ipc_types::monotonic_ns();
+    let mut paced = false;
+    let mut pacer = pacing::StatePacer::sleeping(poll_ns);
     while !stop.load(Ordering::Acquire) {
         match &mut input {
             LocalIn::Loop { state } => {
@@ -852,6 +906,13 @@ fn export_thread(
                     && (s.header.sequence != last_seq || s.header.writer_pid != last_pid);
                 if let Err(e) = state.after_read(new) {
                     tracing::warn!("cannot follow a restarted haptic loop: {e}");
+                }
+                if new && s.header.writer_pid != last_pid {
+                    // Phase-lock to a real-time loop's ticks (as the planner's receiver
+                    // does); a loop without real-time rights ticks late and in bursts, and
+                    // is polled.
+                    paced = pacing::has_real_time_thread(s.header.writer_pid);
+                    pacer = pacing::StatePacer::sleeping(poll_ns);
                 }
                 let now = ipc_types::monotonic_ns();
                 if new && now.wrapping_sub(last_sent_ns) >= state_period_ns {
@@ -862,11 +923,24 @@ fn export_thread(
                     last_seq = s.header.sequence;
                     last_pid = s.header.writer_pid;
                 }
-                next_poll += poll_ns;
-                if next_poll < now {
-                    next_poll = now + poll_ns;
-                }
-                ipc_types::sleep_until_ns(next_poll);
+                let next = if paced {
+                    let seen = if new {
+                        pacing::Seen::Found {
+                            sequence: s.header.sequence,
+                            stamp_ns: s.header.timestamp_ns,
+                        }
+                    } else {
+                        pacing::Seen::Nothing
+                    };
+                    pacer.next_poll(ipc_types::monotonic_ns(), seen)
+                } else {
+                    next_poll += poll_ns;
+                    if next_poll < now {
+                        next_poll = now + poll_ns;
+                    }
+                    next_poll
+                };
+                ipc_types::sleep_until_ns(next);
             }
             LocalIn::Planner {
                 listener,

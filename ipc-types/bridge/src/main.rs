@@ -43,7 +43,9 @@ struct Cli {
     /// Loop side: send at most this many states per second (default: every tick).
     #[arg(long)]
     state_rate_hz: Option<f64>,
-    /// Loop side: poll period of the state blackboard, µs.
+    /// Loop side: poll period of the state blackboard, µs, until it has locked onto a
+    /// real-time loop's ticks (then it reads once per tick, just after the write), and for
+    /// a loop without real-time rights.
     #[arg(long, default_value_t = 100)]
     state_poll_us: u64,
     /// Do not carry roadmap increments (they are only for `planner view`: ~90 KB each, up

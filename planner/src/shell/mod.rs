@@ -23,7 +23,7 @@ const GUIDANCE_AFTER_STATE: Duration = Duration::from_micros(50);
 
 pub mod convert;
 mod error;
-pub mod pacing;
+pub use ipc_types::pacing;
 mod receiver;
 pub mod roadmap;
 

@@ -1,5 +1,5 @@
-//! When the planner's receiver thread polls the haptic state: phase-locked to the loop's
-//! ticks instead of at a fixed rate.
+//! When a reader of the haptic state polls it (the planner's receiver thread, the loop-side
+//! bridge's export thread): phase-locked to the loop's ticks instead of at a fixed rate.
 //!
 //! The haptic loop writes its state into a blackboard once per tick, stamped with the tick's
 //! wake-up time (`header.timestamp_ns`), and wakes nobody: its RT thread makes no system call
@@ -29,6 +29,27 @@
 //!   fixed window around the write.
 //!
 //! Pure logic on `CLOCK_MONOTONIC` nanoseconds passed in, so it is tested without clocks.
+
+/// Whether process `pid` has a thread scheduled SCHED_FIFO or SCHED_RR, from
+/// `/proc/PID/task/*/stat` (field 41, the policy). False when it cannot be read (another
+/// PID namespace, no such process). Readers phase-lock only to such a loop: a loop without
+/// real-time rights ticks late and in bursts.
+pub fn has_real_time_thread(pid: u32) -> bool {
+    let Ok(tasks) = std::fs::read_dir(format!("/proc/{pid}/task")) else {
+        return false;
+    };
+    tasks.flatten().any(|task| {
+        std::fs::read_to_string(task.path().join("stat"))
+            .ok()
+            .and_then(|stat| {
+                // The command name may hold spaces and parentheses: fields count from the
+                // last ')', which is followed by field 3.
+                let rest = &stat[stat.rfind(')')? + 1..];
+                rest.split_whitespace().nth(41 - 3)?.parse::<u32>().ok()
+            })
+            .is_some_and(|policy| policy == 1 || policy == 2)
+    })
+}
 
 /// Wait before polling again when the predicted poll found nothing new, ns.
 pub const RETRY_NS: u64 = 10_000;
@@ -479,5 +500,40 @@ mod tests {
         assert_eq!(p.period_ns(), None);
         p.next_poll(7 * MS, found(2, 7 * MS));
         assert_eq!(p.period_ns(), Some(2 * MS));
+    }
+
+    #[test]
+    fn a_normal_process_has_no_real_time_thread() {
+        // A child at normal priority (not this process: another test makes a thread of
+        // it SCHED_FIFO), and a pid that does not exist.
+        let mut child = std::process::Command::new("sleep")
+            .arg("5")
+            .spawn()
+            .unwrap();
+        let seen = has_real_time_thread(child.id());
+        child.kill().unwrap();
+        child.wait().unwrap();
+        assert!(!seen);
+        assert!(!has_real_time_thread(u32::MAX));
+    }
+
+    #[test]
+    fn a_fifo_thread_is_seen() {
+        // A thread of this process made SCHED_FIFO, where the test may (root or
+        // CAP_SYS_NICE; without the right there is nothing to see, and it says so).
+        let (made, check) = std::sync::mpsc::channel();
+        let (done, finish) = std::sync::mpsc::channel::<()>();
+        let t = std::thread::spawn(move || {
+            made.send(crate::set_thread_fifo_priority(10).is_ok())
+                .unwrap();
+            let _ = finish.recv();
+        });
+        if check.recv().unwrap() {
+            assert!(has_real_time_thread(std::process::id()));
+        } else {
+            eprintln!("no right to make a SCHED_FIFO thread here: nothing to check");
+        }
+        done.send(()).unwrap();
+        t.join().unwrap();
     }
 }
