@@ -82,6 +82,10 @@ struct Args {
     /// Pin the RT thread and the bare writers to this CPU.
     #[arg(long)]
     cpu: Option<usize>,
+    /// Make no 0 µs CPU wake-up latency request (PM QoS) from the writers and the loop: by
+    /// default they hold one, as the haptic loop does while it runs.
+    #[arg(long)]
+    no_cpu_latency_request: bool,
     /// Render contact (1 mm voxels, the S sliding on the wall) during the real run.
     #[arg(long)]
     contact: bool,
@@ -223,7 +227,7 @@ fn main() -> anyhow::Result<()> {
         fifo_priority: (args.priority > 0).then_some(args.priority),
         cpu: args.cpu,
         lock_memory: true,
-        cpu_latency_us: Some(0),
+        cpu_latency_us: (!args.no_cpu_latency_request).then_some(0),
     };
     let secs = args.baseline_seconds;
     let base = |pattern, rate_hz, poll| Bare {
