@@ -11,8 +11,9 @@
 //!   over a lower-bounding embedding, planar and SE(3)) and the `k_nearest_into` query F_a
 //!   uses, on trees of uniformly sampled configurations, each beside the linear scan it
 //!   replaces (`.../linear`);
-//! - `fa/<scene>`: F_a (`Planner::attractive_force`, I-RRT's barycenter of the p nearest
-//!   labelled nodes) at random operator configurations, on trees grown for 2000 iterations;
+//! - `fa/<scene>`: F_a as rendered (`Planner::attractive_force`, I-RRT's barycenter of the
+//!   p nearest labelled nodes that the operator can reach in a straight line) at random
+//!   operator configurations, on trees grown for 2000 iterations;
 //! - `guide/<scene>`: F_a once solved (path following: reachability checks of the path's
 //!   stretches near the operator) at configurations within 3 cm / 0.3 rad (σ) of the
 //!   solution path, for the scenes automatic RRT-Connect solves within 200 000 iterations

@@ -18,8 +18,15 @@ use crate::tree::{NodeId, Tree};
 use nalgebra::Vector6;
 use scene::pose::Se3;
 
+/// Whether the object can move in a straight line from the first configuration to the
+/// second (for guidance: see [`crate::CollisionChecker::reachable_from_contact`]).
+pub type Reach<'a> = dyn Fn(&Se3, &Se3) -> bool + 'a;
+
 /// F_a from the `p` nodes of `tree` nearest to `q_user` (see the module docs).
-/// `scratch` is reused for the neighbour list. Zero when the weights vanish.
+/// `scratch` is reused for the neighbour list. With `reach`, only the neighbours that
+/// `reach(q_user, node)` says can be reached in a straight line count (the force rendered
+/// to the operator: never towards nodes behind a wall); without, all of them (I-RRT's
+/// F_a, as its POS sampler uses it). Zero when the weights vanish.
 pub fn barycenter_force(
     space: &dyn ConfigSpace,
     tree: &Tree,
@@ -27,11 +34,15 @@ pub fn barycenter_force(
     p: usize,
     epsilon: f64,
     scratch: &mut Vec<(NodeId, f64)>,
+    reach: Option<&Reach<'_>>,
 ) -> Vector6<f64> {
     tree.k_nearest_into(space, q_user, p, scratch);
     let mut sum = Vector6::zeros();
     let mut total = 0.0;
     for &(id, _) in scratch.iter() {
+        if reach.is_some_and(|r| !r(q_user, &tree.node(id).config)) {
+            continue;
+        }
         let labels = &tree.node(id).labels;
         let w = labels.freedom() / (epsilon + labels.distance_to_goal.max(0.0));
         if w.is_finite() && w > 0.0 {
@@ -109,7 +120,7 @@ impl PathGuide {
         space: &dyn ConfigSpace,
         q_user: &Se3,
         lookahead: f64,
-        reach: &dyn Fn(&Se3, &Se3) -> bool,
+        reach: &Reach<'_>,
     ) -> Vector6<f64> {
         let lookahead = lookahead.max(0.0);
         let d: Vec<f64> = self
@@ -196,13 +207,13 @@ mod tests {
         }
         t.add(NodeId(0), Se3::from_xyz(-0.2, 0.0, 0.0), 0.5); // far: not among the 5
         let mut scratch = Vec::new();
-        let f = barycenter_force(&s, &t, &Se3::identity(), 5, 0.05, &mut scratch);
+        let f = barycenter_force(&s, &t, &Se3::identity(), 5, 0.05, &mut scratch, None);
         assert!(
             (f - Vector6::new(0.1, 0.0, 0.0, 0.0, 0.0, 0.0)).norm() < 1e-12,
             "{f}"
         );
         // From the other side the force flips sign.
-        let f2 = barycenter_force(&s, &t, &Se3::from_xyz(0.2, 0.0, 0.0), 5, 0.05, &mut scratch);
+        let f2 = barycenter_force(&s, &t, &Se3::from_xyz(0.2, 0.0, 0.0), 5, 0.05, &mut scratch, None);
         assert!((f2.x + 0.1).abs() < 1e-12);
     }
 
@@ -214,17 +225,33 @@ mod tests {
         let b = t.add(NodeId(0), Se3::from_xyz(0.0, -0.1, 0.0), 0.05);
         let mut scratch = Vec::new();
         let q = Se3::identity();
-        let even = barycenter_force(&s, &t, &q, 5, 0.05, &mut scratch);
+        let even = barycenter_force(&s, &t, &q, 5, 0.05, &mut scratch, None);
         assert!(even.norm() < 1e-12);
         t.labels_mut(NodeId(0)).distance_to_goal = 0.0; // weight 1/0.05 vs 1/0.1
-        let f = barycenter_force(&s, &t, &q, 5, 0.05, &mut scratch);
+        let f = barycenter_force(&s, &t, &q, 5, 0.05, &mut scratch, None);
         assert!((f.y - 0.1 / 3.0).abs() < 1e-12, "{f}");
         t.labels_mut(NodeId(0)).distance_to_goal = 0.05;
         let l = t.labels_mut(b);
         l.extension_attempts = 3;
         l.collisions = 3; // freedom 1/4
-        let f = barycenter_force(&s, &t, &q, 5, 0.05, &mut scratch);
+        let f = barycenter_force(&s, &t, &q, 5, 0.05, &mut scratch, None);
         assert!((f.y - 0.1 * 3.0 / 5.0).abs() < 1e-12, "{f}");
+    }
+
+    #[test]
+    fn the_rendered_barycenter_leaves_out_nodes_it_cannot_reach() {
+        let s = space();
+        // Nodes at y = ±0.1; a wall between the operator and the +y one.
+        let mut t = Tree::new(Se3::from_xyz(0.0, 0.1, 0.0), 0.05);
+        t.add(NodeId(0), Se3::from_xyz(0.0, -0.1, 0.0), 0.05);
+        let mut scratch = Vec::new();
+        let q = Se3::identity();
+        let not_up = |_: &Se3, b: &Se3| b.pos.y < 0.0;
+        let f = barycenter_force(&s, &t, &q, 5, 0.05, &mut scratch, Some(&not_up));
+        assert!((f - Vector6::new(0.0, -0.1, 0.0, 0.0, 0.0, 0.0)).norm() < 1e-12, "{f}");
+        let none = |_: &Se3, _: &Se3| false;
+        let f = barycenter_force(&s, &t, &q, 5, 0.05, &mut scratch, Some(&none));
+        assert_eq!(f, Vector6::zeros());
     }
 
     #[test]
@@ -232,7 +259,7 @@ mod tests {
         let s = space();
         let rot = UnitQuaternion::from_euler_angles(0.0, 0.0, 0.2);
         let t = Tree::new(Se3::new(Vector3::zeros(), rot), 0.1);
-        let f = barycenter_force(&s, &t, &Se3::identity(), 5, 0.05, &mut Vec::new());
+        let f = barycenter_force(&s, &t, &Se3::identity(), 5, 0.05, &mut Vec::new(), None);
         assert!((f - Vector6::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.2)).norm() < 1e-12);
     }
 

@@ -589,28 +589,34 @@ impl Planner {
     /// `(Δp (m), Δr (rad))`. Before a solution: towards the label-weighted barycenter of the
     /// `p` nodes nearest to `q_user`, all from the tree holding the single nearest node
     /// ("all the neighbours should remain in the same connected component", I-RRT §5.1;
-    /// local trees count). After: along the solution path, `lookahead` beyond the nearest
-    /// path point that `q_user` can reach in a straight line ([`PathGuide::force`]; its
-    /// checks count in [`Stats::collision_checks`]).
+    /// local trees count), leaving out those `q_user` cannot reach in a straight line (our
+    /// choice for the force the operator feels: a pull through a wall holds an operator
+    /// who yields to it against the wall; I-RRT's POS sampler keeps the paper's F_a).
+    /// After: along the solution path, from the furthest-along path stretch near `q_user`
+    /// that it can reach in a straight line ([`PathGuide::force`]). The reachability checks
+    /// count in [`Stats::collision_checks`].
     pub fn attractive_force(&self, q_user: &Se3) -> Vector6<f64> {
         let mut scratch = Vec::with_capacity(self.params.neighbours);
-        self.attractive_force_with(q_user, &mut scratch)
+        self.attractive_force_with(q_user, &mut scratch, true)
     }
 
+    /// F_a at `q_user`; `rendered`: for the operator (only towards nodes it can reach in a
+    /// straight line), else I-RRT's own F_a for its POS sampler.
     fn attractive_force_with(
         &self,
         q_user: &Se3,
         scratch: &mut Vec<(NodeId, f64)>,
+        rendered: bool,
     ) -> Vector6<f64> {
         if !q_user.is_finite() {
             return Vector6::zeros();
         }
         let q = self.space.project(q_user);
+        let reach = |a: &Se3, b: &Se3| {
+            self.checker
+                .reachable_from_contact(a, b, crate::guidance::GUIDANCE_CONTACT_SKIP)
+        };
         if let Some(guide) = &self.guide {
-            let reach = |a: &Se3, b: &Se3| {
-                self.checker
-                    .reachable_from_contact(a, b, crate::guidance::GUIDANCE_CONTACT_SKIP)
-            };
             return guide.force(&self.space, &q, self.params.lookahead, &reach);
         }
         let mut best = (START, f64::INFINITY);
@@ -627,6 +633,7 @@ impl Planner {
             self.params.neighbours,
             self.params.label_epsilon,
             scratch,
+            rendered.then_some(&reach as &crate::guidance::Reach<'_>),
         )
     }
 
@@ -634,7 +641,7 @@ impl Planner {
     /// `q_user` since the previous iteration.
     pub fn resulting_force(&mut self, prev: &Se3, q_user: &Se3) -> Vector6<f64> {
         let mut scratch = std::mem::take(&mut self.scratch);
-        let fa = self.attractive_force_with(q_user, &mut scratch);
+        let fa = self.attractive_force_with(q_user, &mut scratch, false);
         self.scratch = scratch;
         let fu = self.space.delta(prev, q_user);
         let a = self.params.fr_alpha;
