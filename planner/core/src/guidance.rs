@@ -213,7 +213,15 @@ mod tests {
             "{f}"
         );
         // From the other side the force flips sign.
-        let f2 = barycenter_force(&s, &t, &Se3::from_xyz(0.2, 0.0, 0.0), 5, 0.05, &mut scratch, None);
+        let f2 = barycenter_force(
+            &s,
+            &t,
+            &Se3::from_xyz(0.2, 0.0, 0.0),
+            5,
+            0.05,
+            &mut scratch,
+            None,
+        );
         assert!((f2.x + 0.1).abs() < 1e-12);
     }
 
@@ -248,7 +256,10 @@ mod tests {
         let q = Se3::identity();
         let not_up = |_: &Se3, b: &Se3| b.pos.y < 0.0;
         let f = barycenter_force(&s, &t, &q, 5, 0.05, &mut scratch, Some(&not_up));
-        assert!((f - Vector6::new(0.0, -0.1, 0.0, 0.0, 0.0, 0.0)).norm() < 1e-12, "{f}");
+        assert!(
+            (f - Vector6::new(0.0, -0.1, 0.0, 0.0, 0.0, 0.0)).norm() < 1e-12,
+            "{f}"
+        );
         let none = |_: &Se3, _: &Se3| false;
         let f = barycenter_force(&s, &t, &q, 5, 0.05, &mut scratch, Some(&none));
         assert_eq!(f, Vector6::zeros());
