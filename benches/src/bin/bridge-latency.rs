@@ -292,6 +292,11 @@ impl Drop for Kill {
     }
 }
 
+/// Publish stamps by sequence number (`RING` slots), shared with a reading thread.
+fn sent_stamps() -> Arc<Vec<AtomicU64>> {
+    Arc::new((0..RING).map(|_| AtomicU64::new(0)).collect())
+}
+
 fn through_bridges(
     args: &Args,
     bridge: &std::path::Path,
@@ -340,7 +345,7 @@ fn through_bridges(
     // One direction at a time, as in the bare phase: the state reader spins (a core of
     // this 2-core machine), which would slow the guidance path beside it.
     let state = {
-        let sent: Arc<Vec<AtomicU64>> = Arc::new((0..RING).map(|_| AtomicU64::new(0)).collect());
+        let sent = sent_stamps();
         let stop = Arc::new(AtomicBool::new(false));
         // Reader of B's state blackboard, spinning.
         let reader = {
@@ -419,7 +424,7 @@ fn through_bridges(
             .map_err(|_| anyhow::anyhow!("reader panicked"))??
     };
     let guidance = {
-        let sent: Arc<Vec<AtomicU64>> = Arc::new((0..RING).map(|_| AtomicU64::new(0)).collect());
+        let sent = sent_stamps();
         let stop = Arc::new(AtomicBool::new(false));
         // A's guidance, as the loop's relay receives it.
         let relay = {

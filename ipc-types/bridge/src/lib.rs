@@ -221,6 +221,17 @@ struct Incoming {
     arrival_ns: u64,
 }
 
+impl Incoming {
+    /// A sample as it arrives in a Zenoh callback: stamped first, then copied out.
+    fn arrived(sample: &zenoh::sample::Sample) -> Self {
+        let arrival_ns = ipc_types::monotonic_ns();
+        Incoming {
+            bytes: sample.payload().to_bytes().into_owned(),
+            arrival_ns,
+        }
+    }
+}
+
 /// Samples queued between Zenoh's threads and the import thread; beyond this they are
 /// dropped (counted): a burst after a stall is old news.
 const IMPORT_QUEUE: usize = 256;
@@ -357,10 +368,9 @@ pub fn run(config: &BridgeConfig, stop: Arc<AtomicBool>) -> Result<BridgeReport,
         let sub = session
             .declare_subscriber(&k)
             .callback(move |sample| {
-                let arrival_ns = ipc_types::monotonic_ns();
-                let bytes = sample.payload().to_bytes().into_owned();
-                let kind = frame::decode_raw(&bytes).map_or(Kind(0), |(h, _)| h.kind);
-                match tx.try_send(Incoming { bytes, arrival_ns }) {
+                let incoming = Incoming::arrived(&sample);
+                let kind = frame::decode_raw(&incoming.bytes).map_or(Kind(0), |(h, _)| h.kind);
+                match tx.try_send(incoming) {
                     Ok(()) => {}
                     Err(TrySendError::Full(_)) | Err(TrySendError::Disconnected(_)) => {
                         bump(&counters.dropped, kind)
@@ -477,10 +487,7 @@ fn direct_guidance(
     let sub = session
         .declare_subscriber(&k)
         .callback(move |sample| {
-            let incoming = Incoming {
-                arrival_ns: ipc_types::monotonic_ns(),
-                bytes: sample.payload().to_bytes().into_owned(),
-            };
+            let incoming = Incoming::arrived(&sample);
             bump(&counters.received, Kind::GUIDANCE);
             let mut warned = lock(&out.last_warning);
             if let Some((_, g)) = accept::<Guidance>(&incoming, &counters, &delays, &mut warned) {
@@ -517,10 +524,7 @@ fn direct_state(
     session
         .declare_subscriber(&k)
         .callback(move |sample| {
-            let incoming = Incoming {
-                arrival_ns: ipc_types::monotonic_ns(),
-                bytes: sample.payload().to_bytes().into_owned(),
-            };
+            let incoming = Incoming::arrived(&sample);
             bump(&counters.received, Kind::STATE);
             if let Some((_, mut s)) =
                 accept::<HapticState>(&incoming, &counters, &delays, &mut lock(&warned))
