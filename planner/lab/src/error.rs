@@ -41,7 +41,8 @@ pub enum LabError {
     },
     /// A live method name is none of [`crate::live::METHOD_NAMES`].
     #[error(
-        "unknown live method `{0}`: expected one of rrt-connect, pos+cs, path, irrtc-mouse, hrrtc, hrrtc-paper, hrrtc-noguide, hrrtc-novice, hrrtc-novice-noguide, hrrtc-mouse, hrrtc-shared"
+        "unknown live method `{0}`: expected one of {names}",
+        names = crate::live::METHOD_NAMES.join(", ")
     )]
     UnknownMethod(String),
     /// A live run's summary (the demo's `--summary-json`) could not be read.

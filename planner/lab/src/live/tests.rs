@@ -128,3 +128,14 @@ fn summaries_count_unsolved_at_the_limit_and_csv_is_well_formed() {
         lines[2]
     );
 }
+
+#[test]
+fn an_unknown_method_is_named_with_every_known_one() {
+    let e = LiveMethod::parse("hrrtc-fast", &[0.5], 0.5)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("`hrrtc-fast`"), "{e}");
+    for name in METHOD_NAMES {
+        assert!(e.contains(name), "{name} missing from: {e}");
+    }
+}
