@@ -28,7 +28,8 @@
 //!   (the earlier design) was as late as the lateness, which on this VM is wider than any
 //!   fixed window around the write.
 //!
-//! Pure logic on `CLOCK_MONOTONIC` nanoseconds passed in, so it is tested without clocks.
+//! [`StatePacer`] is pure logic on `CLOCK_MONOTONIC` nanoseconds passed in, so it is tested
+//! without clocks; [`has_real_time_thread`] reads `/proc`.
 
 /// Whether process `pid` has a thread scheduled SCHED_FIFO or SCHED_RR, from
 /// `/proc/PID/task/*/stat` (field 41, the policy). False when it cannot be read (another
