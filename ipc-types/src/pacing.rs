@@ -11,7 +11,7 @@
 //! states (no loop yet, a stopped or dead loop) it polls at the fallback rate.
 //!
 //! The offset is learnt from what each predicted wake-up found, by steps that settle where
-//! four outcomes in five are the cheap one ([`STEP_CHEAP_NS`] one way, four times as much the
+//! four outcomes in five are the cheap one (`STEP_CHEAP_NS` one way, four times as much the
 //! other way), so the offset follows the loop's compute time and the receiver's own wake-up
 //! lateness, whatever they are on the machine:
 //!
