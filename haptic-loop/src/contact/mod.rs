@@ -15,9 +15,10 @@
 //! flat surface is exactly the tangent-plane force of VPS 1999 (the stored distance *is* the
 //! distance to the tangent plane). Using the scene's normal, not the point's, makes the
 //! total force agree with the geometric contact normal also for corners and edges of the
-//! object. The point's inward normal culls points on the side of the object facing away
-//! from that surface (n_inward · n < 0), which happen only after tunnelling through thin
-//! features and would pull the object further in.
+//! object. The point's inward normal culls points on the side of the object turned away
+//! from that surface (n_inward · n < −0.5, i.e. more than 120°), which happen only after
+//! tunnelling through thin features and would pull the object further in; points at right
+//! angles to the surface (an edge of the object against a face) are kept.
 //!
 //! Per-point stiffness `k_p` is not averaged over the number of contacts (VPS 1999 divides by
 //! N/10 for stability): the proxy is integrated with linearly implicit (backward) Euler using
@@ -91,6 +92,10 @@ pub struct ContactConfig {
     /// Which of the pointshell's levels of detail is rendered: a fixed one, or the finest
     /// that fits a per-tick point budget (see [`Resolution`]).
     pub resolution: Resolution,
+    /// How far any point of the proxy may travel in one step while some point is within
+    /// reach of a surface, in voxels (see `ContactStage::step`): a point entering contact
+    /// is found at most this deep, whatever pulls on the proxy.
+    pub max_travel_voxels: f64,
 }
 
 impl Default for ContactConfig {
@@ -105,6 +110,7 @@ impl Default for ContactConfig {
             coupling_fraction: 0.75,
             release_voxels: 0.25,
             resolution: Resolution::DEFAULT,
+            max_travel_voxels: 0.5,
         }
     }
 }
@@ -127,6 +133,7 @@ impl ContactConfig {
             (self.point_stiffness_n_per_m, "point stiffness (N/m)"),
             (self.proxy_mass_kg, "proxy mass (kg)"),
             (self.coupling_fraction, "coupling fraction"),
+            (self.max_travel_voxels, "travel per step (voxels)"),
         ];
         for (v, name) in positive {
             if !(v.is_finite() && v > 0.0) {
@@ -840,6 +847,30 @@ impl ContactStage {
             u_next
         } else {
             Vector6::zeros()
+        };
+        // Travel bound (VPS's speed limit): a point that enters contact this step has no
+        // stiffness in the implicit solve yet, so whatever pulls the proxy (the coupling
+        // stretched by a hand far ahead, or a light plate tipping over an edge) could carry
+        // it deep before the next search sees it. While some point is within reach, no
+        // point may travel more than `max_travel_voxels`; otherwise every point is at least
+        // the reach (plus the object's free budget) away, and may travel that much more.
+        // Scaling the velocities only removes kinetic energy, so the bound is passive; the
+        // coupling's force follows positions and so changes continuously.
+        let h = self.model.voxmap.voxel_m();
+        let bound = self.config.max_travel_voxels * h;
+        let limit_m = if found.near > 0 {
+            bound
+        } else {
+            let reach = self.config.proximity_voxels.max(self.config.release_voxels) * h;
+            (self.cache.object - self.cache.motion_m).max(0.0) + reach + bound
+        };
+        let travel_m = (u_next.fixed_rows::<3>(0).norm()
+            + u_next.fixed_rows::<3>(3).norm() * self.model.radius_m)
+            * dt_s;
+        let u_next = if travel_m > limit_m {
+            u_next * (limit_m / travel_m)
+        } else {
+            u_next
         };
         self.velocity = u_next.fixed_rows::<3>(0).into_owned();
         self.angular_velocity = u_next.fixed_rows::<3>(3).into_owned();

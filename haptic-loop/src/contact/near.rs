@@ -124,6 +124,15 @@ impl Scratch {
     }
 }
 
+/// A point is left out when its inward normal turns away from the surface's normal (the
+/// field's gradient) by more than 120°, i.e. n·ĝ < −`AWAY_COS`: such points are on the far
+/// side of the object after it tunnelled through a thin feature and would pull it further
+/// in. Not 90°: at an edge of the object the points of the face perpendicular to the
+/// surface have n·ĝ ≈ 0, and a cut at 0 let a rotation of a hundredth of a degree drop a
+/// whole row of them while they were a voxel deep (seen on the crossing planes, where the
+/// object's edge then sank into a slot's side).
+pub(super) const AWAY_COS: f32 = 0.5;
+
 /// What one search found.
 #[derive(Debug, Default, Clone, Copy, PartialEq)]
 pub(super) struct Found {
@@ -283,13 +292,13 @@ impl ShellColumns {
             let facing = lanes(|l| n[0][l] * g[0][l] + n[1][l] * g[1][l] + n[2][l] * g[2][l]);
             let stored = lanes(|l| s.stored[l] != 0);
             // Within reach; a direction (the field is flat midway inside a thin plate);
-            // facing the surface (see the module docs of `contact`); not padding.
+            // not turned away from the surface (see `AWAY_COS`); not padding.
             let real = c.count - chunk * LANES;
             let keep = lanes(|l| {
                 stored[l]
                     & (s.distance_m[l] < reach)
                     & (g2[l] >= 1e-18)
-                    & (facing[l] >= 0.0)
+                    & (facing[l] + AWAY_COS * g2[l].sqrt() >= 0.0)
                     & (l < real)
             });
             // The budget: the distance the point can move before it may be in reach.

@@ -772,3 +772,90 @@ fn changing_level_adds_no_force_step() {
         }
     }
 }
+
+/// A pose from a nalgebra-printed quaternion `[i, j, k, w]` and translation.
+fn pose_from(q: [f64; 4], t: [f64; 3]) -> Isometry3<f64> {
+    let q = nalgebra::Quaternion::new(q[3], q[0], q[1], q[2]);
+    iso(Vector3::from(t), UnitQuaternion::from_quaternion(q))
+}
+
+#[test]
+fn an_edge_turning_against_a_face_keeps_its_points() {
+    // Two proxy poses of a live crossing-planes session 0.1 mm and 0.1° apart, the plate's
+    // edge a voxel deep in the side of a slot: the points of the face at right angles to
+    // the slot's side (n·ĝ ≈ 0) were culled at the second pose, and the wrench fell from
+    // about 1 200 N to 7 N in one tick. Both poses must now see the edge about as deep.
+    let scene = scene::Scene::crossing_planes();
+    let config = ContactConfig::with_voxel_m(0.001);
+    let model = Arc::new(ContactModel::from_scene(&scene, &config.voxmap).unwrap());
+    let coupling = Coupling::from_spec(&SimulatedArmConfig::default().spec(), 1.0, 0.75);
+    let a = pose_from(
+        [-4.43e-6, 0.382_284_6, 1.29e-5, 0.924_044_6],
+        [-0.288_580_04, 0.0, 0.037_152_74],
+    );
+    let b = pose_from(
+        [-7.50e-6, 0.383_933_8, -4.45e-7, 0.923_360_6],
+        [-0.288_694_29, 0.0, 0.037_312_80],
+    );
+    for level in 0..2 {
+        let config = ContactConfig {
+            resolution: Resolution::Level(level),
+            ..config
+        };
+        let st = ContactStage::new(model.clone(), config, coupling);
+        let (pa, pb) = (st.probe(&a), st.probe(&b));
+        assert!(pa.penetration_m > 0.9 * MM, "level {level}: {pa:?}");
+        assert!(
+            (pa.penetration_m - pb.penetration_m).abs() < 0.3 * MM,
+            "level {level}: {} then {} mm",
+            pa.penetration_m * 1e3,
+            pb.penetration_m * 1e3
+        );
+        let (fa, fb) = (pa.force_n.norm(), pb.force_n.norm());
+        assert!(
+            fb > 0.5 * fa && fb < 2.0 * fa,
+            "level {level}: {fa} then {fb} N"
+        );
+    }
+}
+
+#[test]
+fn a_proxy_tipping_over_under_a_hard_pull_stays_within_a_voxel() {
+    // The anchor 4 cm inside the plate (a hand far ahead of a blocked object): the coupling
+    // pulls with about 80 N, and a light proxy landing on one end tips over it so fast that
+    // its face swings into the plate before any of its points had stiffness (the crossing
+    // planes' plate did this live). The travel bound keeps the peak within a voxel.
+    let h = 1.0 * MM;
+    let peak = |max_travel_voxels: f64| {
+        let config = ContactConfig {
+            max_travel_voxels,
+            resolution: Resolution::Level(0),
+            ..ContactConfig::with_voxel_m(h)
+        };
+        let model = Arc::new(ContactModel::build(&plane(), &bar(), &config.voxmap).unwrap());
+        let coupling = Coupling::from_spec(&SimulatedArmConfig::default().spec(), 1.0, 0.75);
+        let mut st = ContactStage::new(model, config, coupling);
+        // The bar tilted 0.3 rad, its low end 0.5 mm above the plate: it lands on that end
+        // and tips over it, its face swinging down onto the plate.
+        let tilt = 0.3_f64;
+        let z = 0.05 * tilt.sin() + 0.01 * tilt.cos() + 0.0005;
+        st.place(iso(
+            Vector3::new(0.0, 0.0, z),
+            UnitQuaternion::from_euler_angles(0.0, tilt, 0.0),
+        ));
+        let anchor = Anchor {
+            pose: iso(Vector3::new(0.0, 0.0, -0.04), UnitQuaternion::identity()),
+            linear_velocity: Vector3::zeros(),
+            angular_velocity: Vector3::zeros(),
+        };
+        let out = run(&mut st, &anchor, 500);
+        let pulled = out[0].operator_force_n.norm();
+        assert!(pulled > 70.0, "the coupling pulls {pulled} N");
+        out.iter().map(|o| o.penetration_m).fold(0.0, f64::max)
+    };
+    let bounded = peak(ContactConfig::default().max_travel_voxels);
+    let unbounded = peak(1e9);
+    assert!(bounded <= h, "bounded: {} mm", bounded * 1e3);
+    // The run is sharp: the same tip-over without the bound goes past a voxel (1.1 mm).
+    assert!(unbounded > h, "unbounded: {} mm", unbounded * 1e3);
+}

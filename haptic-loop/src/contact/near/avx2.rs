@@ -6,7 +6,7 @@
 //! loaded with gathers, and every value lives in a `__m256` instead of an `[f32; 8]` that
 //! the compiler kept in memory (three instructions per operation, measured with callgrind).
 
-use super::{Accumulators, Chunks, ShellColumns};
+use super::{AWAY_COS, Accumulators, Chunks, ShellColumns};
 use crate::contact::lanes::LANES;
 use crate::contact::voxmap::Voxmap;
 use std::arch::x86_64::*;
@@ -89,7 +89,10 @@ pub(super) fn chunks(
                 and(s.stored, _mm256_cmp_ps::<_CMP_LT_OQ>(s.distance_m, reach)),
                 and(
                     _mm256_cmp_ps::<_CMP_GE_OQ>(g2, set(1e-18)),
-                    _mm256_cmp_ps::<_CMP_GE_OQ>(facing, zero),
+                    _mm256_cmp_ps::<_CMP_GE_OQ>(
+                        add(facing, mul(set(AWAY_COS), _mm256_sqrt_ps(g2))),
+                        zero,
+                    ),
                 ),
             ),
             real,
