@@ -26,6 +26,13 @@
 //! contacts and dissipates energy instead of creating it. What the hand feels is bounded by
 //! the coupling, whose gains come from the device's stable stiffness and damping.
 //!
+//! *Travel bound* (VPS 2006's speed limit): a point entering contact has no stiffness in
+//! the implicit solve until the next search sees it, so while any point is within reach of
+//! a surface no point of the proxy travels more than `max_travel_voxels` (half a voxel) per
+//! step; a hand far ahead of a blocked object, or a light object tipping over an edge, then
+//! cannot carry a face deep into the scene in one step. The velocities are scaled down, which
+//! only removes energy.
+//!
 //! Contact damping along each normal, and the pre-contact braking of points approaching the
 //! surface inside the proximity layer (weighted by 1 − s/proximity so it fades in), are each
 //! a total damping shared among the points that produce it, so a face touching with 2000
