@@ -13,6 +13,7 @@
 //!   being blocked only by seeing no progress.
 //!
 //! # The model, per decision (every 1 ms of the operator's clock)
+//! 0. **Take hold**: still for `start_hold_s` after the first decision.
 //! 1. **Perceive** the object's pose and felt wrench now; act on the perception of
 //!    `reaction_delay_s` ago ([`perception`]).
 //! 2. **Target**: the current route step's pose, moved sideways by a wrong turn and turned
@@ -206,6 +207,8 @@ pub struct Operator {
     best: f64,
     best_at: f64,
     last_t: Option<f64>,
+    /// Time of the first decision, s (see `OperatorConfig::start_hold_s`).
+    first_t: Option<f64>,
     line: DelayLine,
     intent: Intent,
     stats: OperatorStats,
@@ -248,6 +251,7 @@ impl Operator {
             best: f64::INFINITY,
             best_at: 0.0,
             last_t: None,
+            first_t: None,
             intent: Intent::STILL,
             stats: OperatorStats::default(),
             shared: Arc::new(SharedStats::default()),
@@ -320,6 +324,11 @@ impl Operator {
         self.last_t = Some(now.t_s);
         let seen = self.line.push(*now);
         let t = now.t_s;
+        let first = *self.first_t.get_or_insert(t);
+        if t - first < self.config.start_hold_s {
+            self.intent = Intent::STILL;
+            return self.intent;
+        }
         self.update_pressing(&seen);
         if self.best.is_infinite() {
             self.begin_attempt(t);

@@ -15,6 +15,11 @@ pub struct OperatorConfig {
     /// Time between what the operator perceives (pose, felt force) and its reaction to it,
     /// s (people: about 0.1–0.25). Expert 0.12, novice 0.22.
     pub reaction_delay_s: f64,
+    /// How long it holds the handle still before it starts, s: a person takes hold of the
+    /// arm and waits until it comes alive (the loop keeps forces off until the device has
+    /// been still, then ramps them in over 0.5 s; an operator who starts at once may meet the
+    /// first obstacle with no force felt). Default 0.6.
+    pub start_hold_s: f64,
     /// Hand speed toward the next route step in free motion, m/s. Expert 0.08, novice 0.05.
     pub speed_m_per_s: f64,
     /// Turning rate toward the next step's orientation, rad/s. Expert 1.0, novice 0.6.
@@ -126,6 +131,7 @@ impl OperatorConfig {
     pub fn expert() -> Self {
         OperatorConfig {
             reaction_delay_s: 0.12,
+            start_hold_s: 0.6,
             speed_m_per_s: 0.08,
             angular_speed_rad_per_s: 1.0,
             approach_time_s: 0.25,
@@ -229,6 +235,7 @@ impl OperatorConfig {
             }
         }
         let non_negative = [
+            (self.start_hold_s, "start_hold_s"),
             (self.hesitation_rate_per_s, "hesitation_rate_per_s"),
             (self.hesitation_min_s, "hesitation_min_s"),
             (self.wrong_turn_m, "wrong_turn_m"),

@@ -16,6 +16,7 @@ fn calm() -> OperatorConfig {
         hesitation_rate_per_s: 0.0,
         wrong_turn_probability: 0.0,
         wrong_orientation_probability: 0.0,
+        start_hold_s: 0.0,
         ..OperatorConfig::expert()
     }
 }
@@ -53,6 +54,33 @@ fn it_reacts_one_reaction_delay_after_what_it_sees() {
             "delay {delay}: reacted at {switched} s"
         );
     }
+}
+
+#[test]
+fn it_holds_still_for_the_start_hold_then_moves() {
+    let config = OperatorConfig {
+        start_hold_s: 0.6,
+        ..calm()
+    };
+    let mut op = Operator::new(
+        config,
+        vec![
+            RouteStep::to(at(0.0, 0.0, 0.0)),
+            RouteStep::to(at(0.05, 0.0, 0.0)),
+        ],
+    )
+    .unwrap();
+    // Decisions start at t = 2 s: the hold counts from the first one.
+    let mut moved = None;
+    for k in 0..1500 {
+        let t = 2.0 + k as f64 * MS;
+        let intent = op.decide(&seen(t, at(0.0, 0.0, 0.0), None));
+        if intent.linear_velocity.norm() > 0.0 && moved.is_none() {
+            moved = Some(t - 2.0);
+        }
+    }
+    let moved = moved.expect("it set off");
+    assert!((moved - 0.6).abs() <= 1.5 * MS, "set off after {moved} s");
 }
 
 #[test]
