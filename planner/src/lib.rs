@@ -29,4 +29,6 @@ pub use planner_core::{
     Sampling, SamplingError, Scene, SceneError, Se3, Se3Space, Source, Space, Stats, UserInput,
     Weights,
 };
-pub use planner_core::{collision, guidance, params, path, rrt, sampling, space, tree};
+pub use planner_core::{
+    aligned, collision, guidance, params, path, retraction, rrt, sampling, space, tree,
+};

@@ -13,18 +13,22 @@
 //!   sampling, `delta`.
 //! - [`collision`]: parry compounds, `is_free`, `edge_free` at a stated resolution.
 //! - [`tree`]: tree arena, node labels, a k-d tree for nearest / k-nearest, paths.
+//! - [`aligned`]: obstacle-aligned orientations for machine samples (narrow slots).
 //! - [`sampling`]: CS, POS, PATH, +CS, H-RRT-C authority sharing and HapticSampling.
 //! - [`rrt`]: RRT, RRT-Connect with I-RRT Extend and local trees, the `Planner` API.
+//! - [`retraction`]: small-step retraction (plan a thinned object, carry the path back).
 //! - [`path`]: shortcut smoothing, CSV / JSON export.
 //! - [`guidance`]: F_a (label-weighted barycenter) and solution-path following.
 //! - [`params`]: `PlannerParams` and `PlannerError`.
 #![warn(missing_docs)]
 #![deny(unsafe_code)]
 
+pub mod aligned;
 pub mod collision;
 pub mod guidance;
 pub mod params;
 pub mod path;
+pub mod retraction;
 pub mod rrt;
 pub mod sampling;
 pub mod space;

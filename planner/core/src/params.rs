@@ -100,6 +100,12 @@ pub struct PlannerParams {
     pub sampling: Sampling,
     /// How machine samples are drawn (default uniform).
     pub machine_sampler: MachineSampler,
+    /// Share of machine samples (and of the bridge test's first ends) whose orientation
+    /// is square to an obstacle ([`crate::aligned`]) instead of uniform, in [0, 1]
+    /// (default 0: off).
+    pub aligned_share: f64,
+    /// Per-axis σ of the jitter around an aligned orientation (rad, ≥ 0, default 0.02).
+    pub aligned_jitter_rad: f64,
     /// σ, per-axis standard deviation of the Gaussians of POS and PATH (weighted m,
     /// default 0.03: 3 cm, 0.3 rad).
     pub user_sigma: f64,
@@ -135,6 +141,8 @@ impl Default for PlannerParams {
             extend_a: ExtendA::Greedy,
             sampling: Sampling::Uniform,
             machine_sampler: MachineSampler::Uniform,
+            aligned_share: 0.0,
+            aligned_jitter_rad: 0.02,
             human_mode: HumanMode::Fresh,
             user_sigma: 0.03,
             fr_alpha: 0.5,
@@ -172,6 +180,18 @@ impl PlannerParams {
                 });
             }
             pos("machine_sampler.sigma", sigma)?;
+        }
+        if !(0.0..=1.0).contains(&self.aligned_share) {
+            return Err(PlannerError::InvalidParam {
+                name: "aligned_share",
+                reason: format!("must be in [0, 1], got {}", self.aligned_share),
+            });
+        }
+        if !(self.aligned_jitter_rad.is_finite() && self.aligned_jitter_rad >= 0.0) {
+            return Err(PlannerError::InvalidParam {
+                name: "aligned_jitter_rad",
+                reason: format!("must be finite and >= 0, got {}", self.aligned_jitter_rad),
+            });
         }
         pos("label_epsilon", self.label_epsilon)?;
         pos("user_sigma", self.user_sigma)?;

@@ -21,6 +21,7 @@
 //! The core is pure: deterministic for a seed and an input sequence, no I/O, no clock,
 //! no threads.
 
+use crate::aligned::AlignedOrientations;
 use crate::collision::CollisionChecker;
 use crate::guidance::{PathGuide, barycenter_force};
 use crate::params::{Algorithm, ExtendA, HumanMode, MachineSampler, PlannerError, PlannerParams};
@@ -120,6 +121,8 @@ pub struct Planner {
     space: Space,
     checker: CollisionChecker,
     params: PlannerParams,
+    /// Candidate orientations of aligned machine samples (empty when they are off).
+    aligned: AlignedOrientations,
     rng: ChaCha8Rng,
     /// `[start tree, goal tree, local trees…]`.
     trees: Vec<Tree>,
@@ -161,7 +164,13 @@ impl Planner {
         }
         let space = Space::for_scene(scene, params.weights);
         let d = space.distance(&scene.start, &scene.goal);
+        let aligned = if params.aligned_share > 0.0 {
+            AlignedOrientations::of(scene)
+        } else {
+            AlignedOrientations::default()
+        };
         Ok(Planner {
+            aligned,
             trees: vec![Tree::new(scene.start, d), Tree::new(scene.goal, 0.0)],
             tree_ids: vec![0, 1],
             next_tree_id: 2,
@@ -220,7 +229,7 @@ impl Planner {
         let (q_rand, source) = self.sample(input.as_ref());
         report.sample = Some(q_rand);
         report.source = source;
-        report.from_user = source != Source::Uniform;
+        report.from_user = matches!(source, Source::User | Source::Contact);
         match self.params.algorithm {
             Algorithm::Rrt => self.rrt_step(&q_rand, &mut report),
             Algorithm::RrtConnect => self.connect_step(&q_rand, source, &mut report),
@@ -304,11 +313,11 @@ impl Planner {
     /// A sample without the operator, by [`PlannerParams::machine_sampler`].
     fn machine_sample(&mut self) -> (Se3, Source) {
         let MachineSampler::Bridge { share, sigma } = self.params.machine_sampler else {
-            return (self.space.sample_uniform(&mut self.rng), Source::Uniform);
+            return (self.free_sample(), Source::Uniform);
         };
         if self.rng.random::<f64>() < share {
             for _ in 0..BRIDGE_TRIES {
-                let q1 = self.space.sample_uniform(&mut self.rng);
+                let q1 = self.free_sample();
                 if self.checker.is_free(&q1) {
                     continue;
                 }
@@ -322,7 +331,20 @@ impl Planner {
                 }
             }
         }
-        (self.space.sample_uniform(&mut self.rng), Source::Uniform)
+        (self.free_sample(), Source::Uniform)
+    }
+
+    /// A uniform configuration whose orientation is, with probability
+    /// [`PlannerParams::aligned_share`], square to an obstacle instead.
+    fn free_sample(&mut self) -> Se3 {
+        let q = self.space.sample_uniform(&mut self.rng);
+        if self.params.aligned_share > 0.0 && self.rng.random::<f64>() < self.params.aligned_share {
+            let rot = self
+                .aligned
+                .sample(self.params.aligned_jitter_rad, &mut self.rng);
+            return self.space.project(&Se3 { rot, ..q });
+        }
+        q
     }
 
     /// Single-tree RRT: one step from the nearest start-tree node.

@@ -3,6 +3,7 @@
 
 use crate::LabError;
 use crate::picture::{self, ColorBy, Plane};
+use planner_core::retraction::{ThinnedPlanner, ThinningParams};
 use planner_core::{Planner, PlannerParams, Scene};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -36,6 +37,9 @@ pub struct SolveConfig {
     pub path_json: Option<PathBuf>,
     /// Draw the roadmap, solved or not.
     pub png: Option<Png>,
+    /// Plan by small-step retraction ([`planner_core::retraction`]) instead of one
+    /// RRT-Connect on the real object.
+    pub thinning: Option<ThinningParams>,
 }
 
 /// Result of a solve; `planner solve --json` writes it.
@@ -61,10 +65,91 @@ pub struct SolveReport {
     pub path_length: Option<f64>,
     /// Waypoints of the solution path, if solved.
     pub path_waypoints: Option<usize>,
+    /// Small-step retraction only: configurations retracted, joins planned, repairs
+    /// tried again and thinned plans started over (after a failed repair, or out of
+    /// iterations).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub thinning: Option<ThinningCounts>,
+}
+
+/// What small-step retraction did ([`planner_core::retraction::ThinningStats`]).
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct ThinningCounts {
+    /// Configurations retracted to free space.
+    pub retracted: u64,
+    /// Joins planned by RRT-Connect.
+    pub joins: u64,
+    /// Repairs tried again from the same path.
+    pub retries: u64,
+    /// New thinned plans after a repair failed every try.
+    pub restarts: u64,
+    /// New thinned plans after one ran out of iterations.
+    pub replans: u64,
+}
+
+/// Small-step retraction until solved or out of time; writes the path files. A picture
+/// of the roadmap is not drawn (there is one roadmap per stage and join).
+fn solve_thinned(config: &SolveConfig, thinning: &ThinningParams) -> Result<SolveReport, LabError> {
+    let mut planner = ThinnedPlanner::new(
+        &config.scene,
+        config.params.clone(),
+        thinning.clone(),
+        config.seed,
+    )?;
+    let started = Instant::now();
+    while !planner.solved() && started.elapsed().as_secs_f64() < config.time_limit_s {
+        planner.step()?;
+    }
+    let time_s = started.elapsed().as_secs_f64();
+    let space = planner_core::Space::for_scene(&config.scene, config.params.weights);
+    if let Some(p) = planner.solution() {
+        write_paths(config, &space, p)?;
+    }
+    let s = planner.stats();
+    Ok(SolveReport {
+        scene: config.scene.name.clone(),
+        seed: config.seed,
+        solved: planner.solved(),
+        time_s,
+        iterations: s.iterations,
+        nodes: s.nodes,
+        collision_checks: s.collision_checks,
+        clearance_queries: s.clearance_queries,
+        path_length: planner
+            .solution()
+            .map(|p| planner_core::space::path_length(&space, p)),
+        path_waypoints: planner.solution().map(<[_]>::len),
+        thinning: Some(ThinningCounts {
+            retracted: s.retracted,
+            joins: s.joins,
+            retries: s.retries,
+            restarts: s.restarts,
+            replans: s.replans,
+        }),
+    })
+}
+
+/// Writes the solution path files asked for.
+fn write_paths(
+    config: &SolveConfig,
+    space: &dyn planner_core::ConfigSpace,
+    path: &[planner_core::Se3],
+) -> Result<(), LabError> {
+    let write = |file: &Option<PathBuf>, text: String| -> Result<(), LabError> {
+        match file {
+            Some(f) => std::fs::write(f, text).map_err(LabError::write(f)),
+            None => Ok(()),
+        }
+    };
+    write(&config.path_csv, planner_core::path::to_csv(space, path))?;
+    write(&config.path_json, planner_core::path::to_json(space, path))
 }
 
 /// Iterates until solved or out of time, then writes the files asked for.
 pub fn solve(config: &SolveConfig) -> Result<SolveReport, LabError> {
+    if let Some(t) = &config.thinning {
+        return solve_thinned(config, t);
+    }
     let mut planner = Planner::new(&config.scene, config.params.clone(), config.seed)?;
     let started = Instant::now();
     while !planner.solved() && started.elapsed().as_secs_f64() < config.time_limit_s {
@@ -76,20 +161,7 @@ pub fn solve(config: &SolveConfig) -> Result<SolveReport, LabError> {
         .solution()
         .map(|p| planner_core::space::path_length(planner.space(), p));
     if let Some(p) = planner.solution() {
-        let write = |file: &Option<PathBuf>, text: String| -> Result<(), LabError> {
-            match file {
-                Some(f) => std::fs::write(f, text).map_err(LabError::write(f)),
-                None => Ok(()),
-            }
-        };
-        write(
-            &config.path_csv,
-            planner_core::path::to_csv(planner.space(), p),
-        )?;
-        write(
-            &config.path_json,
-            planner_core::path::to_json(planner.space(), p),
-        )?;
+        write_paths(config, planner.space(), p)?;
     }
     if let Some(png) = &config.png {
         if !crate::register_font() {
@@ -117,5 +189,6 @@ pub fn solve(config: &SolveConfig) -> Result<SolveReport, LabError> {
         clearance_queries: s.clearance_queries,
         path_length,
         path_waypoints: planner.solution().map(<[_]>::len),
+        thinning: None,
     })
 }

@@ -591,3 +591,66 @@ fn bridge_parameters_are_checked() {
     );
     assert_eq!(MachineSampler::parse("obstacle", 0.3, 0.02), None);
 }
+
+#[test]
+fn aligned_samples_are_square_to_an_obstacle_and_uniform_ones_are_not() {
+    // With every machine sample aligned, each uniform-source sample's orientation lies
+    // within a few jitters of a candidate; with none, almost none does.
+    let scene = Scene::bug_trap();
+    let candidates = crate::aligned::AlignedOrientations::of(&scene);
+    let near_candidate = |q: &Se3| {
+        candidates
+            .candidates()
+            .iter()
+            .map(|c| scene::pose::angle_between(c, &q.rot))
+            .fold(f64::INFINITY, f64::min)
+    };
+    for (share, expect_aligned) in [(1.0, true), (0.0, false)] {
+        let params = PlannerParams {
+            aligned_share: share,
+            aligned_jitter_rad: 0.01,
+            ..PlannerParams::default()
+        };
+        let mut p = Planner::new(&scene, params, 5).expect("planner");
+        let mut n = 0;
+        let mut aligned = 0;
+        for _ in 0..300 {
+            let r = p.iterate(None);
+            assert!(!r.from_user, "a machine sample counts as the operator's");
+            let q = r.sample.expect("a sample");
+            n += 1;
+            aligned += usize::from(near_candidate(&q) < 0.06);
+        }
+        if expect_aligned {
+            assert_eq!(
+                aligned, n,
+                "share 1: every sample within 6 σ of a candidate"
+            );
+        } else {
+            assert!(
+                aligned * 50 < n,
+                "share 0: {aligned} of {n} near a candidate"
+            );
+        }
+    }
+}
+
+#[test]
+fn aligned_parameters_are_checked() {
+    for (share, jitter, name) in [
+        (-0.1, 0.02, "aligned_share"),
+        (1.5, 0.02, "aligned_share"),
+        (0.5, -0.01, "aligned_jitter_rad"),
+        (0.5, f64::INFINITY, "aligned_jitter_rad"),
+    ] {
+        let params = PlannerParams {
+            aligned_share: share,
+            aligned_jitter_rad: jitter,
+            ..PlannerParams::default()
+        };
+        match params.validate() {
+            Err(PlannerError::InvalidParam { name: n, .. }) => assert_eq!(n, name),
+            other => panic!("{share} {jitter}: {other:?}"),
+        }
+    }
+}

@@ -53,6 +53,14 @@ pub struct CoreArgs {
     /// σ of the bridge's second end around the first, weighted m (m, or rad × 0.1).
     #[arg(long, default_value_t = 0.01)]
     pub bridge_sigma: f64,
+    /// Share of machine samples (and of bridge tests' first ends) turned square to an
+    /// obstacle's faces instead of uniformly (obstacle-based RRT's alignment), in [0, 1];
+    /// for passages narrow in orientation, e.g. `--scene bug-trap`.
+    #[arg(long, default_value_t = 0.0)]
+    pub aligned_share: f64,
+    /// σ of the jitter around an aligned orientation, rad per axis.
+    #[arg(long, default_value_t = 0.02)]
+    pub aligned_jitter_rad: f64,
     /// How the distance (used for nearest nodes, steps and edge resolution) combines
     /// translation and rotation: `euclidean` (I-RRT eq. 2, √(|Δp|² + (0.1 m·θ)²)) or
     /// `sum` (|Δp| + 0.1 m·θ, as OMPL's SE(2)/SE(3) spaces).
@@ -87,6 +95,8 @@ impl CoreArgs {
                 self.bridge_sigma,
             )
             .with_context(|| format!("--machine-sampler: unknown `{}`", self.machine_sampler))?,
+            aligned_share: self.aligned_share,
+            aligned_jitter_rad: self.aligned_jitter_rad,
             extend_a: if self.extend == "step" {
                 planner::ExtendA::Step
             } else {

@@ -182,6 +182,52 @@ mod tests {
         assert!(e.contains("/nonexistent.toml"), "{e}");
     }
 
+    /// Issue 20 item 4: `planner solve --thinning` plans by small-step retraction and says
+    /// what it did; bad scales are errors naming the option.
+    #[test]
+    fn solve_by_thinning_reports_its_work_and_checks_its_options() {
+        let dir = std::env::temp_dir().join(format!("planner-thin-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let json = dir.join("thin.json").display().to_string();
+        let argv = [
+            "planner",
+            "solve",
+            "--scene",
+            "wall-hole",
+            "--seed",
+            "2",
+            "--time-limit",
+            "60",
+            "--thinning",
+            "0.5",
+            "--thinning-step",
+            "0.25",
+            "--json",
+            &json,
+        ];
+        assert_eq!(main_with_args(argv).expect("runs"), 0);
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("parse");
+        assert_eq!(v["solved"], true);
+        for key in ["retracted", "joins", "retries", "restarts", "replans"] {
+            assert!(v["thinning"][key].is_u64(), "{key}: {v}");
+        }
+        for (first, step) in [("1.5", "0.05"), ("0.5", "0"), ("nan", "0.1")] {
+            let bad = [
+                "planner",
+                "solve",
+                "--scene",
+                "free",
+                "--thinning",
+                first,
+                "--thinning-step",
+                step,
+            ];
+            let e = format!("{:#}", main_with_args(bad).unwrap_err());
+            assert!(e.contains("--thinning"), "{e}");
+        }
+    }
+
     /// Issue 20: `planner scenes check` names an open mesh, its boundary edges and the
     /// repair, with exit code 1; the shipped silencer (a closed mesh body) passes.
     #[test]

@@ -2,10 +2,11 @@
 //! are validated into a [`SolveConfig`]; [`lab::solve::solve`] does the work.
 
 use crate::common::{CoreArgs, positive};
-use anyhow::Context;
+use anyhow::{Context, bail};
 use clap::Args;
 use lab::picture::{ColorBy, Plane};
 use lab::solve::{Png, SolveConfig};
+use planner::retraction::ThinningParams;
 use std::path::PathBuf;
 
 /// Options of `planner solve`.
@@ -21,6 +22,15 @@ pub struct SolveArgs {
     /// `--machine-sampler bridge`: the narrow-passage samples seed trees of their own).
     #[arg(long)]
     pub local_trees: bool,
+    /// Plan by small-step retraction (Saha & Latombe 2005) for passages too narrow to
+    /// sample: first with the object shrunk to this scale (each part about its centre),
+    /// then carry the path to the real object in steps of --thinning-step. Off by default;
+    /// `--scene bug-trap --thinning 0.45` solves the bug trap. In (0, 1).
+    #[arg(long, value_name = "SCALE")]
+    pub thinning: Option<f64>,
+    /// Scale step between the stages of --thinning, in (0, 1).
+    #[arg(long, default_value_t = 0.05)]
+    pub thinning_step: f64,
     /// Write the result as JSON here: solved, time_s, iterations, nodes,
     /// collision_checks, clearance_queries, path_length (weighted m), path_waypoints.
     #[arg(long)]
@@ -53,6 +63,18 @@ impl SolveArgs {
             .with_context(|| format!("--png-color: unknown `{}`", self.png_color))?;
         let plane = Plane::parse(&self.png_plane)
             .with_context(|| format!("--png-plane: unknown `{}`", self.png_plane))?;
+        let thinning = match self.thinning {
+            Some(first) => {
+                if self.png.is_some() {
+                    bail!("--png draws one roadmap; --thinning grows one per stage and join");
+                }
+                Some(
+                    ThinningParams::from_first(first, self.thinning_step)
+                        .context("--thinning / --thinning-step")?,
+                )
+            }
+            None => None,
+        };
         Ok(SolveConfig {
             scene,
             params,
@@ -65,6 +87,7 @@ impl SolveArgs {
                 color_by,
                 plane,
             }),
+            thinning,
         })
     }
 }
@@ -82,6 +105,12 @@ pub fn run(args: &SolveArgs) -> anyhow::Result<i32> {
         report.collision_checks,
         report.clearance_queries
     );
+    if let Some(t) = &report.thinning {
+        println!(
+            "small-step retraction: {} configurations retracted, {} joins, {} repairs retried, thinned plans restarted {} times after a failed repair and {} times out of iterations",
+            t.retracted, t.joins, t.retries, t.restarts, t.replans
+        );
+    }
     if let Some(p) = &args.json {
         crate::write_json(p, &report)?;
     }

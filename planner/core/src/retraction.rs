@@ -1,0 +1,741 @@
+//! Small-step retraction (Saha & Latombe, "Finding narrow passages with probabilistic
+//! roadmap planners: the small-step retraction method", Autonomous Robots 19, 2005): a
+//! passage too narrow to sample is widened by thinning the object, planned through at
+//! that size, and the path is then carried back to the real object in small steps.
+//!
+//! Stages: plan with the object shrunk to `scales[0]` (each part about its own centre, so
+//! a shrunk part lies inside the real one); then, for each further scale up to 1, *repair*
+//! the previous stage's path: walk it at the edge resolution, keep every configuration the
+//! larger object can take, *retract* the others to a free configuration nearby (a random
+//! descent of the penetration depth from it, small Gaussian steps taken when they go less
+//! deep, until one lands free and joined to the path), and join consecutive kept
+//! configurations by a free edge or, where the edge collides, by a small RRT-Connect
+//! between them (`repair_iterations`). A repair that cannot retract or join is tried
+//! again from the same path (`stage_retries`), then the work starts over from a new
+//! thinned plan with the next seed; so does a thinned plan not solved within
+//! `plan_iterations` (RRT run times are heavy tailed). The final stage uses the real object and
+//! the configured edge check, so the path is as valid as any other planner's.
+//!
+//! Chosen where the paper leaves it open: the object is shrunk uniformly about each part's
+//! centre (the paper thins links along their medial axes); retraction is a random descent
+//! of parry's deepest penetration (the paper's is a random search of the same kind);
+//! stages grow in the steps given.
+//!
+//! Like [`crate::rrt`], deterministic for a seed: [`ThinnedPlanner::step`] does a bounded
+//! piece of work so that a caller can hold it to a wall-clock limit.
+
+use crate::collision::CollisionChecker;
+use crate::params::{PlannerError, PlannerParams};
+use crate::rrt::Planner;
+use crate::space::{ConfigSpace, Space};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use scene::pose::Se3;
+use scene::{MeshData, Part, Primitive, Scene};
+use std::sync::Arc;
+
+/// Tuning of the small-step retraction.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ThinningParams {
+    /// Object scales of the stages before the real object, increasing, each in (0, 1)
+    /// (default 0.3, 0.55, 0.8).
+    pub scales: Vec<f64>,
+    /// Steps of the random descent that retracts one configuration (default 400), each
+    /// of per-axis σ a quarter of the edge resolution (weighted m).
+    pub retract_tries: u32,
+    /// Iterations of the RRT-Connect that joins two retracted configurations whose edge
+    /// collides (default 5 000). It plans within [`JOIN_MARGIN_M`] of the two.
+    pub repair_iterations: u64,
+    /// A thinned plan not solved after this many iterations starts over with the next
+    /// seed (default 600 000, about 12 s on the bug trap here): RRT run times are heavy
+    /// tailed, and restarts cut the tail (Wedge & Branicky, "On heavy-tailed runtimes and
+    /// restarts in rapidly-exploring random trees", AAAI workshop 2008).
+    pub plan_iterations: u64,
+    /// Times a repair that failed is tried again from the same path before a new thinned
+    /// plan (default 3): a failed join is often bad luck, a path of the wrong kind (one
+    /// the thin object takes and the real one cannot) fails every time.
+    pub stage_retries: u32,
+}
+
+/// A join's RRT-Connect samples reference points within this margin (m) of the box
+/// spanned by the two configurations it joins.
+pub const JOIN_MARGIN_M: f64 = 0.04;
+
+impl Default for ThinningParams {
+    fn default() -> Self {
+        ThinningParams {
+            scales: vec![0.3, 0.55, 0.8],
+            retract_tries: 400,
+            repair_iterations: 5_000,
+            plan_iterations: 600_000,
+            stage_retries: 3,
+        }
+    }
+}
+
+impl ThinningParams {
+    /// Stages from `first` up in steps of `step` below 1 (e.g. 0.45, 0.05: 0.45, 0.5, …,
+    /// 0.95), the other fields at their defaults; checked.
+    pub fn from_first(first: f64, step: f64) -> Result<Self, PlannerError> {
+        if !(step.is_finite() && step > 0.0 && step < 1.0) {
+            return Err(PlannerError::InvalidParam {
+                name: "thinning.step",
+                reason: format!("must be in (0, 1), got {step}"),
+            });
+        }
+        if !(first.is_finite() && first > 0.0 && first < 1.0) {
+            return Err(PlannerError::InvalidParam {
+                name: "thinning.scales",
+                reason: format!("the first scale must be in (0, 1), got {first}"),
+            });
+        }
+        // Rounded to 1e-9 so that 0.45 + 11 × 0.05 lands on 1 and is not a stage.
+        let scales = (0..)
+            .map(|i| ((first + f64::from(i) * step) * 1e9).round() / 1e9)
+            .take_while(|s| *s < 1.0)
+            .collect();
+        let t = ThinningParams {
+            scales,
+            ..ThinningParams::default()
+        };
+        t.validate()?;
+        Ok(t)
+    }
+
+    /// Checks the fields; the error names the first bad one.
+    pub fn validate(&self) -> Result<(), PlannerError> {
+        let bad = |name, reason: String| Err(PlannerError::InvalidParam { name, reason });
+        if self.scales.is_empty() {
+            return bad("thinning.scales", "needs at least one scale below 1".into());
+        }
+        let mut prev = 0.0;
+        for &s in &self.scales {
+            if !(s.is_finite() && s > prev && s < 1.0) {
+                return bad(
+                    "thinning.scales",
+                    format!("must increase within (0, 1), got {:?}", self.scales),
+                );
+            }
+            prev = s;
+        }
+        if self.retract_tries == 0 {
+            return bad("thinning.retract_tries", "must be > 0".into());
+        }
+        if self.repair_iterations == 0 {
+            return bad("thinning.repair_iterations", "must be > 0".into());
+        }
+        if self.plan_iterations == 0 {
+            return bad("thinning.plan_iterations", "must be > 0".into());
+        }
+        Ok(())
+    }
+}
+
+/// `scene` with every part of the moving object shrunk by `scale` about its own centre
+/// (a box's and a sphere's centre, a mesh's bounding-box centre).
+pub fn thinned(scene: &Scene, scale: f64) -> Scene {
+    let mut out = scene.clone();
+    out.name = format!("{} (object × {scale})", scene.name);
+    for part in &mut out.moving_object {
+        *part = shrink(part, scale);
+    }
+    out
+}
+
+fn shrink(part: &Part, s: f64) -> Part {
+    let primitive = match &part.primitive {
+        Primitive::Box { half_extents_m } => Primitive::Box {
+            half_extents_m: half_extents_m * s,
+        },
+        Primitive::Sphere { radius_m } => Primitive::Sphere {
+            radius_m: radius_m * s,
+        },
+        Primitive::Mesh { mesh } => {
+            let (lo, hi) = mesh
+                .vertices_m
+                .iter()
+                .fold((mesh.vertices_m[0], mesh.vertices_m[0]), |(lo, hi), v| {
+                    (lo.inf(v), hi.sup(v))
+                });
+            let c = (lo + hi) * 0.5;
+            Primitive::Mesh {
+                mesh: Arc::new(MeshData {
+                    source: format!("{} × {s}", mesh.source),
+                    vertices_m: mesh.vertices_m.iter().map(|v| c + (v - c) * s).collect(),
+                    triangles: mesh.triangles.clone(),
+                }),
+            }
+        }
+    };
+    Part {
+        primitive,
+        pose: part.pose,
+    }
+}
+
+/// Work of one stage.
+enum Stage {
+    /// Planning with the thinnest object.
+    Plan(Box<Planner>),
+    /// Carrying `from` (a path of the previous scale) to `scales[k]`.
+    Repair(Box<Repair>),
+    /// The path of the real object.
+    Done(Vec<Se3>),
+}
+
+/// Carrying one path to a larger object.
+struct Repair {
+    /// Index into the stage scales (the last is the real object).
+    k: usize,
+    /// The previous stage's path, kept for a retry.
+    from: Vec<Se3>,
+    /// Tries of this stage so far, this one included.
+    attempt: u32,
+    scene: Scene,
+    checker: CollisionChecker,
+    /// The previous path, walked at the edge resolution.
+    walk: Vec<Se3>,
+    /// Next index of `walk` to take.
+    next: usize,
+    /// The repaired path so far (free for this scale, joined by free edges).
+    out: Vec<Se3>,
+    /// A join in progress: the RRT-Connect from `out`'s last configuration to this one.
+    join: Option<(Box<Planner>, Se3)>,
+}
+
+/// Counts of the work done, over all stages and restarts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ThinningStats {
+    /// Planner iterations (thinned plans and joins).
+    pub iterations: u64,
+    /// Nodes grown by those planners.
+    pub nodes: u64,
+    /// Collision checks.
+    pub collision_checks: u64,
+    /// Clearance queries (certified edges).
+    pub clearance_queries: u64,
+    /// Configurations retracted.
+    pub retracted: u64,
+    /// Joins planned by RRT-Connect.
+    pub joins: u64,
+    /// Repairs tried again from the same path.
+    pub retries: u64,
+    /// Repairs that failed every try, each followed by a new thinned plan.
+    pub restarts: u64,
+    /// Thinned plans given up after `plan_iterations`, each followed by a new one.
+    pub replans: u64,
+}
+
+/// Automatic planning by small-step retraction. See the module docs.
+pub struct ThinnedPlanner {
+    scene: Scene,
+    params: PlannerParams,
+    thinning: ThinningParams,
+    /// Scales of the stages, the last 1.
+    scales: Vec<f64>,
+    seed: u64,
+    /// Seeds used so far (each thinned plan and join takes the next).
+    seeds_used: u64,
+    stage: Stage,
+    stats: ThinningStats,
+    rng: ChaCha8Rng,
+}
+
+impl ThinnedPlanner {
+    /// Validates the parameters and the scene (start and goal free for the real object,
+    /// hence for shrunk boxes and spheres; a shrunk non-convex mesh that collides there
+    /// is an error naming the thinned scene) and starts the thinned plan.
+    pub fn new(
+        scene: &Scene,
+        params: PlannerParams,
+        thinning: ThinningParams,
+        seed: u64,
+    ) -> Result<Self, PlannerError> {
+        thinning.validate()?;
+        // Checks the real problem first, so that its errors name the real object.
+        Planner::new(scene, params.clone(), seed)?;
+        let mut scales = thinning.scales.clone();
+        scales.push(1.0);
+        let mut me = ThinnedPlanner {
+            scene: scene.clone(),
+            params,
+            thinning,
+            scales,
+            seed,
+            seeds_used: 0,
+            stage: Stage::Done(Vec::new()),
+            stats: ThinningStats::default(),
+            rng: ChaCha8Rng::seed_from_u64(seed ^ 0x5353_5200),
+        };
+        me.stage = Stage::Plan(Box::new(me.thin_plan()?));
+        Ok(me)
+    }
+
+    fn next_seed(&mut self) -> u64 {
+        self.seeds_used += 1;
+        self.seed
+            .wrapping_add(self.seeds_used.wrapping_mul(0x9E37_79B9))
+    }
+
+    fn thin_plan(&mut self) -> Result<Planner, PlannerError> {
+        let seed = self.next_seed();
+        Planner::new(
+            &thinned(&self.scene, self.scales[0]),
+            self.params.clone(),
+            seed,
+        )
+    }
+
+    /// True once the real object's path is found.
+    pub fn solved(&self) -> bool {
+        matches!(&self.stage, Stage::Done(p) if !p.is_empty())
+    }
+
+    /// The real object's path, start → goal, once solved.
+    pub fn solution(&self) -> Option<&[Se3]> {
+        match &self.stage {
+            Stage::Done(p) if !p.is_empty() => Some(p),
+            _ => None,
+        }
+    }
+
+    /// The object scale being worked on now (1 for the real object).
+    pub fn scale(&self) -> f64 {
+        match &self.stage {
+            Stage::Plan(_) => self.scales[0],
+            Stage::Repair(r) => self.scales[r.k],
+            Stage::Done(_) => 1.0,
+        }
+    }
+
+    /// Work counts, including the planners still running.
+    pub fn stats(&self) -> ThinningStats {
+        let mut s = self.stats;
+        let mut add = |p: &Planner| {
+            let ps = p.stats();
+            s.iterations += ps.iterations;
+            s.nodes += ps.nodes as u64;
+            s.collision_checks += ps.collision_checks;
+            s.clearance_queries += ps.clearance_queries;
+        };
+        match &self.stage {
+            Stage::Plan(p) => add(p),
+            Stage::Repair(r) => {
+                if let Some((p, _)) = &r.join {
+                    add(p);
+                }
+                s.collision_checks += r.checker.collision_checks();
+                s.clearance_queries += r.checker.clearance_queries();
+            }
+            Stage::Done(_) => {}
+        }
+        s
+    }
+
+    /// One bounded piece of work: a planner iteration, or one configuration of a repair.
+    /// Does nothing once solved.
+    pub fn step(&mut self) -> Result<(), PlannerError> {
+        let stage = std::mem::replace(&mut self.stage, Stage::Done(Vec::new()));
+        self.stage = match stage {
+            Stage::Plan(mut p) => {
+                p.iterate(None);
+                match p.solution() {
+                    Some(path) => {
+                        let path = path.to_vec();
+                        self.retire(&p);
+                        Stage::Repair(Box::new(self.repair(1, path, 1)))
+                    }
+                    None if p.stats().iterations >= self.thinning.plan_iterations => {
+                        self.retire(&p);
+                        self.stats.replans += 1;
+                        Stage::Plan(Box::new(self.thin_plan()?))
+                    }
+                    None => Stage::Plan(p),
+                }
+            }
+            Stage::Repair(mut r) => match self.repair_step(&mut r)? {
+                RepairStep::Working => Stage::Repair(r),
+                RepairStep::Failed if r.attempt <= self.thinning.stage_retries => {
+                    self.stats.retries += 1;
+                    self.retire_checker(&r.checker);
+                    let Repair {
+                        k, from, attempt, ..
+                    } = *r;
+                    Stage::Repair(Box::new(self.repair(k, from, attempt + 1)))
+                }
+                RepairStep::Failed => {
+                    self.stats.restarts += 1;
+                    self.retire_checker(&r.checker);
+                    Stage::Plan(Box::new(self.thin_plan()?))
+                }
+                RepairStep::Finished => {
+                    let path = crate::path::shortcut(
+                        &r.checker,
+                        &r.out,
+                        self.params.shortcut_attempts,
+                        &mut self.rng,
+                    );
+                    self.retire_checker(&r.checker);
+                    if r.k + 1 < self.scales.len() {
+                        Stage::Repair(Box::new(self.repair(r.k + 1, path, 1)))
+                    } else {
+                        Stage::Done(path)
+                    }
+                }
+            },
+            done @ Stage::Done(_) => done,
+        };
+        Ok(())
+    }
+
+    /// Adds a finished planner's counts to the totals.
+    fn retire(&mut self, p: &Planner) {
+        let s = p.stats();
+        self.stats.iterations += s.iterations;
+        self.stats.nodes += s.nodes as u64;
+        self.stats.collision_checks += s.collision_checks;
+        self.stats.clearance_queries += s.clearance_queries;
+    }
+
+    fn retire_checker(&mut self, c: &CollisionChecker) {
+        self.stats.collision_checks += c.collision_checks();
+        self.stats.clearance_queries += c.clearance_queries();
+    }
+
+    /// Starts carrying `path` to `scales[k]` (try `attempt`).
+    fn repair(&self, k: usize, path: Vec<Se3>, attempt: u32) -> Repair {
+        let scene = if self.scales[k] < 1.0 {
+            thinned(&self.scene, self.scales[k])
+        } else {
+            self.scene.clone()
+        };
+        let checker =
+            CollisionChecker::with_params(&scene, self.params.weights, self.params.edge_resolution)
+                .with_edge_check(self.params.edge_check);
+        let space = Space::for_scene(&scene, self.params.weights);
+        let walk = walk(&space, &path, self.params.edge_resolution);
+        Repair {
+            k,
+            from: path,
+            attempt,
+            out: vec![walk[0]],
+            next: 1,
+            walk,
+            scene,
+            checker,
+            join: None,
+        }
+    }
+
+    fn repair_step(&mut self, r: &mut Repair) -> Result<RepairStep, PlannerError> {
+        if let Some((mut p, to)) = r.join.take() {
+            p.iterate(None);
+            if let Some(path) = p.solution() {
+                r.out.extend_from_slice(&path[1..]);
+                self.retire(&p);
+                debug_assert_eq!(r.out.last(), Some(&to));
+            } else if p.stats().iterations >= self.thinning.repair_iterations {
+                self.retire(&p);
+                return Ok(RepairStep::Failed);
+            } else {
+                r.join = Some((p, to));
+            }
+            return Ok(RepairStep::Working);
+        }
+        if r.next >= r.walk.len() {
+            return Ok(RepairStep::Finished);
+        }
+        let q = r.walk[r.next];
+        r.next += 1;
+        let last = *r.out.last().expect("starts with the start");
+        let free = r.checker.is_free(&q);
+        if free && r.checker.edge_free(&last, &q) {
+            r.out.push(q);
+            return Ok(RepairStep::Working);
+        }
+        self.stats.retracted += 1;
+        let tries = self.thinning.retract_tries;
+        let found = retract(
+            &r.checker,
+            &last,
+            &q,
+            self.params.edge_resolution,
+            tries,
+            &mut self.rng,
+        );
+        let to = match found {
+            Retracted::Joined(c) => {
+                r.out.push(c);
+                return Ok(RepairStep::Working);
+            }
+            Retracted::Free(c) if !free => c,
+            _ if free => q,
+            _ => return Ok(RepairStep::Failed),
+        };
+        let mut scene = r.scene.clone();
+        scene.start = last;
+        scene.goal = to;
+        // The operator's route is not part of a join (and may lie outside its bounds).
+        scene.route.clear();
+        let margin = nalgebra::Vector3::repeat(JOIN_MARGIN_M);
+        scene.bounds = scene::Bounds {
+            min_m: (last.pos.inf(&to.pos) - margin).sup(&r.scene.bounds.min_m),
+            max_m: (last.pos.sup(&to.pos) + margin).inf(&r.scene.bounds.max_m),
+        };
+        self.stats.joins += 1;
+        let seed = self.next_seed();
+        let params = PlannerParams {
+            shortcut_attempts: 0,
+            ..self.params.clone()
+        };
+        r.join = Some((Box::new(Planner::new(&scene, params, seed)?), to));
+        Ok(RepairStep::Working)
+    }
+}
+
+enum RepairStep {
+    Working,
+    Failed,
+    Finished,
+}
+
+/// `path` with configurations inserted so that consecutive ones are at most `resolution`
+/// apart (weighted m).
+fn walk(space: &Space, path: &[Se3], resolution: f64) -> Vec<Se3> {
+    let mut out = vec![path[0]];
+    for pair in path.windows(2) {
+        let n = (space.distance(&pair[0], &pair[1]) / resolution)
+            .ceil()
+            .max(1.0) as usize;
+        for i in 1..n {
+            out.push(space.interpolate(&pair[0], &pair[1], i as f64 / n as f64));
+        }
+        // The waypoint itself, not its interpolated twin (start and goal stay exact).
+        out.push(pair[1]);
+    }
+    out
+}
+
+/// What [`retract`] found near a configuration.
+enum Retracted {
+    /// A free configuration joined to the previous one by a free edge.
+    Joined(Se3),
+    /// Only a free configuration, not joined.
+    Free(Se3),
+    /// Nothing free.
+    None,
+}
+
+/// A free configuration near `q` that continues the path from `last`, by a random
+/// descent of the penetration depth: Gaussian steps of per-axis σ `resolution / 4`
+/// (weighted m) from `q`, each one taken when it goes less deep, until a step lands free;
+/// the first free one joined to `last` by a free edge, else the first free one, after at
+/// most `tries` steps.
+fn retract(
+    checker: &CollisionChecker,
+    last: &Se3,
+    q: &Se3,
+    resolution: f64,
+    tries: u32,
+    rng: &mut ChaCha8Rng,
+) -> Retracted {
+    let space = checker.space();
+    let sigma = 0.25 * resolution;
+    let mut at = *q;
+    let mut depth = checker.penetration_m(q);
+    let mut first_free = None;
+    for _ in 0..tries {
+        let c = space.sample_near(&at, sigma, rng);
+        if checker.is_free(&c) {
+            if checker.edge_free(last, &c) {
+                return Retracted::Joined(c);
+            }
+            first_free.get_or_insert(c);
+            continue;
+        }
+        let d = checker.penetration_m(&c);
+        if d < depth {
+            (at, depth) = (c, d);
+        }
+    }
+    first_free.map_or(Retracted::None, Retracted::Free)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{UnitQuaternion, Vector3};
+
+    #[test]
+    fn a_thinned_part_lies_inside_the_real_one() {
+        let mesh = Arc::new(MeshData::cuboid("test box", [0.02, 0.01, 0.005]));
+        let mut scene = Scene::bug_trap();
+        scene.moving_object = vec![
+            Part::axis_box([0.04, 0.018, 0.005], [0.01, 0.0, 0.0]),
+            Part {
+                primitive: Primitive::Sphere { radius_m: 0.01 },
+                pose: Se3::from_xyz(0.0, 0.03, 0.0),
+            },
+            Part {
+                primitive: Primitive::Mesh { mesh: mesh.clone() },
+                pose: Se3::from_xyz(0.0, 0.0, 0.02),
+            },
+        ];
+        let thin = thinned(&scene, 0.5);
+        assert_eq!(
+            thin.obstacles, scene.obstacles,
+            "obstacles stay as they are"
+        );
+        let Primitive::Box { half_extents_m } = thin.moving_object[0].primitive else {
+            panic!("a box stays a box");
+        };
+        assert_eq!(half_extents_m, Vector3::new(0.02, 0.009, 0.0025));
+        assert_eq!(thin.moving_object[0].pose, scene.moving_object[0].pose);
+        assert_eq!(
+            thin.moving_object[1].primitive,
+            Primitive::Sphere { radius_m: 0.005 }
+        );
+        let Primitive::Mesh { mesh: m } = &thin.moving_object[2].primitive else {
+            panic!("a mesh stays a mesh");
+        };
+        for (v, w) in m.vertices_m.iter().zip(&mesh.vertices_m) {
+            assert!(
+                (v - w * 0.5).norm() < 1e-15,
+                "about its centre: {v:?} {w:?}"
+            );
+        }
+        assert_eq!(m.triangles, mesh.triangles);
+    }
+
+    #[test]
+    fn stages_run_from_the_first_scale_below_one_and_are_checked() {
+        let t = ThinningParams::from_first(0.45, 0.05).expect("valid");
+        assert_eq!(t.scales.len(), 11);
+        assert_eq!(t.scales[0], 0.45);
+        assert_eq!(t.scales[10], 0.95);
+        assert!(t.validate().is_ok());
+        for (scales, tries, joins) in [
+            (vec![], 400, 5_000),
+            (vec![0.5, 0.5], 400, 5_000),
+            (vec![0.5, 1.0], 400, 5_000),
+            (vec![f64::NAN], 400, 5_000),
+            (vec![0.5], 0, 5_000),
+            (vec![0.5], 400, 0),
+        ] {
+            let t = ThinningParams {
+                scales: scales.clone(),
+                retract_tries: tries,
+                repair_iterations: joins,
+                plan_iterations: 600_000,
+                stage_retries: 3,
+            };
+            assert!(
+                matches!(t.validate(), Err(PlannerError::InvalidParam { .. })),
+                "{scales:?} {tries} {joins}"
+            );
+        }
+        for (first, step) in [
+            (1.2, 0.05),
+            (0.0, 0.05),
+            (0.5, -0.1),
+            (0.5, 1.0),
+            (f64::NAN, 0.1),
+        ] {
+            assert!(
+                ThinningParams::from_first(first, step).is_err(),
+                "{first} {step}"
+            );
+        }
+    }
+
+    /// A 60 × 20 × 20 mm bar that must pass a 24 mm square hole in a 20 mm wall lengthwise,
+    /// from and to orientations across it, in a 160 mm square channel.
+    fn slot_scene() -> Scene {
+        let mut scene = Scene::wall_with_square_hole(0.024);
+        scene.name = "slot".into();
+        scene.moving_object = vec![Part::axis_box([0.03, 0.01, 0.01], [0.0, 0.0, 0.0])];
+        scene.route.clear();
+        scene.bounds = scene::Bounds {
+            min_m: Vector3::new(-0.25, -0.08, -0.08),
+            max_m: Vector3::new(0.25, 0.08, 0.08),
+        };
+        let quarter = std::f64::consts::FRAC_PI_2;
+        scene.start = Se3 {
+            pos: Vector3::new(-0.2, 0.05, 0.03),
+            rot: UnitQuaternion::from_euler_angles(0.0, 0.0, quarter),
+        };
+        scene.goal = Se3 {
+            pos: Vector3::new(0.2, -0.05, -0.03),
+            rot: UnitQuaternion::from_euler_angles(0.0, quarter, 0.0),
+        };
+        scene
+    }
+
+    #[test]
+    fn a_path_planned_thin_is_carried_to_the_real_object_free_everywhere() {
+        let scene = slot_scene();
+        let thinning = ThinningParams::from_first(0.5, 0.1).expect("valid");
+        let mut p =
+            ThinnedPlanner::new(&scene, PlannerParams::default(), thinning, 4).expect("planner");
+        let mut steps = 0;
+        while !p.solved() && steps < 400_000 {
+            p.step().expect("step");
+            steps += 1;
+        }
+        assert!(p.solved(), "not solved in {steps} steps: {:?}", p.stats());
+        assert_eq!(p.scale(), 1.0);
+        let path = p.solution().expect("a path");
+        assert_eq!(path.first(), Some(&scene.start));
+        assert_eq!(path.last(), Some(&scene.goal));
+        // An independent dense re-check with the real object: 0.2 mm or 0.002 rad apart.
+        let checker = CollisionChecker::new(&scene);
+        let space = Space::for_scene(&scene, PlannerParams::default().weights);
+        for pair in path.windows(2) {
+            for q in walk(&space, pair, 0.0002) {
+                assert!(checker.is_free(&q), "collides at {q:?}");
+            }
+        }
+        // The path threads the hole: it crosses the wall's plane within the hole.
+        let crossing = path
+            .windows(2)
+            .find(|w| w[0].pos.x < 0.0 && w[1].pos.x >= 0.0)
+            .expect("crosses the wall");
+        let t = -crossing[0].pos.x / (crossing[1].pos.x - crossing[0].pos.x);
+        let at = crossing[0].pos.lerp(&crossing[1].pos, t);
+        assert!(at.y.abs() < 0.012 && at.z.abs() < 0.012, "{at:?}");
+        let s = p.stats();
+        assert!(s.retracted > 0, "the real object needed retraction: {s:?}");
+    }
+
+    #[test]
+    fn a_thinned_plan_out_of_iterations_starts_over() {
+        let thinning = ThinningParams {
+            plan_iterations: 3,
+            ..ThinningParams::from_first(0.5, 0.1).expect("valid")
+        };
+        let mut p = ThinnedPlanner::new(&slot_scene(), PlannerParams::default(), thinning, 2)
+            .expect("planner");
+        for _ in 0..30 {
+            p.step().expect("step");
+        }
+        // Every third iteration ends a plan unless one solved within three iterations.
+        let s = p.stats();
+        assert!(s.replans >= 9, "{s:?}");
+        assert_eq!(s.iterations, 30, "{s:?}");
+    }
+
+    #[test]
+    fn a_problem_with_a_colliding_start_is_refused_for_the_real_object() {
+        let mut scene = slot_scene();
+        scene.start = Se3::from_xyz(0.0, 0.05, 0.0); // inside the wall
+        assert!(matches!(
+            ThinnedPlanner::new(
+                &scene,
+                PlannerParams::default(),
+                ThinningParams::default(),
+                1
+            ),
+            Err(PlannerError::StartInCollision(_))
+        ));
+    }
+}
