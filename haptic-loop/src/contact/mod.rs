@@ -680,6 +680,12 @@ impl ContactStage {
             .transform_point(&Point3::from(self.model.com_local))
     }
 
+    /// How close to a surface a point counts as near (m): the proximity layer, or the
+    /// release distance when that is wider.
+    fn reach_m(&self) -> f64 {
+        self.config.proximity_voxels.max(self.config.release_voxels) * self.model.voxmap.voxel_m()
+    }
+
     /// Per-point contact damping and braking (N·s/m): the configured totals shared among
     /// the points that produced them in the previous step (one tick of lag, no second pass).
     fn shared_damping(&self) -> (f64, f64) {
@@ -711,7 +717,7 @@ impl ContactStage {
         let h = vox.voxel_m();
         let prox = self.config.proximity_voxels * h;
         let release = self.config.release_voxels * h;
-        let reach = prox.max(release);
+        let reach = self.reach_m();
         let moved = cache.motion_m;
         let com = pose.transform_point(&Point3::from(model.com_local)).coords;
         // Nothing within reach: the plan sees no near points (and returns to level 0).
@@ -863,13 +869,11 @@ impl ContactStage {
         // the reach (plus the object's free budget) away, and may travel that much more.
         // Scaling the velocities only removes kinetic energy, so the bound is passive; the
         // coupling's force follows positions and so changes continuously.
-        let h = self.model.voxmap.voxel_m();
-        let bound = self.config.max_travel_voxels * h;
+        let bound = self.config.max_travel_voxels * self.model.voxmap.voxel_m();
         let limit_m = if found.near > 0 {
             bound
         } else {
-            let reach = self.config.proximity_voxels.max(self.config.release_voxels) * h;
-            (self.cache.object - self.cache.motion_m).max(0.0) + reach + bound
+            (self.cache.object - self.cache.motion_m).max(0.0) + self.reach_m() + bound
         };
         let travel_m = (u_next.fixed_rows::<3>(0).norm()
             + u_next.fixed_rows::<3>(3).norm() * self.model.radius_m)

@@ -226,6 +226,23 @@ pub struct ThinningStats {
     pub replans: u64,
 }
 
+impl ThinningStats {
+    /// Adds a planner's counts.
+    fn add_planner(&mut self, p: &Planner) {
+        let s = p.stats();
+        self.iterations += s.iterations;
+        self.nodes += s.nodes as u64;
+        self.collision_checks += s.collision_checks;
+        self.clearance_queries += s.clearance_queries;
+    }
+
+    /// Adds the checks of a repair's own checker.
+    fn add_checker(&mut self, c: &CollisionChecker) {
+        self.collision_checks += c.collision_checks();
+        self.clearance_queries += c.clearance_queries();
+    }
+}
+
 /// Automatic planning by small-step retraction. See the module docs.
 pub struct ThinnedPlanner {
     scene: Scene,
@@ -311,21 +328,13 @@ impl ThinnedPlanner {
     /// Work counts, including the planners still running.
     pub fn stats(&self) -> ThinningStats {
         let mut s = self.stats;
-        let mut add = |p: &Planner| {
-            let ps = p.stats();
-            s.iterations += ps.iterations;
-            s.nodes += ps.nodes as u64;
-            s.collision_checks += ps.collision_checks;
-            s.clearance_queries += ps.clearance_queries;
-        };
         match &self.stage {
-            Stage::Plan(p) => add(p),
+            Stage::Plan(p) => s.add_planner(p),
             Stage::Repair(r) => {
                 if let Some((p, _)) = &r.join {
-                    add(p);
+                    s.add_planner(p);
                 }
-                s.collision_checks += r.checker.collision_checks();
-                s.clearance_queries += r.checker.clearance_queries();
+                s.add_checker(&r.checker);
             }
             Stage::Done(_) => {}
         }
@@ -342,11 +351,11 @@ impl ThinnedPlanner {
                 match p.solution() {
                     Some(path) => {
                         let path = path.to_vec();
-                        self.retire(&p);
+                        self.stats.add_planner(&p);
                         Stage::Repair(Box::new(self.repair(1, path, 1)))
                     }
                     None if p.stats().iterations >= self.thinning.plan_iterations => {
-                        self.retire(&p);
+                        self.stats.add_planner(&p);
                         self.stats.replans += 1;
                         Stage::Plan(Box::new(self.thin_plan()?))
                     }
@@ -357,7 +366,7 @@ impl ThinnedPlanner {
                 RepairStep::Working => Stage::Repair(r),
                 RepairStep::Failed if r.attempt <= self.thinning.stage_retries => {
                     self.stats.retries += 1;
-                    self.retire_checker(&r.checker);
+                    self.stats.add_checker(&r.checker);
                     let Repair {
                         k, from, attempt, ..
                     } = *r;
@@ -365,7 +374,7 @@ impl ThinnedPlanner {
                 }
                 RepairStep::Failed => {
                     self.stats.restarts += 1;
-                    self.retire_checker(&r.checker);
+                    self.stats.add_checker(&r.checker);
                     Stage::Plan(Box::new(self.thin_plan()?))
                 }
                 RepairStep::Finished => {
@@ -375,7 +384,7 @@ impl ThinnedPlanner {
                         self.params.shortcut_attempts,
                         &mut self.rng,
                     );
-                    self.retire_checker(&r.checker);
+                    self.stats.add_checker(&r.checker);
                     if r.k + 1 < self.scales.len() {
                         Stage::Repair(Box::new(self.repair(r.k + 1, path, 1)))
                     } else {
@@ -386,20 +395,6 @@ impl ThinnedPlanner {
             done @ Stage::Done(_) => done,
         };
         Ok(())
-    }
-
-    /// Adds a finished planner's counts to the totals.
-    fn retire(&mut self, p: &Planner) {
-        let s = p.stats();
-        self.stats.iterations += s.iterations;
-        self.stats.nodes += s.nodes as u64;
-        self.stats.collision_checks += s.collision_checks;
-        self.stats.clearance_queries += s.clearance_queries;
-    }
-
-    fn retire_checker(&mut self, c: &CollisionChecker) {
-        self.stats.collision_checks += c.collision_checks();
-        self.stats.clearance_queries += c.clearance_queries();
     }
 
     /// Starts carrying `path` to `scales[k]` (try `attempt`).
@@ -432,10 +427,10 @@ impl ThinnedPlanner {
             p.iterate(None);
             if let Some(path) = p.solution() {
                 r.out.extend_from_slice(&path[1..]);
-                self.retire(&p);
+                self.stats.add_planner(&p);
                 debug_assert_eq!(r.out.last(), Some(&to));
             } else if p.stats().iterations >= self.thinning.repair_iterations {
-                self.retire(&p);
+                self.stats.add_planner(&p);
                 return Ok(RepairStep::Failed);
             } else {
                 r.join = Some((p, to));

@@ -102,30 +102,62 @@ fn solve_thinned(config: &SolveConfig, thinning: &ThinningParams) -> Result<Solv
     }
     let time_s = started.elapsed().as_secs_f64();
     let space = planner_core::Space::for_scene(&config.scene, config.params.weights);
-    if let Some(p) = planner.solution() {
-        write_paths(config, &space, p)?;
-    }
     let s = planner.stats();
-    Ok(SolveReport {
-        scene: config.scene.name.clone(),
-        seed: config.seed,
-        solved: planner.solved(),
-        time_s,
+    let work = Work {
         iterations: s.iterations,
         nodes: s.nodes,
         collision_checks: s.collision_checks,
         clearance_queries: s.clearance_queries,
-        path_length: planner
-            .solution()
-            .map(|p| planner_core::space::path_length(&space, p)),
-        path_waypoints: planner.solution().map(<[_]>::len),
-        thinning: Some(ThinningCounts {
-            retracted: s.retracted,
-            joins: s.joins,
-            retries: s.retries,
-            restarts: s.restarts,
-            replans: s.replans,
-        }),
+    };
+    let thinning = ThinningCounts {
+        retracted: s.retracted,
+        joins: s.joins,
+        retries: s.retries,
+        restarts: s.restarts,
+        replans: s.replans,
+    };
+    finish(
+        config,
+        time_s,
+        &space,
+        planner.solution(),
+        work,
+        Some(thinning),
+    )
+}
+
+/// What a solve counted.
+struct Work {
+    iterations: u64,
+    nodes: u64,
+    collision_checks: u64,
+    clearance_queries: u64,
+}
+
+/// Writes the path files asked for and makes the report.
+fn finish(
+    config: &SolveConfig,
+    time_s: f64,
+    space: &dyn planner_core::ConfigSpace,
+    solution: Option<&[planner_core::Se3]>,
+    work: Work,
+    thinning: Option<ThinningCounts>,
+) -> Result<SolveReport, LabError> {
+    if let Some(p) = solution {
+        write_paths(config, space, p)?;
+    }
+    Ok(SolveReport {
+        scene: config.scene.name.clone(),
+        seed: config.seed,
+        solved: solution.is_some(),
+        time_s,
+        iterations: work.iterations,
+        nodes: work.nodes,
+        collision_checks: work.collision_checks,
+        clearance_queries: work.clearance_queries,
+        path_length: solution.map(|p| planner_core::space::path_length(space, p)),
+        path_waypoints: solution.map(<[_]>::len),
+        thinning,
     })
 }
 
@@ -157,12 +189,20 @@ pub fn solve(config: &SolveConfig) -> Result<SolveReport, LabError> {
     }
     let time_s = started.elapsed().as_secs_f64();
     let s = planner.stats();
-    let path_length = planner
-        .solution()
-        .map(|p| planner_core::space::path_length(planner.space(), p));
-    if let Some(p) = planner.solution() {
-        write_paths(config, planner.space(), p)?;
-    }
+    let work = Work {
+        iterations: s.iterations,
+        nodes: s.nodes as u64,
+        collision_checks: s.collision_checks,
+        clearance_queries: s.clearance_queries,
+    };
+    let report = finish(
+        config,
+        time_s,
+        planner.space(),
+        planner.solution(),
+        work,
+        None,
+    )?;
     if let Some(png) = &config.png {
         if !crate::register_font() {
             tracing::warn!("no TrueType font found (DejaVuSans.ttf): the PNG has no text");
@@ -178,17 +218,5 @@ pub fn solve(config: &SolveConfig) -> Result<SolveReport, LabError> {
             (1000, 1000),
         )?;
     }
-    Ok(SolveReport {
-        scene: config.scene.name.clone(),
-        seed: config.seed,
-        solved: planner.solved(),
-        time_s,
-        iterations: s.iterations,
-        nodes: s.nodes as u64,
-        collision_checks: s.collision_checks,
-        clearance_queries: s.clearance_queries,
-        path_length,
-        path_waypoints: planner.solution().map(<[_]>::len),
-        thinning: None,
-    })
+    Ok(report)
 }
