@@ -7,6 +7,8 @@ Setup (not a project dependency): python3 -m venv target/coal-venv &&
     target/coal-venv/bin/pip install coal==3.0.3
 Usage: target/release/mesh-checks --poses 300 --repeats 3 --export target/mesh-cases &&
     target/coal-venv/bin/python benches/coal/run.py target/mesh-cases [--repeats 3]
+(or `mesh-checks --scene FILE,... --export DIR` for the meshes of scene files, each case with
+its own poses).
 
 Each coal call goes through Python; the time of a call that returns at once (two models
 far apart, rejected at their root bounding volumes) is printed as the per-call floor, so
@@ -59,7 +61,10 @@ def main():
     a = ap.parse_args()
     with open(os.path.join(a.dir, "cases.json")) as f:
         cases = json.load(f)
-    poses = [coal.Transform3s(rotation(*p[3:]), np.array(p[:3])) for p in cases["poses"]]
+    def transforms(rows):
+        return [coal.Transform3s(rotation(*p[3:]), np.array(p[:3])) for p in rows]
+
+    shared = transforms(cases["poses"])
     identity = coal.Transform3s()
     far = coal.Transform3s(np.eye(3), np.array([10.0, 0.0, 0.0]))
     # A yes/no answer, as `is_free` gives: no contact points or penetration depth (coal's
@@ -68,10 +73,11 @@ def main():
     req.enable_contact = a.contact
     req.num_max_contacts = 1
     res = coal.CollisionResult()
-    print("| triangles per mesh | coal µs | coal floor µs (call overhead) | ours µs | parry's mesh test µs | ours / coal | disagreements |")
+    print("| case (triangles per mesh) | coal µs | coal floor µs (call overhead) | ours µs | parry's mesh test µs | ours / coal | disagreements |")
     print("|---|---|---|---|---|---|---|")
     bad = 0
     for case in cases["sizes"]:
+        poses = transforms(case["poses"]) if "poses" in case else shared
         obstacle = model(os.path.join(a.dir, case["obstacle_obj"]))
         obj = model(os.path.join(a.dir, case["object_obj"]))
 
@@ -92,7 +98,7 @@ def main():
         for _ in range(a.repeats * len(poses)):
             collide(far)
         floor_us = (time.perf_counter() - t0) * 1e6 / (a.repeats * len(poses))
-        print(f"| {case['triangles']} | {coal_us:.2f} | {floor_us:.2f} | {case['is_free_us']:.2f} | "
+        print(f"| {case.get('label', case['triangles'])} | {coal_us:.2f} | {floor_us:.2f} | {case['is_free_us']:.2f} | "
               f"{case['parry_us']:.2f} | {case['is_free_us'] / coal_us:.2f} | {disagree} |")
     sys.exit(1 if bad else 0)
 

@@ -1,6 +1,8 @@
 //! Per-check cost against triangle count for the `mesh-checks` harness: a bumpy closed
 //! sphere (non-convex, star-shaped) as the moving object against another as the obstacle,
-//! at random poses around contact, both meshes of about the same triangle count.
+//! at random poses around contact, both meshes of about the same triangle count; or the two
+//! meshes of a scene file (one mesh obstacle, one mesh object: e.g. a CAD puzzle converted
+//! by `benches/cad/convert.py`) at random poses in its bounds.
 
 use planner::{CollisionChecker, Scene, Se3, Weights};
 use rand::{Rng, SeedableRng};
@@ -10,6 +12,10 @@ use serde::Serialize;
 use std::f64::consts::PI;
 use std::sync::Arc;
 use std::time::Instant;
+
+/// The cap of the far clearance columns (m): what the certification asks at an edge's
+/// ends, the most any object point moves along it (a 5 cm step moves every point ≥ 5 cm).
+pub const FAR_CAP_M: f64 = 0.05;
 
 /// Radius of both spheres before their bumps (m).
 pub const RADIUS_M: f64 = 0.05;
@@ -61,6 +67,11 @@ pub struct MeshPoint {
     pub clearance_us: f64,
     /// The same clearance by parry's closest points, µs.
     pub clearance_parry_us: f64,
+    /// Mean clearance query capped at [`FAR_CAP_M`] (the sweep of a long edge), µs.
+    pub far_clearance_us: f64,
+    /// Mean of the certification's lower bound of it (relative tolerance
+    /// `planner::collision::CERTIFIED_CLEARANCE_REL_TOLERANCE`), µs.
+    pub far_bound_us: f64,
 }
 
 /// `poses` random poses with the centres 0.085–0.115 m apart (the spheres' radii sum to
@@ -93,11 +104,77 @@ pub fn poses(poses: usize) -> Vec<Se3> {
 }
 
 /// Times `is_free` (and parry's test of the same) and the capped clearance over `poses` at
-/// about `triangles` triangles. Panics if the two tests disagree on a pose: a wrong fast
-/// test must not report a time.
+/// about `triangles` triangles. Panics if the two tests disagree on a pose, or the two
+/// clearances by more than 1 nm: a wrong fast test must not report a time.
 pub fn measure(triangles: usize, poses: &[Se3], repeats: usize) -> MeshPoint {
-    let scene = two_spheres(triangles);
-    let c = CollisionChecker::with_params(&scene, Weights::default(), 0.005);
+    measure_scene(&two_spheres(triangles), poses, repeats)
+        .expect("two_spheres makes one mesh obstacle and one mesh object")
+}
+
+/// The obstacle and the object of a scene made of one mesh each, the obstacle where its
+/// mesh was given (identity pose); `None` for any other scene.
+pub fn mesh_pair(scene: &Scene) -> Option<(&MeshData, &MeshData)> {
+    let ([obstacle], [object]) = (&scene.obstacles[..], &scene.moving_object[..]) else {
+        return None;
+    };
+    match (&obstacle.primitive, &object.primitive) {
+        (Primitive::Mesh { mesh: a }, Primitive::Mesh { mesh: b })
+            if obstacle.pose == Se3::identity() =>
+        {
+            Some((a, b))
+        }
+        _ => None,
+    }
+}
+
+/// `n` configurations drawn as the planner draws them (position uniform in the bounds,
+/// rotation uniform), seed fixed; with `near`, only those whose object's bounding sphere
+/// reaches into the obstacle's bounding box, where a check must descend the trees.
+pub fn scene_poses(scene: &Scene, n: usize, near: bool) -> Vec<Se3> {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let (lo, hi) = (scene.bounds.min_m, scene.bounds.max_m);
+    let reach = scene.object_radius_m();
+    let (box_lo, box_hi) = mesh_pair(scene).map_or(
+        (
+            nalgebra::Vector3::repeat(f64::MIN),
+            nalgebra::Vector3::repeat(f64::MAX),
+        ),
+        |(obstacle, _)| {
+            let v = &obstacle.vertices_m;
+            let first = v.first().copied().unwrap_or_default();
+            v.iter()
+                .fold((first, first), |(a, b), p| (a.inf(p), b.sup(p)))
+        },
+    );
+    let mut out = Vec::with_capacity(n);
+    // Bounded, so a scene whose obstacle lies outside its bounds ends with fewer poses
+    // instead of looping.
+    for _ in 0..1000 * n.max(1) {
+        if out.len() == n {
+            break;
+        }
+        let p = nalgebra::Vector3::from_fn(|i, _| {
+            if hi[i] > lo[i] {
+                rng.random_range(lo[i]..hi[i])
+            } else {
+                lo[i]
+            }
+        });
+        let gap = (box_lo - p)
+            .sup(&(p - box_hi))
+            .sup(&nalgebra::Vector3::zeros());
+        if !near || gap.norm() <= reach {
+            out.push(Se3::new(p, planner::space::uniform_rotation(&mut rng)));
+        }
+    }
+    out
+}
+
+/// [`measure`] on any scene of one mesh obstacle and one mesh object (`None` otherwise);
+/// `triangles` reports the obstacle's count.
+pub fn measure_scene(scene: &Scene, poses: &[Se3], repeats: usize) -> Option<MeshPoint> {
+    let (obstacle, _) = mesh_pair(scene)?;
+    let c = CollisionChecker::with_params(scene, Weights::default(), 0.005);
     let free: Vec<bool> = poses.iter().map(|q| c.is_free(q)).collect();
     assert!(
         poses
@@ -106,10 +183,17 @@ pub fn measure(triangles: usize, poses: &[Se3], repeats: usize) -> MeshPoint {
             .all(|(q, f)| *f == c.is_free_by_parry(q)),
         "the two mesh tests disagree"
     );
+    for q in poses {
+        let (ours, parry) = (
+            c.clearance_up_to_m(q, 0.005),
+            c.clearance_up_to_m_by_parry(q, 0.005),
+        );
+        assert!(
+            (ours - parry).abs() < 1e-9,
+            "the two clearances disagree: {ours} against {parry} m"
+        );
+    }
     let colliding = free.iter().filter(|f| !**f).count();
-    let Primitive::Mesh { mesh } = &scene.obstacles[0].primitive else {
-        unreachable!("two_spheres makes mesh parts")
-    };
     let time = |f: &dyn Fn(&Se3) -> bool| {
         let t = Instant::now();
         for _ in 0..repeats {
@@ -119,15 +203,17 @@ pub fn measure(triangles: usize, poses: &[Se3], repeats: usize) -> MeshPoint {
         }
         t.elapsed().as_secs_f64() * 1e6 / (repeats * poses.len()).max(1) as f64
     };
-    MeshPoint {
-        triangles: mesh.triangles.len(),
+    Some(MeshPoint {
+        triangles: obstacle.triangles.len(),
         poses: poses.len(),
         colliding: colliding as f64 / poses.len().max(1) as f64,
         is_free_us: time(&|q| c.is_free(q)),
         parry_us: time(&|q| c.is_free_by_parry(q)),
         clearance_us: time(&|q| c.clearance_up_to_m(q, 0.005) > 0.0),
         clearance_parry_us: time(&|q| c.clearance_up_to_m_by_parry(q, 0.005) > 0.0),
-    }
+        far_clearance_us: time(&|q| c.clearance_up_to_m(q, FAR_CAP_M) > 0.0),
+        far_bound_us: time(&|q| c.clearance_bound_up_to_m(q, FAR_CAP_M) > 0.0),
+    })
 }
 
 #[cfg(test)]
@@ -142,6 +228,23 @@ mod tests {
         assert_eq!(Topology::of(&m).kind(), MeshKind::ClosedOutward);
         let n = bumpy_sphere_of(2000).triangles.len();
         assert!((1800..=2200).contains(&n), "{n}");
+    }
+
+    #[test]
+    fn scene_poses_lie_in_the_bounds_and_near_ones_reach_the_obstacle() {
+        let scene = two_spheres(300);
+        let reach = scene.object_radius_m();
+        let uniform = scene_poses(&scene, 200, false);
+        let near = scene_poses(&scene, 200, true);
+        assert_eq!((uniform.len(), near.len()), (200, 200));
+        assert!(uniform.iter().all(|q| scene.bounds.contains(&q.pos)));
+        // The obstacle sphere's box is within 0.055 m of the origin.
+        assert!(near.iter().all(|q| q.pos.amax() <= 0.055 + reach + 1e-12));
+        assert!(uniform.iter().any(|q| q.pos.amax() > 0.055 + reach));
+        // Only pairs of one mesh each are measured.
+        assert!(measure_scene(&Scene::wall_with_hole(), &near, 1).is_none());
+        let p = measure_scene(&scene, &near, 1).expect("two meshes");
+        assert!(p.colliding > 0.0 && p.far_bound_us > 0.0);
     }
 
     #[test]

@@ -2,13 +2,15 @@
 //! two closed bumpy spheres against their triangle count, as a table, JSON and a log–log
 //! PNG.
 //!
-//! `cargo build --release -p benches && target/release/mesh-checks --png docs/mesh-checks.png`
+//! `cargo build --release -p benches && target/release/mesh-checks --png docs/mesh-checks.png`;
+//! `--scene FILE` measures a scene's own pair of meshes instead (e.g. a CAD puzzle converted
+//! by `benches/cad/convert.py`).
 
 use anyhow::{Context, bail};
 use benches::mesh_checks::{self, MeshPoint};
 use benches::scaling::{loglog_slope, plot_loglog};
 use clap::Parser;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Per-check cost against triangle count, mesh against mesh.
 #[derive(Debug, Parser)]
@@ -36,19 +38,30 @@ struct Args {
     /// for a reference library to check and time the same cases (`benches/coal/run.py`).
     #[arg(long, value_name = "DIR")]
     export: Option<PathBuf>,
+    /// Measure these scenes (files or built-in names, comma-separated; each one mesh
+    /// obstacle and one mesh object) at poses drawn in their bounds, instead of the
+    /// spheres at `--triangles`.
+    #[arg(long, value_delimiter = ',', value_name = "SCENE")]
+    scene: Vec<String>,
 }
 
 /// `cases.json` of `--export`.
 #[derive(serde::Serialize)]
 struct Cases {
-    /// Object poses in the obstacle's frame: x, y, z (m), qw, qx, qy, qz.
+    /// Object poses in the obstacle's frame: x, y, z (m), qw, qx, qy, qz (for every case
+    /// without its own).
     poses: Vec<[f64; 7]>,
     sizes: Vec<Case>,
 }
 
 #[derive(serde::Serialize)]
 struct Case {
+    /// What the row is (a mesh size, or a scene and its pose set).
+    label: String,
     triangles: usize,
+    /// This case's own poses, as `Cases::poses`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    poses: Option<Vec<[f64; 7]>>,
     obstacle_obj: String,
     object_obj: String,
     /// Our verdict per pose.
@@ -57,8 +70,123 @@ struct Case {
     parry_us: f64,
 }
 
+fn pose_row(q: &planner::Se3) -> [f64; 7] {
+    [
+        q.pos.x, q.pos.y, q.pos.z, q.rot.w, q.rot.i, q.rot.j, q.rot.k,
+    ]
+}
+
+/// Writes a pair's meshes as OBJ into `dir`, returning the obstacle's and the object's
+/// file names.
+fn export_pair(dir: &Path, stem: &str, scene: &planner::Scene) -> anyhow::Result<[String; 2]> {
+    let Some((obstacle, object)) = mesh_checks::mesh_pair(scene) else {
+        bail!(
+            "scene `{}` is not one mesh obstacle and one mesh object",
+            scene.name
+        );
+    };
+    let mut names = [String::new(), String::new()];
+    for (name, (role, mesh)) in names
+        .iter_mut()
+        .zip([("obstacle", obstacle), ("object", object)])
+    {
+        *name = format!("{role}-{stem}.obj");
+        std::fs::write(dir.join(&*name), mesh.to_obj())
+            .with_context(|| format!("writing {}", dir.join(&*name).display()))?;
+    }
+    Ok(names)
+}
+
+/// `--scene`: each scene's pair at poses drawn uniformly in its bounds and at those near
+/// the obstacle.
+fn scenes(args: &Args) -> anyhow::Result<()> {
+    if args.png.is_some() {
+        bail!("--png draws cost against triangle count: not with --scene");
+    }
+    println!(
+        "| scene | triangles (object × obstacle) | poses | colliding | is_free µs | parry's mesh test µs | speed-up | clearance (≤ 5 mm) µs | parry's clearance µs | clearance (≤ 50 mm) µs | certification's bound (≤ 50 mm) µs |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    let mut cases = Vec::new();
+    let mut rows = Vec::new();
+    for name in &args.scene {
+        let scene =
+            planner::Scene::by_name_or_path(name).with_context(|| format!("--scene {name}"))?;
+        let Some((_, object)) = mesh_checks::mesh_pair(&scene) else {
+            bail!(
+                "--scene {name}: needs exactly one mesh obstacle (identity pose) and one mesh object"
+            );
+        };
+        let object_triangles = object.triangles.len();
+        let names = match &args.export {
+            Some(dir) => {
+                std::fs::create_dir_all(dir)
+                    .with_context(|| format!("creating {}", dir.display()))?;
+                Some(export_pair(dir, &scene.name, &scene)?)
+            }
+            None => None,
+        };
+        for (set, near) in [("uniform", false), ("near", true)] {
+            let poses = mesh_checks::scene_poses(&scene, args.poses, near);
+            if poses.is_empty() {
+                bail!("--scene {name}: no pose in the bounds reaches the obstacle");
+            }
+            let p = mesh_checks::measure_scene(&scene, &poses, args.repeats)
+                .expect("mesh_pair checked above");
+            println!(
+                "| {} ({set}) | {object_triangles} × {} | {} | {:.0} % | {:.2} | {:.2} | {:.1}× | {:.2} | {:.2} | {:.2} | {:.2} |",
+                scene.name,
+                p.triangles,
+                p.poses,
+                100.0 * p.colliding,
+                p.is_free_us,
+                p.parry_us,
+                p.parry_us / p.is_free_us,
+                p.clearance_us,
+                p.clearance_parry_us,
+                p.far_clearance_us,
+                p.far_bound_us
+            );
+            if let Some([obstacle_obj, object_obj]) = &names {
+                let checker = planner::CollisionChecker::new(&scene);
+                cases.push(Case {
+                    label: format!("{} ({set})", scene.name),
+                    triangles: p.triangles,
+                    poses: Some(poses.iter().map(pose_row).collect()),
+                    obstacle_obj: obstacle_obj.clone(),
+                    object_obj: object_obj.clone(),
+                    colliding: poses.iter().map(|q| !checker.is_free(q)).collect(),
+                    is_free_us: p.is_free_us,
+                    parry_us: p.parry_us,
+                });
+            }
+            rows.push(serde_json::json!({ "scene": scene.name, "poses_drawn": set, "point": p }));
+        }
+    }
+    if let Some(dir) = &args.export {
+        let file = dir.join("cases.json");
+        let all = Cases {
+            poses: Vec::new(),
+            sizes: cases,
+        };
+        std::fs::write(&file, serde_json::to_string(&all)?)
+            .with_context(|| format!("writing {}", file.display()))?;
+    }
+    if let Some(p) = &args.json {
+        std::fs::write(p, serde_json::to_string_pretty(&rows)?)
+            .with_context(|| format!("writing {}", p.display()))?;
+    }
+    Ok(())
+}
+
 fn main() -> anyhow::Result<()> {
     let args = Args::parse();
+    if !args.scene.is_empty() {
+        if args.poses == 0 || args.repeats == 0 {
+            bail!("--poses and --repeats must be > 0");
+        }
+        return scenes(&args);
+    }
     if args
         .triangles
         .iter()
@@ -76,19 +204,21 @@ fn main() -> anyhow::Result<()> {
         .map(|&n| mesh_checks::measure(n, &poses, args.repeats))
         .collect();
     println!(
-        "| triangles per mesh | colliding | is_free µs | parry's mesh test µs | speed-up | clearance (≤ 5 mm) µs | parry's clearance µs |"
+        "| triangles per mesh | colliding | is_free µs | parry's mesh test µs | speed-up | clearance (≤ 5 mm) µs | parry's clearance µs | clearance (≤ 50 mm) µs | certification's bound (≤ 50 mm) µs |"
     );
-    println!("|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|");
     for p in &points {
         println!(
-            "| {} | {:.0} % | {:.2} | {:.2} | {:.1}× | {:.2} | {:.2} |",
+            "| {} | {:.0} % | {:.2} | {:.2} | {:.1}× | {:.2} | {:.2} | {:.2} | {:.2} |",
             p.triangles,
             100.0 * p.colliding,
             p.is_free_us,
             p.parry_us,
             p.parry_us / p.is_free_us,
             p.clearance_us,
-            p.clearance_parry_us
+            p.clearance_parry_us,
+            p.far_clearance_us,
+            p.far_bound_us
         );
     }
     let series = [
@@ -148,21 +278,11 @@ fn main() -> anyhow::Result<()> {
         for (p, &asked) in points.iter().zip(&args.triangles) {
             let scene = mesh_checks::two_spheres(asked);
             let checker = planner::CollisionChecker::new(&scene);
-            let mut names = Vec::new();
-            for (role, part) in [
-                ("obstacle", &scene.obstacles[0]),
-                ("object", &scene.moving_object[0]),
-            ] {
-                let scene::Primitive::Mesh { mesh } = &part.primitive else {
-                    bail!("the fixture's parts are meshes");
-                };
-                let name = format!("{role}-{}.obj", p.triangles);
-                std::fs::write(dir.join(&name), mesh.to_obj())
-                    .with_context(|| format!("writing {}", dir.join(&name).display()))?;
-                names.push(name);
-            }
+            let names = export_pair(dir, &p.triangles.to_string(), &scene)?;
             sizes.push(Case {
+                label: p.triangles.to_string(),
                 triangles: p.triangles,
+                poses: None,
                 obstacle_obj: names[0].clone(),
                 object_obj: names[1].clone(),
                 colliding: poses.iter().map(|q| !checker.is_free(q)).collect(),
@@ -171,14 +291,7 @@ fn main() -> anyhow::Result<()> {
             });
         }
         let cases = Cases {
-            poses: poses
-                .iter()
-                .map(|q| {
-                    [
-                        q.pos.x, q.pos.y, q.pos.z, q.rot.w, q.rot.i, q.rot.j, q.rot.k,
-                    ]
-                })
-                .collect(),
+            poses: poses.iter().map(pose_row).collect(),
             sizes,
         };
         let file = dir.join("cases.json");

@@ -1,61 +1,12 @@
-//! Mesh against mesh intersection by a simultaneous traversal of both bounding-volume
-//! trees, as coal and FCL do, instead of parry's composite-against-composite test (which
-//! descends the second tree once for every triangle of the first whose box meets the
-//! second's bounds, and ends in a GJK test per triangle pair).
-//!
-//! Node pairs are culled by a separating-axis test of the two boxes along the six face
-//! axes of both frames (the nine edge–edge axes are skipped: keeping a pair is only slower,
-//! never wrong); leaf pairs get Möller's triangle–triangle test ("A fast triangle-triangle
-//! intersection test", J. Graphics Tools 2(2), 1997), with the coplanar case done in 2D.
-//! Surfaces are tested, as parry does for meshes: touching counts as intersecting.
-//!
-//! Distances use the same traversal: node pairs whose boxes are at least the nearest
-//! distance found so far apart (their gap along the six face axes, a lower bound) are
-//! pruned; leaf pairs take the exact triangle–triangle distance (0 when they intersect,
-//! else the least of the six corner–triangle and nine edge–edge distances, Ericson,
-//! "Real-Time Collision Detection", 2005, §5.1).
+//! Exact tests between two triangles, the leaves of the mesh-against-mesh traversal
+//! ([`super::obb_tree`]): Möller's triangle–triangle intersection test ("A fast
+//! triangle-triangle intersection test", J. Graphics Tools 2(2), 1997), with the coplanar
+//! case done in 2D, and the distance between disjoint triangles (the least of the six
+//! corner–triangle and nine edge–edge distances, Ericson, "Real-Time Collision
+//! Detection", 2005, §5.1). Surfaces are tested, as parry does for meshes: touching counts
+//! as intersecting.
 
-use parry3d_f64::bounding_volume::Aabb;
-use parry3d_f64::math::{Matrix, Pose, Vector};
-use parry3d_f64::shape::TriMesh;
-use std::cell::Cell;
-
-/// `m1` and `m2` intersect, with `m2` at `pose12` in `m1`'s frame.
-pub fn trimeshes_intersect(pose12: &Pose, m1: &TriMesh, m2: &TriMesh) -> bool {
-    Frames::new(pose12).meshes_intersect(m1, m2)
-}
-
-/// Below this product of the two meshes' triangle counts parry's closest points answer a
-/// capped distance faster than [`trimeshes_distance_up_to`] (`mesh-checks`: 21 against
-/// 15 µs at 80 triangles a side, 59 against 121 µs at 1 890; the crossing is near 500).
-pub const OWN_DISTANCE_MIN_TRIANGLE_PAIRS: usize = 500 * 500;
-
-/// `min(distance between m1's and m2's surfaces, cap_m)` (m), `m2` at `pose12` in `m1`'s
-/// frame; 0 when they intersect.
-pub fn trimeshes_distance_up_to(pose12: &Pose, m1: &TriMesh, m2: &TriMesh, cap_m: f64) -> f64 {
-    let frames = Frames::new(pose12);
-    // Intersecting meshes (the common case near contact) are found faster by the
-    // intersection test, which stops at the first crossing pair.
-    if frames.meshes_intersect(m1, m2) {
-        return 0.0;
-    }
-    let nearest = Cell::new(cap_m);
-    let pairs = m1.bvh().leaf_pairs(m2.bvh(), |n1, n2| {
-        frames.box_gap(&n1.aabb(), &n2.aabb()) < nearest.get()
-    });
-    for (a, b) in pairs {
-        let (ta, tb) = frames.triangles(m1, a, m2, b);
-        // The meshes are disjoint, so no pair intersects: skip that test.
-        let d = disjoint_triangle_distance(&ta, &tb);
-        if d < nearest.get() {
-            if d <= 0.0 {
-                return 0.0;
-            }
-            nearest.set(d);
-        }
-    }
-    nearest.get()
-}
+use parry3d_f64::math::Vector;
 
 /// Distance between the closed triangles `a` and `b` (m, 0 when they intersect).
 #[cfg(test)]
@@ -68,7 +19,7 @@ fn triangle_distance(a: &[Vector; 3], b: &[Vector; 3]) -> f64 {
 
 /// [`triangle_distance`] of triangles known not to intersect: they are nearest at a
 /// corner of one or between two edges.
-fn disjoint_triangle_distance(a: &[Vector; 3], b: &[Vector; 3]) -> f64 {
+pub(super) fn disjoint_triangle_distance(a: &[Vector; 3], b: &[Vector; 3]) -> f64 {
     let mut d2 = f64::INFINITY;
     for p in a {
         d2 = d2.min((*p - closest_on_triangle(*p, b)).length_squared());
@@ -167,82 +118,6 @@ fn segments_distance_squared(p1: Vector, q1: Vector, p2: Vector, q2: Vector) -> 
         }
     };
     ((p1 + d1 * s) - (p2 + d2 * t)).length_squared()
-}
-
-fn abs(m: &Matrix) -> Matrix {
-    // A small slack on |R| makes the box test conservative under rounding.
-    Matrix::from_cols(
-        m.x_axis.abs() + Vector::splat(1e-12),
-        m.y_axis.abs() + Vector::splat(1e-12),
-        m.z_axis.abs() + Vector::splat(1e-12),
-    )
-}
-
-/// Frame 2 in frame 1: `x1 = r·x2 + t`.
-struct Frames {
-    r: Matrix,
-    abs_r: Matrix,
-    t: Vector,
-}
-
-impl Frames {
-    fn new(pose12: &Pose) -> Self {
-        let r = Matrix::from_quat(pose12.rotation);
-        Frames {
-            r,
-            abs_r: abs(&r),
-            t: pose12.translation,
-        }
-    }
-
-    /// Triangle `a` of `m1` and triangle `b` of `m2`, both in frame 1.
-    fn triangles(&self, m1: &TriMesh, a: u32, m2: &TriMesh, b: u32) -> ([Vector; 3], [Vector; 3]) {
-        let (v1, v2) = (m1.vertices(), m2.vertices());
-        let ta = m1.indices()[a as usize].map(|i| v1[i as usize]);
-        let tb = m2.indices()[b as usize].map(|i| self.r * v2[i as usize] + self.t);
-        (ta, tb)
-    }
-
-    /// `m1` (frame 1) and `m2` (frame 2) intersect.
-    fn meshes_intersect(&self, m1: &TriMesh, m2: &TriMesh) -> bool {
-        m1.bvh()
-            .leaf_pairs(m2.bvh(), |n1, n2| {
-                self.boxes_overlap(&n1.aabb(), &n2.aabb())
-            })
-            .any(|(a, b)| {
-                let (ta, tb) = self.triangles(m1, a, m2, b);
-                triangles_intersect(&ta, &tb)
-            })
-    }
-
-    /// The box `b1` (frame 1) and the box `b2` (frame 2) overlap along all six face axes.
-    fn boxes_overlap(&self, b1: &Aabb, b2: &Aabb) -> bool {
-        let (c1, h1) = (b1.center(), b1.half_extents());
-        let (c2, h2) = (b2.center(), b2.half_extents());
-        // Centre of box 2 relative to box 1, in frame 1.
-        let d = self.r * c2 + self.t - c1;
-        // Frame 1's axes: box 2's extent along them is |R|·h2.
-        let e2 = self.abs_r * h2;
-        if d.x.abs() > h1.x + e2.x || d.y.abs() > h1.y + e2.y || d.z.abs() > h1.z + e2.z {
-            return false;
-        }
-        // Frame 2's axes: the same in frame 2 (Rᵀ).
-        let d2 = self.r.transpose() * d;
-        let e1 = self.abs_r.transpose() * h1;
-        d2.x.abs() <= h2.x + e1.x && d2.y.abs() <= h2.y + e1.y && d2.z.abs() <= h2.z + e1.z
-    }
-
-    /// A lower bound of the distance between the boxes: their largest gap along the six
-    /// face axes (0 when every axis overlaps).
-    fn box_gap(&self, b1: &Aabb, b2: &Aabb) -> f64 {
-        let (c1, h1) = (b1.center(), b1.half_extents());
-        let (c2, h2) = (b2.center(), b2.half_extents());
-        let d = self.r * c2 + self.t - c1;
-        let g1 = d.abs() - h1 - self.abs_r * h2;
-        let d2 = self.r.transpose() * d;
-        let g2 = d2.abs() - h2 - self.abs_r.transpose() * h1;
-        g1.max_element().max(g2.max_element()).max(0.0)
-    }
 }
 
 /// The closed triangles `a` and `b` share a point.
@@ -366,6 +241,7 @@ fn inside(p: [f64; 2], t: &[[f64; 2]; 3]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use parry3d_f64::math::Pose;
     use parry3d_f64::query::intersection_test;
     use parry3d_f64::shape::Triangle;
     use rand::{Rng, SeedableRng};
@@ -452,39 +328,5 @@ mod tests {
         let beside = pierce.map(|p| p + v(1.0, 1.0, 0.0));
         assert!(triangles_intersect(&a, &pierce));
         assert!(!triangles_intersect(&a, &beside));
-    }
-
-    #[test]
-    fn box_culling_never_drops_an_overlapping_pair() {
-        // Random boxes and poses: whenever the boxes' corner clouds intersect (tested as
-        // convex hulls by GJK), the six-axis test keeps them.
-        use parry3d_f64::shape::Cuboid;
-        let mut rng = ChaCha8Rng::seed_from_u64(5);
-        let mut kept_apart = 0;
-        for _ in 0..20_000 {
-            let h1 = v(rng.random(), rng.random(), rng.random()) * 0.5 + Vector::splat(0.01);
-            let h2 = v(rng.random(), rng.random(), rng.random()) * 0.5 + Vector::splat(0.01);
-            let c1 = v(rng.random(), rng.random(), rng.random()) * 2.0;
-            let c2 = v(rng.random(), rng.random(), rng.random()) * 2.0;
-            let rot = parry3d_f64::math::Rotation::from_scaled_axis(
-                v(rng.random(), rng.random(), rng.random()) * 3.0,
-            );
-            let pose12 = Pose::from_parts(v(rng.random(), rng.random(), rng.random()), rot);
-            let f = Frames::new(&pose12);
-            let (b1, b2) = (Aabb::new(c1 - h1, c1 + h1), Aabb::new(c2 - h2, c2 + h2));
-            let exact = intersection_test(
-                &Pose::from_translation(c1),
-                &Cuboid::new(h1),
-                &(pose12 * Pose::from_translation(c2)),
-                &Cuboid::new(h2),
-            )
-            .expect("supported")
-            .intersecting;
-            let kept = f.boxes_overlap(&b1, &b2);
-            assert!(kept || !exact, "dropped an overlapping pair");
-            kept_apart += usize::from(kept && !exact);
-        }
-        // Skipping the edge axes keeps a few separated pairs, no more.
-        assert!(kept_apart < 2_000, "{kept_apart}");
     }
 }
