@@ -201,6 +201,26 @@ struct Repair {
     out: Vec<Se3>,
     /// A join in progress: the RRT-Connect from `out`'s last configuration to this one.
     join: Option<(Box<Planner>, Se3)>,
+    /// A retraction in progress, one descent step per [`ThinnedPlanner::step`] (a step
+    /// is a penetration query, costly between CAD meshes: a whole descent in one step
+    /// overran a 60 s limit by 4 s).
+    descent: Option<Descent>,
+}
+
+/// The state of the random descent ([`descend`]) for one configuration of the walk.
+struct Descent {
+    /// The configuration of the walk being retracted, and whether it is free itself (its
+    /// edge from `last` is what collides).
+    q: Se3,
+    q_free: bool,
+    /// The repaired path's last configuration, the one to join.
+    last: Se3,
+    /// Where the descent stands and its penetration depth (m).
+    at: Se3,
+    depth: f64,
+    /// The first free configuration met that was not joined to `last`.
+    first_free: Option<Se3>,
+    tries_left: u32,
 }
 
 /// Counts of the work done, over all stages and restarts.
@@ -419,6 +439,7 @@ impl ThinnedPlanner {
             scene,
             checker,
             join: None,
+            descent: None,
         }
     }
 
@@ -437,6 +458,31 @@ impl ThinnedPlanner {
             }
             return Ok(RepairStep::Working);
         }
+        if let Some(mut d) = r.descent.take() {
+            let found = match descend(
+                &r.checker,
+                &mut d,
+                self.params.edge_resolution,
+                &mut self.rng,
+            ) {
+                None => {
+                    r.descent = Some(d);
+                    return Ok(RepairStep::Working);
+                }
+                Some(found) => found,
+            };
+            let last = d.last;
+            let to = match found {
+                Retracted::Joined(c) => {
+                    r.out.push(c);
+                    return Ok(RepairStep::Working);
+                }
+                Retracted::Free(c) if !d.q_free => c,
+                _ if d.q_free => d.q,
+                _ => return Ok(RepairStep::Failed),
+            };
+            return self.start_join(r, last, to);
+        }
         if r.next >= r.walk.len() {
             return Ok(RepairStep::Finished);
         }
@@ -449,24 +495,25 @@ impl ThinnedPlanner {
             return Ok(RepairStep::Working);
         }
         self.stats.retracted += 1;
-        let tries = self.thinning.retract_tries;
-        let found = retract(
-            &r.checker,
-            &last,
-            &q,
-            self.params.edge_resolution,
-            tries,
-            &mut self.rng,
-        );
-        let to = match found {
-            Retracted::Joined(c) => {
-                r.out.push(c);
-                return Ok(RepairStep::Working);
-            }
-            Retracted::Free(c) if !free => c,
-            _ if free => q,
-            _ => return Ok(RepairStep::Failed),
-        };
+        r.descent = Some(Descent {
+            q,
+            q_free: free,
+            last,
+            at: q,
+            depth: r.checker.penetration_m(&q),
+            first_free: None,
+            tries_left: self.thinning.retract_tries,
+        });
+        Ok(RepairStep::Working)
+    }
+
+    /// Starts the RRT-Connect that joins `last` to `to` near the two.
+    fn start_join(
+        &mut self,
+        r: &mut Repair,
+        last: Se3,
+        to: Se3,
+    ) -> Result<RepairStep, PlannerError> {
         let mut scene = r.scene.clone();
         scene.start = last;
         scene.goal = to;
@@ -511,7 +558,7 @@ fn walk(space: &Space, path: &[Se3], resolution: f64) -> Vec<Se3> {
     out
 }
 
-/// What [`retract`] found near a configuration.
+/// What [`descend`] found near a configuration.
 enum Retracted {
     /// A free configuration joined to the previous one by a free edge.
     Joined(Se3),
@@ -521,39 +568,34 @@ enum Retracted {
     None,
 }
 
-/// A free configuration near `q` that continues the path from `last`, by a random
-/// descent of the penetration depth: Gaussian steps of per-axis σ `resolution / 4`
-/// (weighted m) from `q`, each one taken when it goes less deep, until a step lands free;
-/// the first free one joined to `last` by a free edge, else the first free one, after at
-/// most `tries` steps.
-fn retract(
+/// One step of the search for a free configuration near `d.q` that continues the path
+/// from `d.last`, by a random descent of the penetration depth: a Gaussian step of per-axis
+/// σ `resolution / 4` (weighted m) from where the descent stands, taken when it goes less
+/// deep. `Some` once done: the first free configuration joined to `last` by a free edge,
+/// else (after `tries_left` steps) the first free one, else nothing.
+fn descend(
     checker: &CollisionChecker,
-    last: &Se3,
-    q: &Se3,
+    d: &mut Descent,
     resolution: f64,
-    tries: u32,
     rng: &mut ChaCha8Rng,
-) -> Retracted {
-    let space = checker.space();
-    let sigma = 0.25 * resolution;
-    let mut at = *q;
-    let mut depth = checker.penetration_m(q);
-    let mut first_free = None;
-    for _ in 0..tries {
-        let c = space.sample_near(&at, sigma, rng);
-        if checker.is_free(&c) {
-            if checker.edge_free(last, &c) {
-                return Retracted::Joined(c);
-            }
-            first_free.get_or_insert(c);
-            continue;
+) -> Option<Retracted> {
+    if d.tries_left == 0 {
+        return Some(d.first_free.map_or(Retracted::None, Retracted::Free));
+    }
+    d.tries_left -= 1;
+    let c = checker.space().sample_near(&d.at, 0.25 * resolution, rng);
+    if checker.is_free(&c) {
+        if checker.edge_free(&d.last, &c) {
+            return Some(Retracted::Joined(c));
         }
-        let d = checker.penetration_m(&c);
-        if d < depth {
-            (at, depth) = (c, d);
+        d.first_free.get_or_insert(c);
+    } else {
+        let depth = checker.penetration_m(&c);
+        if depth < d.depth {
+            (d.at, d.depth) = (c, depth);
         }
     }
-    first_free.map_or(Retracted::None, Retracted::Free)
+    None
 }
 
 #[cfg(test)]
