@@ -5,7 +5,7 @@ scenes with OBJ meshes, for measurement only: the meshes are not part of this re
 
 Setup (not a project dependency):
     git clone --depth 1 https://github.com/ompl/omplapp target/omplapp
-    python3 -m venv target/cad-venv && target/cad-venv/bin/pip install pycollada==0.9 coal==3.0.3
+    python3 -m venv target/cad-venv && target/cad-venv/bin/pip install pycollada==0.9.3 coal==3.0.3
 Usage:
     target/cad-venv/bin/python benches/cad/convert.py target/omplapp/resources/3D target/cad
 
