@@ -213,13 +213,16 @@ fn build(nodes: &mut Vec<Node>, triangles: &mut [[Vector; 3]], start: usize, end
         return index;
     }
     // Split across the box's longest axis at the mean of the triangles' centres; at the
-    // median when that leaves one side empty (all centres on one side of the mean).
+    // median when that leaves one side with less than an eighth (a skewed mesh, e.g.
+    // triangles spaced geometrically, would otherwise make the tree, and this recursion,
+    // as deep as the mesh is long: with the eighth, depth ≤ ln n / ln(8/7), ~105 for a
+    // million triangles).
     let axis = obb.axes.col(longest(obb.half));
     let key = |t: &[Vector; 3]| axis.dot(t[0] + t[1] + t[2]);
     let part = &mut triangles[start..end];
     let mean = part.iter().map(key).sum::<f64>() / part.len() as f64;
     let mut mid = partition(part, |t| key(t) < mean);
-    if mid == 0 || mid == part.len() {
+    if mid.min(part.len() - mid) < part.len().div_ceil(8) {
         mid = part.len() / 2;
         part.select_nth_unstable_by(mid, |a, b| key(a).total_cmp(&key(b)));
     }
@@ -264,22 +267,31 @@ fn fit(triangles: &[[Vector; 3]]) -> Obb {
         let d = nalgebra::Vector3::new(p.x - mean.x, p.y - mean.y, p.z - mean.z);
         c += d * d.transpose();
     }
-    let eigen = nalgebra::SymmetricEigen::new(c / n);
-    let e = eigen.eigenvectors;
-    let mut axes = Matrix::from_cols(
-        Vector::new(e[(0, 0)], e[(1, 0)], e[(2, 0)]),
-        Vector::new(e[(0, 1)], e[(1, 1)], e[(2, 1)]),
-        Vector::new(e[(0, 2)], e[(1, 2)], e[(2, 2)]),
-    );
-    // A degenerate or unconverged decomposition (NaN, not orthonormal) falls back to the
-    // mesh's own axes: a looser box, never a wrong one.
-    let orthonormal = (axes.transpose() * axes - Matrix::IDENTITY)
-        .to_cols_array()
+    // A degenerate, overflowing or unconverged decomposition (non-finite, not
+    // orthonormal) falls back to the mesh's own axes: a looser box, never a wrong one.
+    // Bounded iterations: nalgebra's `new` iterates until convergence, which non-finite
+    // input (coordinates near 1e154 square to infinity) never reaches.
+    let c = c / n;
+    let axes = c
         .iter()
-        .all(|x| x.abs() < 1e-9);
-    if !orthonormal {
-        axes = Matrix::IDENTITY;
-    }
+        .all(|x| x.is_finite())
+        .then(|| nalgebra::SymmetricEigen::try_new(c, f64::EPSILON, 200))
+        .flatten()
+        .map(|eigen| {
+            let e = eigen.eigenvectors;
+            Matrix::from_cols(
+                Vector::new(e[(0, 0)], e[(1, 0)], e[(2, 0)]),
+                Vector::new(e[(0, 1)], e[(1, 1)], e[(2, 1)]),
+                Vector::new(e[(0, 2)], e[(1, 2)], e[(2, 2)]),
+            )
+        })
+        .filter(|axes| {
+            (axes.transpose() * *axes - Matrix::IDENTITY)
+                .to_cols_array()
+                .iter()
+                .all(|x| x.abs() < 1e-9)
+        })
+        .unwrap_or(Matrix::IDENTITY);
     let (mut lo, mut hi) = (
         Vector::splat(f64::INFINITY),
         Vector::splat(f64::NEG_INFINITY),
@@ -460,6 +472,35 @@ mod tests {
         );
         // The bound is useful: within half the distance for most separated pairs.
         assert!(gaps > apart / 2, "{gaps} of {apart}");
+    }
+
+    #[test]
+    fn a_skewed_mesh_makes_a_shallow_tree() {
+        // Triangles at x = 4^i: the mean of the centres lies above all but the last four,
+        // so every mean split would peel off four (a tree ~125 deep); their coordinates
+        // also overflow the covariance (the fit falls back to the mesh's axes).
+        let n = 500;
+        let tris: Vec<[Vector; 3]> = (0..n)
+            .map(|i| {
+                let x = 4f64.powi(i);
+                tri([x, 0.0, 0.0], [x, 1.0, 0.0], [x, 0.0, 1.0])
+            })
+            .collect();
+        let tree = ObbTree::from_triangles(tris);
+        fn depth(tree: &ObbTree, node: u32) -> usize {
+            let n = &tree.nodes[node as usize];
+            if n.count > 0 {
+                1
+            } else {
+                1 + depth(tree, n.first).max(depth(tree, n.second))
+            }
+        }
+        let d = depth(&tree, 0);
+        let bound = (f64::from(n).ln() / (8.0f64 / 7.0).ln()).ceil() as usize + 1;
+        assert!(d <= bound, "depth {d} > {bound}");
+        assert_eq!(tree.triangle_count(), n as usize);
+        // Every triangle is still found: each one meets itself.
+        assert!(tree.intersects(&tree, &Matrix::IDENTITY, &Vector::ZERO));
     }
 
     #[test]
