@@ -382,6 +382,10 @@ impl CollisionChecker {
         cap_m: f64,
         clearance: impl Fn(TreePiece, TreePiece, f64) -> f64,
     ) -> f64 {
+        // A non-finite configuration has no clearance (it never certifies anything).
+        if !q.is_finite() {
+            return 0.0;
+        }
         let at = to_parry(q);
         let mut nearest = cap_m;
         for (obj_pose, obj, obj_tree) in self.object.pieces_with_trees() {

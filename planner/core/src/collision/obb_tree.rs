@@ -1,6 +1,6 @@
 //! A bounding-volume tree of oriented boxes over a mesh's triangles, and the mesh against
-//! mesh intersection and distance by a simultaneous traversal of two such trees, after Gottschalk, Lin and Manocha, "OBBTree" (SIGGRAPH
-//! 1996), the volumes coal and FCL use.
+//! mesh intersection and distance by a simultaneous traversal of two such trees, after
+//! Gottschalk, Lin and Manocha, "OBBTree" (SIGGRAPH 1996), the volumes coal and FCL use.
 //!
 //! Why not parry's own tree: its nodes are boxes aligned with the mesh's axes, and CAD
 //! parts are full of long thin triangles that run at an angle to those axes (the alpha
