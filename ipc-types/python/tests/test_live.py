@@ -104,9 +104,16 @@ def test_python_guidance_is_rendered_and_malformed_guidance_is_rejected(loop):
     # Past the loop's start-up ramp (forces come back through a ramp).
     wait_for("1500 ticks", 30, lambda: (s := reader.read()) and s.header.sequence > 1500 or None)
 
-    # F_a = 1 cm along x at k = 20 N/m: F_s = 0.2 N along x, scene frame.
+    # F_a = 1 cm along x at k = 20 N/m: F_s = 0.2 N along x, scene frame. A sample is
+    # published every 50 ms (well within its 0.2 s time-to-live) and the state polled in
+    # between: publishing before every read made the check depend on a tick falling
+    # between the two calls, which a poll loop phase-locked to the ticks never saw.
+    last_publish = [-1.0]
+
     def rendered():
-        publisher.publish([0.01, 0.0, 0.0, 0.0, 0.0, 0.0], 20.0, time_to_live_s=0.2)
+        if time.monotonic() - last_publish[0] >= 0.05:
+            publisher.publish([0.01, 0.0, 0.0, 0.0, 0.0, 0.0], 20.0, time_to_live_s=0.2)
+            last_publish[0] = time.monotonic()
         s = reader.read()
         fresh = s.guidance_freshness == hrrtc.GuidanceFreshness.FRESH
         return s if fresh and s.guidance_sequence == publisher.sequence else None
@@ -129,6 +136,7 @@ def test_python_guidance_is_rendered_and_malformed_guidance_is_rejected(loop):
             # Never more than the last valid sample's 0.2 N (it is held, then fades).
             assert math.sqrt(sum(v * v for v in f)) <= 0.2 + 1e-9, f
     # Guidance published after the bad samples is rendered again.
+    last_publish[0] = -1.0
     wait_for("good guidance after bad", 10, rendered)
     stop(proc)
     report = json.loads(summary.read_text())["loop_report"]
