@@ -98,31 +98,28 @@ struct Side {
     /// Every non-mesh part in one compound; `None` when there are none (parry's
     /// `Compound::new` panics on an empty list).
     primitives: Option<Compound>,
-    /// Mesh parts (composite shapes may not nest in a compound).
-    meshes: Vec<(Pose, SharedShape)>,
-    /// The oriented-box tree of each mesh part, in `meshes`' order.
-    trees: Vec<ObbTree>,
+    /// Mesh parts (composite shapes may not nest in a compound), each with its
+    /// oriented-box tree when the other side has meshes to test it against (`None`
+    /// otherwise, or when the part fell back to a bounding ball: parry tests those).
+    meshes: Vec<(Pose, SharedShape, Option<ObbTree>)>,
 }
 
 impl Side {
-    fn new(parts: &[Part]) -> Self {
+    fn new(parts: &[Part], trees: bool) -> Self {
         let (mesh_parts, prim_parts): (Vec<Part>, Vec<Part>) = parts
             .iter()
             .cloned()
             .partition(|p| matches!(p.primitive, Primitive::Mesh { .. }));
-        let meshes = part_shapes(&mesh_parts);
-        let trees = meshes
-            .iter()
-            .map(|(_, s)| {
-                s.as_trimesh()
-                    .map(ObbTree::new)
-                    .unwrap_or_else(ObbTree::empty)
+        let meshes = part_shapes(&mesh_parts)
+            .into_iter()
+            .map(|(pose, shape)| {
+                let tree = shape.as_trimesh().filter(|_| trees).map(ObbTree::new);
+                (pose, shape, tree)
             })
             .collect();
         Side {
             primitives: (!prim_parts.is_empty()).then(|| Compound::new(part_shapes(&prim_parts))),
             meshes,
-            trees,
         }
     }
 
@@ -131,12 +128,8 @@ impl Side {
     }
 
     /// `(pose in the parent frame, shape)` of each composite piece.
-    fn pieces(&self) -> impl Iterator<Item = (Pose, &dyn parry3d_f64::shape::Shape)> {
-        let prim = self
-            .primitives
-            .iter()
-            .map(|c| (Pose::IDENTITY, c as &dyn parry3d_f64::shape::Shape));
-        prim.chain(self.meshes.iter().map(|(p, s)| (*p, s.as_ref())))
+    fn pieces(&self) -> impl Iterator<Item = (Pose, &Shape)> {
+        self.pieces_with_trees().map(|(p, s, _)| (p, s))
     }
 
     /// [`Self::pieces`] with each mesh piece's oriented-box tree.
@@ -148,8 +141,7 @@ impl Side {
         prim.chain(
             self.meshes
                 .iter()
-                .zip(&self.trees)
-                .map(|((p, s), t)| (*p, s.as_ref(), Some(t))),
+                .map(|(p, s, t)| (*p, s.as_ref(), t.as_ref())),
         )
     }
 }
@@ -247,9 +239,17 @@ impl CollisionChecker {
         } else {
             DEFAULT_EDGE_RESOLUTION
         };
+        // Trees serve only mesh-against-mesh pairs: none are built when one side has no
+        // mesh (a CAD object among box obstacles).
+        let has_mesh = |parts: &[Part]| {
+            parts
+                .iter()
+                .any(|p| matches!(p.primitive, Primitive::Mesh { .. }))
+        };
+        let mesh_pairs = has_mesh(&scene.obstacles) && has_mesh(&scene.moving_object);
         CollisionChecker {
-            obstacles: Side::new(&scene.obstacles),
-            object: Side::new(&scene.moving_object),
+            obstacles: Side::new(&scene.obstacles, mesh_pairs),
+            object: Side::new(&scene.moving_object, mesh_pairs),
             space: Space::for_scene(scene, weights),
             resolution,
             edge_check: EdgeCheck::default(),

@@ -459,17 +459,14 @@ impl ThinnedPlanner {
             return Ok(RepairStep::Working);
         }
         if let Some(mut d) = r.descent.take() {
-            let found = match descend(
+            let Some(found) = descend(
                 &r.checker,
                 &mut d,
                 self.params.edge_resolution,
                 &mut self.rng,
-            ) {
-                None => {
-                    r.descent = Some(d);
-                    return Ok(RepairStep::Working);
-                }
-                Some(found) => found,
+            ) else {
+                r.descent = Some(d);
+                return Ok(RepairStep::Working);
             };
             let last = d.last;
             let to = match found {

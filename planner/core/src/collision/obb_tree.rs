@@ -65,11 +65,6 @@ impl ObbTree {
         Self::from_triangles(triangles)
     }
 
-    /// A tree of no triangles (meets nothing).
-    pub fn empty() -> Self {
-        Self::from_triangles(Vec::new())
-    }
-
     fn from_triangles(mut triangles: Vec<[Vector; 3]>) -> Self {
         let mut nodes = Vec::with_capacity(2 * triangles.len());
         if !triangles.is_empty() {
