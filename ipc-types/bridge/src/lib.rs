@@ -238,6 +238,85 @@ const IMPORT_QUEUE: usize = 256;
 
 /// Runs a bridge until `stop` is set (or `config.duration_s` passes).
 pub fn run(config: &BridgeConfig, stop: Arc<AtomicBool>) -> Result<BridgeReport, BridgeError> {
+    run_inner(config, stop, None)
+}
+
+/// Runs the planner side of a bridge inside a planner's process, until `stop` is set: as
+/// [`run`] with [`Side::Planner`], except that the planner puts its own guidance on Zenoh
+/// with the [`GuidanceSender`] handed to `sender` once the session is up (so no bridge
+/// thread has to be woken between the planner and the network), and the export thread
+/// leaves the guidance this process publishes locally alone. Guidance of other processes
+/// on this host, paths and roadmaps go as through [`run`].
+pub fn run_in_planner(
+    config: &BridgeConfig,
+    stop: Arc<AtomicBool>,
+    sender: std::sync::mpsc::Sender<GuidanceSender>,
+) -> Result<BridgeReport, BridgeError> {
+    if config.side != Side::Planner {
+        return Err(BridgeError::Config(
+            "a bridge inside a planner's process must be the planner side".into(),
+        ));
+    }
+    run_inner(config, stop, Some(sender))
+}
+
+/// Puts a planner's guidance on Zenoh from the planner's own thread ([`run_in_planner`]).
+#[derive(Clone)]
+pub struct GuidanceSender {
+    publisher: Arc<zenoh::pubsub::Publisher<'static>>,
+    clock: HostClock,
+    id: u64,
+    counters: Arc<Counters>,
+}
+
+impl GuidanceSender {
+    /// Sends `g` (re-stamped into the presented clock) to the loop's host; never waits on
+    /// the network: a sample Zenoh cannot take at once is dropped and counted. `false` if
+    /// it was dropped.
+    pub fn send(&self, g: &Guidance) -> bool {
+        let sent = self
+            .publisher
+            .put(outgoing(*g, &self.clock, self.id))
+            .wait()
+            .is_ok();
+        let counter = if sent {
+            &self.counters.sent
+        } else {
+            &self.counters.dropped
+        };
+        bump(counter, Kind::GUIDANCE);
+        sent
+    }
+}
+
+/// `v` framed for the wire, its stamps in the presented clock.
+fn outgoing<T: Carried>(mut v: T, clock: &HostClock, id: u64) -> Vec<u8> {
+    v.restamp(|t| clock.at(t));
+    frame::encode(id, clock.now(), &v)
+}
+
+/// A publisher for `leaf`: newest wins, so it drops rather than queue behind a slow link,
+/// and skips Zenoh's batching for the small, frequent samples.
+fn declare_publisher(
+    session: &zenoh::Session,
+    keys: &str,
+    leaf: &str,
+) -> Result<zenoh::pubsub::Publisher<'static>, BridgeError> {
+    let k = key(keys, leaf);
+    session
+        .declare_publisher(k.clone())
+        .congestion_control(CongestionControl::Drop)
+        .priority(Priority::InteractiveHigh)
+        .express(leaf != "roadmap")
+        .wait()
+        .map_err(declare_error(&k))
+}
+
+fn run_inner(
+    config: &BridgeConfig,
+    stop: Arc<AtomicBool>,
+    guidance_sender: Option<std::sync::mpsc::Sender<GuidanceSender>>,
+) -> Result<BridgeReport, BridgeError> {
     services::validate_namespace(&config.namespace)?;
     if let Some(k) = &config.key_namespace {
         services::validate_namespace(k)?;
@@ -394,6 +473,7 @@ pub fn run(config: &BridgeConfig, stop: Arc<AtomicBool>) -> Result<BridgeReport,
             import_thread(&config, rx, &counters, &delays, &stop, ready)
         })?
     };
+    let own_guidance_direct = guidance_sender.is_some();
     let export = {
         let stop = stop.clone();
         let counters = counters.clone();
@@ -401,7 +481,15 @@ pub fn run(config: &BridgeConfig, stop: Arc<AtomicBool>) -> Result<BridgeReport,
         let session = session.clone();
         let ready = ready_tx;
         spawn("export", move || {
-            export_thread(&config, &session, id, &counters, &stop, ready)
+            export_thread(
+                &config,
+                &session,
+                id,
+                &counters,
+                &stop,
+                own_guidance_direct,
+                ready,
+            )
         })?
     };
     // Both threads report whether their ports opened.
@@ -416,6 +504,21 @@ pub fn run(config: &BridgeConfig, stop: Arc<AtomicBool>) -> Result<BridgeReport,
                     reason: "it died during set-up".into(),
                 })
             }
+        }
+    }
+    if setup.is_ok()
+        && let Some(out) = guidance_sender
+    {
+        match declare_publisher(&session, ns, "guidance") {
+            Ok(p) => {
+                let _ = out.send(GuidanceSender {
+                    publisher: Arc::new(p),
+                    clock,
+                    id,
+                    counters: counters.clone(),
+                });
+            }
+            Err(e) => setup = Err(e),
         }
     }
     if setup.is_ok() {
@@ -817,6 +920,7 @@ fn export_thread(
     id: u64,
     counters: &Counters,
     stop: &AtomicBool,
+    own_guidance_direct: bool,
     ready: std::sync::mpsc::Sender<Result<(), BridgeError>>,
 ) {
     let ns = &config.namespace;
@@ -844,17 +948,7 @@ fn export_thread(
         };
         let mut publishers = Vec::new();
         for leaf in exported {
-            let k = key(keys, leaf);
-            // Newest wins: drop rather than queue behind a slow link, and skip Zenoh's
-            // batching for the small, frequent samples.
-            let p = session
-                .declare_publisher(k.clone())
-                .congestion_control(CongestionControl::Drop)
-                .priority(Priority::InteractiveHigh)
-                .express(*leaf != "roadmap")
-                .wait()
-                .map_err(declare_error(&k))?;
-            publishers.push(p);
+            publishers.push(declare_publisher(session, keys, leaf)?);
         }
         let ping = session
             .declare_publisher(key(keys, "bridge/ping"))
@@ -882,11 +976,6 @@ fn export_thread(
         Ok(()) => bump(&counters.sent, kind),
         Err(_) => bump(&counters.dropped, kind),
     };
-    // Every stamp leaves in the presented clock.
-    fn outgoing<T: Carried>(mut v: T, clock: &HostClock, id: u64) -> Vec<u8> {
-        v.restamp(|t| clock.at(t));
-        frame::encode(id, clock.now(), &v)
-    }
     let probe_period = Duration::from_secs_f64(1.0 / config.probe_hz);
     let mut next_probe = Instant::now();
     let state_period_ns = config.state_rate_hz.map_or(0, |r| (1e9 / r) as u64);
@@ -960,7 +1049,12 @@ fn export_thread(
                 {
                     std::thread::sleep(Duration::from_millis(1));
                 }
+                let own_pid = std::process::id();
                 while let Ok(Some(g)) = guidance.receive() {
+                    // The planner in this process has put its own on Zenoh already.
+                    if own_guidance_direct && g.header.writer_pid == own_pid {
+                        continue;
+                    }
                     put(&publishers[0], outgoing(*g, &clock, id), Kind::GUIDANCE);
                 }
                 while let Ok(Some(p)) = path.receive() {

@@ -130,6 +130,17 @@ pub struct ShellReport {
 
 /// Runs the planner process until `stop` is set or the duration elapses.
 pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> Result<ShellReport, ShellError> {
+    run_with_guidance_out(config, stop, &|_| {})
+}
+
+/// As [`run`], and hands each guidance sample to `out` too, from the planning thread just
+/// before it is published locally (`planner serve --bridge-connect` puts it on Zenoh
+/// there).
+pub fn run_with_guidance_out(
+    config: &ShellConfig,
+    stop: Arc<AtomicBool>,
+    out: &dyn Fn(&Guidance),
+) -> Result<ShellReport, ShellError> {
     let started = Instant::now();
     let node_name = format!("planner_{}", std::process::id());
     let (node, cleaned) = services::create_node(&node_name)?;
@@ -276,6 +287,7 @@ pub fn run(config: &ShellConfig, stop: Arc<AtomicBool>) -> Result<ShellReport, S
                 pid,
                 planner_id,
             );
+            out(&g);
             publish_guidance(&guidance, &guidance_event, g);
             report.guidance_published += 1;
         }

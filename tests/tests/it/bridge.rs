@@ -207,6 +207,89 @@ fn a_remote_planner_is_served_across_hosts_and_followed_once_it_solves() {
     let _ = std::fs::remove_dir_all(dir);
 }
 
+/// A planner with its host's side of the bridge in its own process (`planner serve
+/// --bridge-connect`, no `hrrtc-bridge` on host B) is served as through a bridge process:
+/// it receives the state at ≥ 90 % of the loop's rate, solves, and its guidance reaches the
+/// arm fresh with host B's clock an hour ahead; stopping it fades the guidance out.
+#[test]
+fn a_planner_with_the_bridge_in_its_process_is_served_across_hosts() {
+    let _serial = one_loop_at_a_time();
+    let ns = unique_namespace("bridgein");
+    let dir = host_b("hi");
+    let port = free_port();
+    let loop_summary = std::env::temp_dir().join(format!("{ns}-loop.json"));
+    let planner_json = std::env::temp_dir().join(format!("{ns}-planner.json"));
+    let mut lp = start_loop(&ns, &loop_summary);
+    let (node, _) = services::create_node("it_bridgein_watch").unwrap();
+    let state = services::state_reader(&node, &ns).unwrap();
+    wait_for("the loop publishes", Duration::from_secs(30), || {
+        (state.get().header.sequence > 100).then_some(())
+    });
+    let mut a = bridge_a(&ns, port);
+    let connect = format!("tcp/127.0.0.1:{port}");
+    let planner_arg = planner_json.to_str().unwrap().to_string();
+    let (seq0, t0) = (state.get().header.sequence, Instant::now());
+    let mut planner = Proc::spawn_in(
+        &dir,
+        &bin("planner"),
+        &[
+            "serve",
+            "--namespace",
+            &ns,
+            "--scene",
+            SCENE,
+            "--duration-s",
+            "8",
+            "--bridge-connect",
+            &connect,
+            "--bridge-clock-offset-s",
+            "3600",
+            "--json",
+            &planner_arg,
+        ],
+    );
+    let s = wait_for("fresh guidance on host A", Duration::from_secs(30), || {
+        let s = *state.get();
+        guidance_fresh(&s).then_some(s)
+    });
+    eprintln!("fresh guidance, sequence {}", s.guidance_sequence);
+    let st = planner
+        .wait_timeout(Duration::from_secs(60))
+        .expect("planner stops");
+    assert!(st.success(), "planner exit status {st}");
+    let loop_hz = (state.get().header.sequence - seq0) as f64 / t0.elapsed().as_secs_f64();
+    let report = json(&planner_json);
+    let rate = report["state_rate_hz"].as_f64().unwrap();
+    assert!(loop_hz >= 500.0, "the loop published at {loop_hz:.0} Hz");
+    assert!(
+        rate >= 0.9 * loop_hz.min(1000.0),
+        "the planner saw {rate:.0} Hz of HapticState, the loop published {loop_hz:.0} Hz: {report}"
+    );
+    assert_eq!(report["solved"], true, "{report}");
+    // Its guidance stopped with it: lost 500 ticks later (time-to-live + fade < 0.5 s).
+    let end_seq = state.get().header.sequence;
+    wait_for(
+        "500 ticks after the planner",
+        Duration::from_secs(30),
+        || (state.get().header.sequence > end_seq + 500).then_some(()),
+    );
+    assert_eq!(state.get().guidance_freshness, GuidanceFreshness::LOST);
+    for p in [&mut a, &mut lp] {
+        p.signal(libc::SIGTERM);
+        let st = p
+            .wait_timeout(Duration::from_secs(10))
+            .expect("stops on SIGTERM");
+        assert!(st.success(), "{}: clean exit on SIGTERM: {st}", p.name);
+    }
+    let summary = json(&loop_summary);
+    assert_eq!(summary["planner_id"], report["planner_id"], "{summary}");
+    assert_eq!(summary["solved"], true, "{summary}");
+    for f in [loop_summary, planner_json] {
+        let _ = std::fs::remove_file(f);
+    }
+    let _ = std::fs::remove_dir_all(dir);
+}
+
 /// Cutting the link (the loop host's bridge killed) fades the remote guidance out within
 /// time-to-live + fade while the loop ticks on, its deadline misses no worse than linked; a new bridge on the same port restores it;
 /// a remote planner killed and restarted is followed. Host B's clock is an hour behind.
@@ -323,4 +406,22 @@ fn an_unreachable_endpoint_is_a_clear_error() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("tcp/not-an-endpoint"), "{stderr}");
+    // The same from a planner with the bridge in its process.
+    let out = Command::new(bin("planner"))
+        .args([
+            "serve",
+            "--namespace",
+            &unique_namespace("unreachp"),
+            "--scene",
+            SCENE,
+            "--bridge-connect",
+            &endpoint,
+            "--bridge-connect-timeout-s",
+            "0.5",
+        ])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains(&endpoint), "names the endpoint: {stderr}");
 }

@@ -4,6 +4,8 @@
 use crate::common::{CoreArgs, SamplingArgs, non_negative, positive, positive_opt};
 use anyhow::bail;
 use clap::Args;
+use hrrtc_bridge::clock::HostClock;
+use hrrtc_bridge::{BridgeConfig, Side};
 use ipc_types::services;
 use planner::shell::{self, ShellConfig};
 use std::path::PathBuf;
@@ -68,6 +70,55 @@ pub struct ServeArgs {
     /// Write a JSON report here on exit.
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// A planner on another host than the haptic loop, without a bridge process here.
+    #[command(flatten)]
+    pub bridge: BridgeArgs,
+}
+
+/// `--bridge-*`: this host's side of `hrrtc-bridge` run inside the planner.
+#[derive(Debug, Args, Clone)]
+pub struct BridgeArgs {
+    /// Zenoh endpoint of the loop host's `hrrtc-bridge --side loop`, e.g.
+    /// `tcp/ARM-HOST:7447` (repeatable). Runs this host's side of the bridge inside this
+    /// process instead of `hrrtc-bridge --side planner`: the haptic state arrives in this
+    /// host's state blackboard as through that bridge, paths and roadmaps leave through
+    /// it, and guidance goes on Zenoh straight from the planning thread (no bridge thread
+    /// to wake on its way). Run no other planner-side bridge on this namespace here.
+    #[arg(long, value_name = "ENDPOINT")]
+    pub bridge_connect: Vec<String>,
+    /// Zenoh endpoint for the loop host's bridge to connect to instead (repeatable).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub bridge_listen: Vec<String>,
+    /// Give up when no --bridge-connect endpoint answers within this at start, s.
+    #[arg(long, default_value_t = 10.0)]
+    pub bridge_connect_timeout_s: f64,
+    /// Testing: present this host's clock to the loop's host shifted by this many
+    /// seconds (as `hrrtc-bridge --clock-offset-s`).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, hide = true)]
+    pub bridge_clock_offset_s: f64,
+}
+
+impl BridgeArgs {
+    /// The in-process bridge's configuration, if one is asked for.
+    fn to_config(&self, namespace: &str, roadmap: bool) -> anyhow::Result<Option<BridgeConfig>> {
+        if self.bridge_connect.is_empty() && self.bridge_listen.is_empty() {
+            return Ok(None);
+        }
+        let timeout = non_negative("bridge-connect-timeout-s", self.bridge_connect_timeout_s)?;
+        anyhow::ensure!(
+            self.bridge_clock_offset_s.is_finite(),
+            "--bridge-clock-offset-s {}: must be a finite number",
+            self.bridge_clock_offset_s
+        );
+        Ok(Some(BridgeConfig {
+            listen: self.bridge_listen.clone(),
+            connect: self.bridge_connect.clone(),
+            connect_timeout_s: timeout,
+            roadmap,
+            clock: HostClock::simulated(self.bridge_clock_offset_s, 0.0),
+            ..BridgeConfig::new(Side::Planner, namespace)
+        }))
+    }
 }
 
 impl ServeArgs {
@@ -110,6 +161,9 @@ impl ServeArgs {
 /// Runs the command until Ctrl-C / SIGTERM or --duration-s; the exit code is 0.
 pub fn run(args: &ServeArgs) -> anyhow::Result<i32> {
     let config = args.to_config()?;
+    let bridge = args
+        .bridge
+        .to_config(&config.namespace, config.roadmap_rate_hz > 0.0)?;
     let stop: Arc<AtomicBool> = crate::stop_on_signal()?;
     tracing::info!(
         "planner serving scene '{}' in namespace '{}' (seed {})",
@@ -117,7 +171,10 @@ pub fn run(args: &ServeArgs) -> anyhow::Result<i32> {
         config.namespace,
         config.seed
     );
-    let report = shell::run(&config, stop)?;
+    let report = match bridge {
+        None => shell::run(&config, stop)?,
+        Some(b) => serve_with_bridge(&config, &b, stop)?,
+    };
     tracing::info!(
         "planner done: solved {}, {} iterations, {} nodes, states {:.0} Hz",
         report.solved,
@@ -129,4 +186,54 @@ pub fn run(args: &ServeArgs) -> anyhow::Result<i32> {
         crate::write_json(p, &report)?;
     }
     Ok(0)
+}
+
+/// The shell with this host's side of the bridge on a thread of its own; guidance goes to
+/// Zenoh from the planning thread.
+fn serve_with_bridge(
+    config: &ShellConfig,
+    bridge: &BridgeConfig,
+    stop: Arc<AtomicBool>,
+) -> anyhow::Result<shell::ShellReport> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    let thread = {
+        let (bridge, stop) = (bridge.clone(), stop.clone());
+        std::thread::Builder::new()
+            .name("bridge".into())
+            .spawn(move || hrrtc_bridge::run_in_planner(&bridge, stop, tx))?
+    };
+    let Ok(sender) = rx.recv() else {
+        // The bridge ended before it was up: its error says why.
+        let ended = thread
+            .join()
+            .map_err(|_| anyhow::anyhow!("the bridge thread panicked"))?;
+        return Err(match ended {
+            Err(e) => anyhow::Error::new(e).context(
+                "the in-process bridge (--bridge-*; several planners on one host share one \
+                 `hrrtc-bridge --side planner` instead)",
+            ),
+            Ok(_) => anyhow::anyhow!("stopped before the in-process bridge was up"),
+        });
+    };
+    let report = shell::run_with_guidance_out(config, stop.clone(), &|g| {
+        sender.send(g);
+    });
+    stop.store(true, std::sync::atomic::Ordering::Release);
+    let bridged = thread
+        .join()
+        .map_err(|_| anyhow::anyhow!("the bridge thread panicked"))?;
+    match bridged {
+        Ok(r) => {
+            let (state, guidance) = (r.kind("state"), r.kind("guidance"));
+            tracing::info!(
+                "bridge: {} states received, {} delivered; {} guidance samples sent, {} dropped",
+                state.received,
+                state.delivered,
+                guidance.sent,
+                guidance.dropped
+            );
+        }
+        Err(e) => tracing::warn!("the in-process bridge: {e}"),
+    }
+    Ok(report?)
 }
