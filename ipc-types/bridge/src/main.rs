@@ -14,7 +14,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 ///
 /// On the arm's host: `hrrtc-bridge --side loop --listen tcp/0.0.0.0:7447`.
 /// On the planner's host: `hrrtc-bridge --side planner --connect tcp/ARM-HOST:7447`, then
-/// `planner serve` there as usual. Stops on Ctrl-C / SIGTERM or after --duration-s.
+/// `planner serve` there as usual (or, for one planner, only `planner serve
+/// --bridge-connect tcp/ARM-HOST:7447`, which runs this side in its own process). Stops on
+/// Ctrl-C / SIGTERM or after --duration-s.
 #[derive(Debug, Parser)]
 #[command(name = "hrrtc-bridge", version, about, long_about)]
 struct Cli {
