@@ -90,6 +90,43 @@ fn start_loop(ns: &str, summary: &Path) -> Proc {
 /// is known.
 const SCENE: &str = "silencer";
 
+/// Host A with a publishing loop (its summary at `loop_summary`), host B's folder, a free
+/// port for the loop-side bridge, and a reader of the loop's state.
+struct TwoHosts {
+    ns: String,
+    dir: PathBuf,
+    port: u16,
+    loop_summary: PathBuf,
+    lp: Proc,
+    state: services::StateReader,
+    _node: iceoryx2::node::Node<services::Ipc>,
+}
+
+impl TwoHosts {
+    /// `tag` names the namespace, `host_tag` host B's folder and iceoryx2 prefix.
+    fn start(tag: &str, host_tag: &str) -> Self {
+        let ns = unique_namespace(tag);
+        let dir = host_b(host_tag);
+        let port = free_port();
+        let loop_summary = std::env::temp_dir().join(format!("{ns}-loop.json"));
+        let lp = start_loop(&ns, &loop_summary);
+        let (node, _) = services::create_node(&format!("it_{tag}_watch")).unwrap();
+        let state = services::state_reader(&node, &ns).unwrap();
+        wait_for("the loop publishes", Duration::from_secs(30), || {
+            (state.get().header.sequence > 100).then_some(())
+        });
+        TwoHosts {
+            ns,
+            dir,
+            port,
+            loop_summary,
+            lp,
+            state,
+            _node: node,
+        }
+    }
+}
+
 fn guidance_fresh(s: &HapticState) -> bool {
     s.guidance_sequence > 0
         && s.guidance_freshness == GuidanceFreshness::FRESH
@@ -109,18 +146,17 @@ fn json(path: &Path) -> serde_json::Value {
 #[test]
 fn a_remote_planner_is_served_across_hosts_and_followed_once_it_solves() {
     let _serial = one_loop_at_a_time();
-    let ns = unique_namespace("bridge");
-    let dir = host_b("hb");
-    let port = free_port();
-    let loop_summary = std::env::temp_dir().join(format!("{ns}-loop.json"));
+    let TwoHosts {
+        ns,
+        dir,
+        port,
+        loop_summary,
+        mut lp,
+        state,
+        _node,
+    } = TwoHosts::start("bridge", "hb");
     let remote_json = std::env::temp_dir().join(format!("{ns}-remote.json"));
     let local_json = std::env::temp_dir().join(format!("{ns}-local.json"));
-    let mut lp = start_loop(&ns, &loop_summary);
-    let (node, _) = services::create_node("it_bridge_watch").unwrap();
-    let state = services::state_reader(&node, &ns).unwrap();
-    wait_for("the loop publishes", Duration::from_secs(30), || {
-        (state.get().header.sequence > 100).then_some(())
-    });
     let _a = bridge_a(&ns, port);
     let _b = bridge_b(&dir, &ns, port, "3600");
     let remote_arg = remote_json.to_str().unwrap().to_string();
@@ -214,17 +250,16 @@ fn a_remote_planner_is_served_across_hosts_and_followed_once_it_solves() {
 #[test]
 fn a_planner_with_the_bridge_in_its_process_is_served_across_hosts() {
     let _serial = one_loop_at_a_time();
-    let ns = unique_namespace("bridgein");
-    let dir = host_b("hi");
-    let port = free_port();
-    let loop_summary = std::env::temp_dir().join(format!("{ns}-loop.json"));
+    let TwoHosts {
+        ns,
+        dir,
+        port,
+        loop_summary,
+        mut lp,
+        state,
+        _node,
+    } = TwoHosts::start("bridgein", "hi");
     let planner_json = std::env::temp_dir().join(format!("{ns}-planner.json"));
-    let mut lp = start_loop(&ns, &loop_summary);
-    let (node, _) = services::create_node("it_bridgein_watch").unwrap();
-    let state = services::state_reader(&node, &ns).unwrap();
-    wait_for("the loop publishes", Duration::from_secs(30), || {
-        (state.get().header.sequence > 100).then_some(())
-    });
     let mut a = bridge_a(&ns, port);
     let connect = format!("tcp/127.0.0.1:{port}");
     let planner_arg = planner_json.to_str().unwrap().to_string();
@@ -296,16 +331,15 @@ fn a_planner_with_the_bridge_in_its_process_is_served_across_hosts() {
 #[test]
 fn a_cut_link_fades_guidance_and_reconnecting_or_restarting_restores_it() {
     let _serial = one_loop_at_a_time();
-    let ns = unique_namespace("bridgecut");
-    let dir = host_b("hc");
-    let port = free_port();
-    let loop_summary = std::env::temp_dir().join(format!("{ns}-loop.json"));
-    let mut lp = start_loop(&ns, &loop_summary);
-    let (node, _) = services::create_node("it_bridgecut_watch").unwrap();
-    let state = services::state_reader(&node, &ns).unwrap();
-    wait_for("the loop publishes", Duration::from_secs(30), || {
-        (state.get().header.sequence > 100).then_some(())
-    });
+    let TwoHosts {
+        ns,
+        dir,
+        port,
+        loop_summary,
+        mut lp,
+        state,
+        _node,
+    } = TwoHosts::start("bridgecut", "hc");
     let mut a = bridge_a(&ns, port);
     let mut b = bridge_b(&dir, &ns, port, "-3600");
     let planner_args = [
