@@ -1,4 +1,5 @@
-//! `planner serve`: next to a haptic loop, over iceoryx2. The options are validated into a
+//! `planner serve`: next to a haptic loop, over iceoryx2, or on another host with that
+//! host's side of the bridge inside (`--bridge-connect`). The options are validated into a
 //! [`ShellConfig`]; [`planner::shell::run`] does the work.
 
 use crate::common::{CoreArgs, SamplingArgs, non_negative, positive, positive_opt};
