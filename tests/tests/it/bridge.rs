@@ -127,6 +127,34 @@ impl TwoHosts {
     }
 }
 
+/// Waits (30 s at most) for the loop on host A to render fresh guidance; its state then.
+fn wait_fresh(state: &services::StateReader, what: &str) -> HapticState {
+    wait_for(what, Duration::from_secs(30), || {
+        let s = *state.get();
+        guidance_fresh(&s).then_some(s)
+    })
+}
+
+/// A remote planner's `report` saw the state at ≥ 90 % of the loop's rate `loop_hz`.
+fn assert_state_rate(report: &serde_json::Value, loop_hz: f64) {
+    let rate = report["state_rate_hz"].as_f64().unwrap();
+    assert!(loop_hz >= 500.0, "the loop published at {loop_hz:.0} Hz");
+    assert!(
+        rate >= 0.9 * loop_hz.min(1000.0),
+        "the remote planner saw {rate:.0} Hz of HapticState, the loop published {loop_hz:.0} Hz: {report}"
+    );
+}
+
+/// Waits for the loop to tick `n` more times (its own count, whatever the machine's speed).
+fn wait_ticks(state: &services::StateReader, n: u64, after: &str) {
+    let from = state.get().header.sequence;
+    wait_for(
+        &format!("{n} ticks after {after}"),
+        Duration::from_secs(30),
+        || (state.get().header.sequence > from + n).then_some(()),
+    );
+}
+
 fn guidance_fresh(s: &HapticState) -> bool {
     s.guidance_sequence > 0
         && s.guidance_freshness == GuidanceFreshness::FRESH
@@ -199,10 +227,7 @@ fn a_remote_planner_is_served_across_hosts_and_followed_once_it_solves() {
             &local_arg,
         ],
     );
-    let s = wait_for("fresh guidance on host A", Duration::from_secs(30), || {
-        let s = *state.get();
-        guidance_fresh(&s).then_some(s)
-    });
+    let s = wait_fresh(&state, "fresh guidance on host A");
     eprintln!(
         "guidance age at render: fresh, sequence {}",
         s.guidance_sequence
@@ -216,12 +241,7 @@ fn a_remote_planner_is_served_across_hosts_and_followed_once_it_solves() {
     let loop_hz = (state.get().header.sequence - seq0) as f64 / t0.elapsed().as_secs_f64();
     let remote_report = json(&remote_json);
     let local_report = json(&local_json);
-    let rate = remote_report["state_rate_hz"].as_f64().unwrap();
-    assert!(loop_hz >= 500.0, "the loop published at {loop_hz:.0} Hz");
-    assert!(
-        rate >= 0.9 * loop_hz.min(1000.0),
-        "the remote planner saw {rate:.0} Hz of HapticState, the loop published {loop_hz:.0} Hz: {remote_report}"
-    );
+    assert_state_rate(&remote_report, loop_hz);
     assert_eq!(remote_report["solved"], true, "{remote_report}");
     assert_eq!(local_report["solved"], false, "{local_report}");
     assert!(
@@ -283,10 +303,7 @@ fn a_planner_with_the_bridge_in_its_process_is_served_across_hosts() {
             &planner_arg,
         ],
     );
-    let s = wait_for("fresh guidance on host A", Duration::from_secs(30), || {
-        let s = *state.get();
-        guidance_fresh(&s).then_some(s)
-    });
+    let s = wait_fresh(&state, "fresh guidance on host A");
     eprintln!("fresh guidance, sequence {}", s.guidance_sequence);
     let st = planner
         .wait_timeout(Duration::from_secs(60))
@@ -294,20 +311,10 @@ fn a_planner_with_the_bridge_in_its_process_is_served_across_hosts() {
     assert!(st.success(), "planner exit status {st}");
     let loop_hz = (state.get().header.sequence - seq0) as f64 / t0.elapsed().as_secs_f64();
     let report = json(&planner_json);
-    let rate = report["state_rate_hz"].as_f64().unwrap();
-    assert!(loop_hz >= 500.0, "the loop published at {loop_hz:.0} Hz");
-    assert!(
-        rate >= 0.9 * loop_hz.min(1000.0),
-        "the planner saw {rate:.0} Hz of HapticState, the loop published {loop_hz:.0} Hz: {report}"
-    );
+    assert_state_rate(&report, loop_hz);
     assert_eq!(report["solved"], true, "{report}");
     // Its guidance stopped with it: lost 500 ticks later (time-to-live + fade < 0.5 s).
-    let end_seq = state.get().header.sequence;
-    wait_for(
-        "500 ticks after the planner",
-        Duration::from_secs(30),
-        || (state.get().header.sequence > end_seq + 500).then_some(()),
-    );
+    wait_ticks(&state, 500, "the planner");
     assert_eq!(state.get().guidance_freshness, GuidanceFreshness::LOST);
     for p in [&mut a, &mut lp] {
         p.signal(libc::SIGTERM);
@@ -352,23 +359,14 @@ fn a_cut_link_fades_guidance_and_reconnecting_or_restarting_restores_it() {
         "100",
     ];
     let mut planner = Proc::spawn_in(&dir, &bin("planner"), &planner_args);
-    let fresh = |what: &str| {
-        wait_for(what, Duration::from_secs(30), || {
-            let s = *state.get();
-            guidance_fresh(&s).then_some(s)
-        })
-    };
-    fresh("fresh guidance from host B");
+    wait_fresh(&state, "fresh guidance from host B");
     let linked = condition(&state, "linked");
 
     // Cut: ttl 100 ms + fade 200 ms, so 500 ticks later (by the loop's own count) F_s is 0.
     a.signal(libc::SIGKILL);
     a.wait_timeout(Duration::from_secs(10))
         .expect("bridge died");
-    let cut_seq = state.get().header.sequence;
-    wait_for("500 ticks after the cut", Duration::from_secs(30), || {
-        (state.get().header.sequence > cut_seq + 500).then_some(())
-    });
+    wait_ticks(&state, 500, "the cut");
     let s = *state.get();
     assert_eq!(s.guidance_freshness, GuidanceFreshness::LOST);
     assert_eq!(norm(s.guidance_wrench.force_n), 0.0);
@@ -384,7 +382,7 @@ fn a_cut_link_fades_guidance_and_reconnecting_or_restarting_restores_it() {
 
     // Reconnect: host B's bridge finds the new one on the same endpoint by itself.
     let mut a2 = bridge_a(&ns, port);
-    fresh("guidance after the bridge returned");
+    wait_fresh(&state, "guidance after the bridge returned");
 
     // The remote planner killed and restarted: its guidance fades, the new one is followed.
     let first_pid = planner.child.id();
@@ -392,14 +390,11 @@ fn a_cut_link_fades_guidance_and_reconnecting_or_restarting_restores_it() {
     planner
         .wait_timeout(Duration::from_secs(10))
         .expect("planner died");
-    let kill_seq = state.get().header.sequence;
-    wait_for("500 ticks after the kill", Duration::from_secs(30), || {
-        (state.get().header.sequence > kill_seq + 500).then_some(())
-    });
+    wait_ticks(&state, 500, "the kill");
     assert_eq!(state.get().guidance_freshness, GuidanceFreshness::LOST);
     let mut planner2 = Proc::spawn_in(&dir, &bin("planner"), &planner_args);
     assert_ne!(planner2.child.id(), first_pid);
-    fresh("guidance from the restarted remote planner");
+    wait_fresh(&state, "guidance from the restarted remote planner");
 
     for p in [&mut planner2, &mut b, &mut a2, &mut lp] {
         p.signal(libc::SIGTERM);
