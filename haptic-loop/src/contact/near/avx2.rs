@@ -97,10 +97,18 @@ pub(super) fn chunks(
             ),
             real,
         );
-        let ahead = _mm256_blendv_ps(
-            sub(s.clearance_m, reach),
-            sub(s.distance_m, reach),
-            s.stored,
+        // SAFETY: as the columns' gathers above; the staggers have one entry per point.
+        let stagger = unsafe {
+            let offsets = _mm256_loadu_si256(idx.as_ptr().cast());
+            _mm256_i32gather_ps::<4>(shell.stagger.as_ptr(), offsets)
+        };
+        let ahead = mul(
+            _mm256_blendv_ps(
+                sub(s.clearance_m, reach),
+                sub(s.distance_m, reach),
+                s.stored,
+            ),
+            stagger,
         );
         // moved + ahead in f64, then stored lane by lane (AVX2 has no scatter).
         let mut budget = [0.0f64; LANES];
