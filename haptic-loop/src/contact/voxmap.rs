@@ -207,12 +207,46 @@ impl Voxmap {
         self.h
     }
 
-    /// Lower bound on the clearance of a point whose block is outside: the stored layers
-    /// (minus one voxel of interpolation slack) or the empty blocks between, whichever is
-    /// larger.
-    fn far_clearance(&self, blocks_away: f64) -> f64 {
-        let layers = (f64::from(self.layers_out) - 1.0) * self.h;
-        layers.max((blocks_away - 1.0) * B as f64 * self.h)
+    /// Lower bound on the clearance of a point outside the grid's box, `d` (m) from it.
+    fn off_grid_clearance(&self, d: f64) -> f64 {
+        d + (f64::from(self.layers_out) - 1.0) * self.h
+    }
+
+    /// Lower bound on the clearance of a point in an outside block that lies `blocks_away`
+    /// blocks (Chebyshev) from the nearest block that is not outside, `edge_cells` cells
+    /// from its own block's nearest face. No surface point lies in an outside block (it
+    /// would be within half a cell diagonal of one of the block's nodes, nearer than
+    /// `layers_out` voxels), so none lies in the cube of outside blocks around the point's
+    /// own, whose faces are `(blocks_away − 1)·B + edge_cells` cells away; past a face, a
+    /// surface point is more than `layers_out − 1` voxels from it (the face's own block is
+    /// outside). The bound moves with the point within its block, so the budgets of
+    /// clusters checked together do not all come due together (issue 21).
+    fn far_clearance(&self, blocks_away: f64, edge_cells: f64) -> f64 {
+        let layers = f64::from(self.layers_out) - 1.0;
+        ((blocks_away - 1.0) * B as f64 + edge_cells + layers) * self.h
+    }
+
+    /// Cells from `g` (a point's position in cells, each coordinate ≥ 0) to the nearest
+    /// face of its block.
+    fn edge_cells(g: [f64; 3]) -> f64 {
+        g.iter()
+            .map(|&x| {
+                let local = x - (x / B as f64).floor() * B as f64;
+                local.min(B as f64 - local)
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// [`Self::edge_cells`] of a lane from its cell (`cell`, in the grid) and its position
+    /// in that cell (`frac`), in `f32` as both lane look-ups compute it (same bits).
+    fn lane_edge_cells(cell: [i32; 3], frac: [f32; 3]) -> f64 {
+        let edge = (0..3)
+            .map(|a| {
+                let local = (cell[a] & (B as i32 - 1)) as f32 + frac[a];
+                local.min(B as f32 - local)
+            })
+            .fold(f32::INFINITY, f32::min);
+        f64::from(edge)
     }
 }
 

@@ -117,13 +117,25 @@ impl Voxmap {
         if far != 0 {
             // Rare within a contact: scalar.
             let mut blocks = [0i32; LANES];
+            let mut cells = [[0i32; LANES]; 3];
+            let mut fracs = [[0.0f32; LANES]; 3];
             let mut clearance = [0.0f32; LANES];
-            // SAFETY: `blocks` holds LANES i32.
-            unsafe { _mm256_storeu_si256(blocks.as_mut_ptr().cast(), b) };
+            // SAFETY: `blocks` and each of `cells` hold LANES i32, each of `fracs` LANES f32.
+            unsafe {
+                _mm256_storeu_si256(blocks.as_mut_ptr().cast(), b);
+                for a in 0..3 {
+                    _mm256_storeu_si256(cells[a].as_mut_ptr().cast(), cell[a]);
+                    _mm256_storeu_ps(fracs[a].as_mut_ptr(), frac[a]);
+                }
+            }
             while far != 0 {
                 let l = far.trailing_zeros() as usize;
                 let distance = self.block_distance[blocks[l] as usize];
-                clearance[l] = self.far_clearance(f64::from(distance)) as f32;
+                let edge = Self::lane_edge_cells(
+                    [cells[0][l], cells[1][l], cells[2][l]],
+                    [fracs[0][l], fracs[1][l], fracs[2][l]],
+                );
+                clearance[l] = self.far_clearance(f64::from(distance), edge) as f32;
                 far &= far - 1;
             }
             // SAFETY: `clearance` holds LANES f32.

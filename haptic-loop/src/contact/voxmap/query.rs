@@ -56,7 +56,7 @@ impl Voxmap {
                 .sqrt()
                 * self.h;
             return Sample::Far {
-                clearance_m: d + self.far_clearance(0.0),
+                clearance_m: self.off_grid_clearance(d),
             };
         }
         // In range (checked above), so truncation is the floor; `as u32` of a value in
@@ -70,7 +70,10 @@ impl Voxmap {
         let slot = self.index[b];
         if slot == OUTSIDE {
             return Sample::Far {
-                clearance_m: self.far_clearance(f64::from(self.block_distance[b])),
+                clearance_m: self.far_clearance(
+                    f64::from(self.block_distance[b]),
+                    Self::edge_cells([g.x, g.y, g.z]),
+                ),
             };
         }
         if slot == INSIDE {
@@ -216,7 +219,11 @@ impl Voxmap {
                 continue;
             }
             if slot == OUTSIDE {
-                clearance_m[l] = self.far_clearance(f64::from(self.block_distance[b])) as f32;
+                let edge = Self::lane_edge_cells(
+                    [cell[0][l], cell[1][l], cell[2][l]],
+                    [frac[0][l], frac[1][l], frac[2][l]],
+                );
+                clearance_m[l] = self.far_clearance(f64::from(self.block_distance[b]), edge) as f32;
                 continue;
             }
             let Some(block) = slot.checked_sub(FIRST).and_then(|s| {
@@ -297,6 +304,67 @@ mod tests {
             let c = v.clearance(&p);
             assert!(c <= z_mm * 1e-3 + 1e-12, "z {z_mm} mm: clearance {c}");
             assert!(c >= 0.002, "z {z_mm} mm: clearance {c}");
+        }
+    }
+
+    #[test]
+    fn the_far_clearance_never_overstates_the_distance_and_moves_within_a_block() {
+        use rand::{Rng, SeedableRng};
+        // Exact distance to a box of half extents `he` centred at `c`.
+        let exact = |p: &Vector3<f64>, c: Vector3<f64>, he: Vector3<f64>| {
+            (p - c).abs().zip_map(&he, |d, h| (d - h).max(0.0)).norm()
+        };
+        let boxes = [
+            (Vector3::new(0.0, 0.0, -0.01), Vector3::new(0.1, 0.1, 0.01)),
+            (Vector3::zeros(), Vector3::new(0.05, 0.05, 0.05)),
+        ];
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(21);
+        for (c, he) in boxes {
+            let scene = vec![(
+                Pose::translation(c.x, c.y, c.z),
+                SharedShape::cuboid(he.x, he.y, he.z),
+            )];
+            let v = Voxmap::build(&scene, &VoxmapConfig::default()).unwrap();
+            // Far samples in blocks next to the surface's blocks, and how many of them get
+            // more than the layers' bound (all the old bound gave them).
+            let (mut far, mut next, mut next_beyond) = (0, 0, 0);
+            let mut tightest = 0.0f64;
+            for _ in 0..50_000 {
+                let g: Vector3<f64> = Vector3::from_fn(|a, _| {
+                    rng.random::<f64>() * v.cells_f[a] * 1.1 - 0.05 * v.cells_f[a]
+                });
+                let p = v.origin + g * v.h;
+                let d = exact(&p, c, he);
+                if let Sample::Far { clearance_m } = v.sample(&p) {
+                    far += 1;
+                    assert!(
+                        clearance_m <= d + 1e-12,
+                        "{p:?}: clearance {clearance_m} > {d}"
+                    );
+                    tightest = tightest.max(clearance_m / d);
+                    let on_grid = (0..3).all(|a| g[a] >= 0.0 && g[a] < v.cells_f[a]);
+                    if on_grid {
+                        let [ix, iy, iz] = [0, 1, 2].map(|a| g[a] as usize / B);
+                        let b = ix + v.blocks[0] * (iy + v.blocks[1] * iz);
+                        if v.block_distance[b] == 1 {
+                            next += 1;
+                            next_beyond += usize::from(clearance_m > f64::from(v.layers_out) * v.h);
+                        }
+                    }
+                }
+                // The lanes give the same bound (f32 positions).
+                let q = p.map(|x| x as f32);
+                let s = v.sample_lanes(&std::array::from_fn(|a| [q[a]; LANES]));
+                if s.stored[0] == 0 && s.clearance_m[0] > 0.0 {
+                    assert!(f64::from(s.clearance_m[0]) <= d + 1e-6, "{p:?}");
+                }
+            }
+            assert!(far > 10_000, "{far} far samples");
+            assert!(
+                next > 200 && next_beyond * 3 > next,
+                "{next_beyond} of {next} next to the surface's blocks beyond the layers"
+            );
+            assert!(tightest > 0.5, "tightest bound / distance {tightest}");
         }
     }
 
