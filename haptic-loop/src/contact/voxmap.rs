@@ -11,8 +11,9 @@
 //! far faces (9×9×9 nodes) so that an interpolation never crosses a block. Only blocks
 //! holding a node within `layers_out` voxels outside or `layers_in` voxels inside the
 //! surface are stored; the others are marked *outside* or *inside* in a dense block index.
-//! A Chebyshev distance transform over the block index gives every outside block a lower
-//! bound on its clearance, so whole pointshell clusters far from the scene are rejected with
+//! A Chebyshev distance transform over the block index gives every point in an outside
+//! block a lower bound on its clearance (the empty blocks around it plus its distance to its
+//! own block's faces), so whole pointshell clusters far from the scene are rejected with
 //! one look-up.
 //!
 //! Signed distances come from parry (`project_point`, non-solid) against every obstacle shape,
