@@ -403,9 +403,9 @@ pub struct Probe {
 /// at which they can first come within reach of the surface. Until the running total passes
 /// it, they are skipped without a voxmap look-up; a point 5 mm from the wall is looked at
 /// again only after the object has moved 1.5–3 mm (a share of its look-ahead staggered by
-/// its index, so that points found together are not all due in one tick). Each level of detail keeps its own
-/// budgets; one not searched for a while finds them used up and checks again, which is
-/// always safe. Preallocated; reset on `place`.
+/// its index, so that points found together are not all due in one tick). Each level of
+/// detail keeps its own budgets; one not searched for a while finds them used up and
+/// checks again, which is always safe. Preallocated; reset on `place`.
 #[derive(Debug, Clone, Default)]
 struct Coherence {
     /// Running total of the bound on any point's motion, m.
