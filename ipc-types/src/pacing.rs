@@ -52,6 +52,17 @@ pub fn has_real_time_thread(pid: u32) -> bool {
     })
 }
 
+/// Whether a reader should phase-lock to the ticks of the state blackboard's writer `pid`:
+/// another process with a real-time thread (a haptic loop with real-time rights). A state
+/// written by the reader's own process is the in-process bridge's import (`planner serve
+/// --bridge-connect`): it arrives at the network's pace, bunched and jittered by hundreds of
+/// microseconds, so a reader phase-locked to its stamps' grid polls between two arrivals
+/// and misses one of them (issue 34: 700–780 of 1 000 states per second), however many
+/// real-time threads the process has (the planner's receiver is one). Such a reader polls.
+pub fn phase_lock_to(pid: u32) -> bool {
+    pid != std::process::id() && has_real_time_thread(pid)
+}
+
 /// Wait before polling again when the predicted poll found nothing new, ns.
 pub const RETRY_NS: u64 = 10_000;
 /// How far the cheap outcome moves the offset, ns (polling earlier when sleeping, waking
@@ -531,6 +542,8 @@ mod tests {
         });
         if check.recv().unwrap() {
             assert!(has_real_time_thread(std::process::id()));
+            // Its own writes (a bridge in this process) are never phase-locked to.
+            assert!(!phase_lock_to(std::process::id()));
         } else {
             eprintln!("no right to make a SCHED_FIFO thread here: nothing to check");
         }

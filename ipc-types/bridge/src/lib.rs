@@ -1004,7 +1004,7 @@ fn export_thread(
                     // Phase-lock to a real-time loop's ticks (as the planner's receiver
                     // does); a loop without real-time rights ticks late and in bursts, and
                     // is polled.
-                    paced = pacing::has_real_time_thread(s.header.writer_pid);
+                    paced = pacing::phase_lock_to(s.header.writer_pid);
                     pacer = pacing::StatePacer::sleeping(poll_ns);
                 }
                 let now = ipc_types::monotonic_ns();

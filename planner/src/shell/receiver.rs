@@ -2,7 +2,7 @@
 //! ([`super::pacing::StatePacer`]) and keeps the newest operator state for the planning
 //! thread, with what it counted and measured on the way.
 
-use super::pacing::{Seen, StatePacer, has_real_time_thread};
+use super::pacing::{Seen, StatePacer, phase_lock_to};
 use ipc_types::HapticState;
 use ipc_types::services;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -59,8 +59,8 @@ pub(super) fn receive_states(
     let mut last_seq = 0u64;
     let mut last_pid = 0u32;
     let mut pacer = StatePacer::sleeping(poll_ns);
-    // Phase-lock and spin only for a loop with a real-time thread (decided per loop,
-    // below). Spinning on a CPU that a loop without real-time rights waits for costs it its
+    // Phase-lock and spin only for a loop with a real-time thread in another process
+    // (decided per loop, below; `phase_lock_to` says why not for a bridge in this one). Spinning on a CPU that a loop without real-time rights waits for costs it its
     // deadlines (measured: 370–500 instead of ~800 ticks/s at normal priority on 2 cores),
     // and such a loop's ticks come late and in bursts that a once-per-tick receiver misses:
     // for it the receiver polls at `poll_ns` instead.
@@ -88,7 +88,7 @@ pub(super) fn receive_states(
             Err(e) => tracing::warn!("cannot follow a restarted haptic loop: {e}"),
         }
         if new_state && restarted {
-            real_time = has_real_time_thread(s.header.writer_pid);
+            real_time = phase_lock_to(s.header.writer_pid);
             spin = spin_ns > 0 && real_time;
             pacer = if spin {
                 StatePacer::spinning(poll_ns)
@@ -101,7 +101,7 @@ pub(super) fn receive_states(
                 match (real_time, spin) {
                     (true, true) => "real-time: phase-locked, spinning for each state",
                     (true, false) => "real-time: phase-locked",
-                    (false, _) => "not real-time (or not visible): polled",
+                    (false, _) => "not real-time, not visible or this process's bridge: polled",
                 }
             );
         }
