@@ -232,7 +232,7 @@ pub(super) fn parse(text: &str, origin: &str) -> Result<Scene, SceneError> {
             dwell_s: r.dwell_s.0,
         });
     }
-    let scene = Scene {
+    let mut scene = Scene {
         name: raw.name.clone().unwrap_or_else(|| default_name(origin)),
         obstacles,
         moving_object,
@@ -269,6 +269,7 @@ pub(super) fn parse(text: &str, origin: &str) -> Result<Scene, SceneError> {
         }
         other => other,
     })?;
+    scene.repair_meshes();
     Ok(scene)
 }
 
@@ -447,5 +448,38 @@ radius_m = 0.1
             .unwrap_err()
             .to_string();
         assert!(e.contains("plane") && e.contains("line 1"), "{e}");
+    }
+
+    #[test]
+    fn a_double_sided_mesh_is_repaired_on_load() {
+        let dir = std::env::temp_dir().join(format!("planner-scene-repair-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let c = MeshData::cuboid("c", [100.0, 100.0, 100.0]);
+        // The reversed twins first, so the triangles kept must also be turned outward.
+        let mut t: Vec<_> = c.triangles.iter().map(|&[a, b, c]| [a, c, b]).collect();
+        t.extend(&c.triangles);
+        let double = MeshData::new("double", c.vertices_m.clone(), t).expect("valid");
+        std::fs::write(dir.join("double.obj"), double.to_obj()).expect("obj");
+        let text = MINIMAL.replace(
+            "shape = \"sphere\"\nradius_m = 0.1",
+            "shape = \"mesh\"\nfile = \"double.obj\"\nscale = 0.001",
+        );
+        let origin = dir.join("s.toml").display().to_string();
+        let s = Scene::from_toml_str(&text, &origin).expect("loads");
+        let Primitive::Mesh { mesh } = &s.moving_object[0].primitive else {
+            panic!("mesh part")
+        };
+        let topology = crate::topology::Topology::of(mesh);
+        assert!(topology.is_closed_outward(), "{topology}");
+        assert!(
+            (topology.signed_volume_m3 - 0.008).abs() < 1e-12,
+            "{topology}"
+        );
+        let checks = s.mesh_checks();
+        assert!(checks[0].is_ok());
+        assert_eq!(checks[0].surface(), crate::repair::Surface::ClosedOutward);
+        let report = checks[0].repair.as_ref().expect("repaired on load");
+        assert_eq!((report.twins, report.triangles_out), (12, 12));
+        assert!(report.changed());
     }
 }
