@@ -725,7 +725,8 @@ fn plural(n: usize, one: &str, many: &str) -> String {
 }
 
 fn edge(e: &[Vector3<f64>; 2]) -> String {
-    let p = |v: &Vector3<f64>| format!("({}, {}, {})", v.x, v.y, v.z);
+    // To single precision, as mesh files give them: 0.1 rather than 0.10000000149011612.
+    let p = |v: &Vector3<f64>| format!("({}, {}, {})", v.x as f32, v.y as f32, v.z as f32);
     format!("{}–{} m", p(&e[0]), p(&e[1]))
 }
 
@@ -1079,14 +1080,24 @@ mod tests {
             "{line}"
         );
         assert!(r.mesh == fan && !r.report.changed());
-        // A fin on a closed cube's edge.
+        // A fin on a closed cube's edge, its vertices read in single precision as OBJ
+        // and STL files give them: the edge named as the file has it.
         let c = cube();
-        let mut v = c.vertices_m.clone();
+        let mut v: Vec<_> = c
+            .vertices_m
+            .iter()
+            .map(|p| p.map(|x| f64::from(x as f32)))
+            .collect();
         v.push(Vector3::new(0.0, -1.0, -1.0));
         let mut t = c.triangles.clone();
         t.push([0, 1, 8]);
         let r = repair(&MeshData::new("fin", v, t).expect("valid"));
         assert!(r.report.surface.is_refused(), "{}", r.report);
+        let line = r.report.to_string();
+        assert!(
+            line.contains("e.g. (-0.1, -0.2, -0.3)–(0.1, -0.2, -0.3) m"),
+            "{line}"
+        );
     }
 
     #[test]
