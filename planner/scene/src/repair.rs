@@ -190,7 +190,7 @@ const NONE: u32 = u32::MAX;
 /// std's SipHash resists adversarial keys, which a mesh file is not worth guarding
 /// against, at several times the cost on million-triangle meshes.
 #[derive(Default)]
-struct KeyHasher(u64);
+pub(crate) struct KeyHasher(u64);
 
 impl Hasher for KeyHasher {
     fn write(&mut self, bytes: &[u8]) {
@@ -230,9 +230,11 @@ impl Hasher for KeyHasher {
     }
 }
 
-type KeyMap<K, V> = HashMap<K, V, BuildHasherDefault<KeyHasher>>;
+/// A hash map with [`KeyHasher`].
+pub(crate) type KeyMap<K, V> = HashMap<K, V, BuildHasherDefault<KeyHasher>>;
 
-fn key_map<K, V>(capacity: usize) -> KeyMap<K, V> {
+/// An empty [`KeyMap`] with room for `capacity` entries.
+pub(crate) fn key_map<K, V>(capacity: usize) -> KeyMap<K, V> {
     HashMap::with_capacity_and_hasher(capacity, BuildHasherDefault::default())
 }
 
