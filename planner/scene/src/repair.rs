@@ -16,10 +16,13 @@
 //!   is then the outer shell's minus the cavity's. Shells that cross each other (parts of
 //!   an assembly run into one another) are not inside one another: each faces out.
 //! - **Open components** (with boundary edges) have no inside: they keep the winding most
-//!   of their triangles had. Contact renders them as thin shells, which need no side.
-//! - **Refused**, with the reason and an example edge: edges shared by more than two
-//!   triangles once twins are dropped, closed shells whose winding cannot be made
-//!   consistent (a Möbius-like twist), closed shells that enclose no volume.
+//!   of their triangles had. Contact renders an open mesh as a thin shell, which needs no
+//!   side; so edges on more than two triangles (walls meeting a panel, as in OMPL.app's
+//!   Twistycool) do not stop an open mesh, they only end its components.
+//! - **Refused**, with the reason and an example edge: a mesh without boundary edges whose
+//!   inside cannot be told: edges on more than two triangles once twins are dropped,
+//!   closed shells whose winding cannot be made consistent (a Möbius-like twist), closed
+//!   shells that enclose no volume.
 //!
 //! Triangles keep their order and their first corner (a flip swaps the other two); a mesh
 //! with nothing to repair comes back as it was, so planning on it is unchanged.
@@ -60,7 +63,8 @@ impl Surface {
 /// Why a mesh is refused. `Display` gives the reason for a message.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Refusal {
-    /// Edges used by more than two triangles once twins and duplicates are gone.
+    /// A mesh without boundary edges with edges used by more than two triangles once
+    /// twins and duplicates are gone: which side is inside cannot be told.
     NonManifold {
         /// How many such edges.
         edges: usize,
@@ -126,6 +130,8 @@ pub struct RepairReport {
     pub inverted_components: usize,
     /// Edges used by one triangle only.
     pub boundary_edges: usize,
+    /// Edges used by more than two triangles (in an open mesh; a closed one is refused).
+    pub non_manifold_edges: usize,
     /// Edges of open components where the winding cannot be consistent (a Möbius strip);
     /// harmless for a thin shell.
     pub unorientable_edges: usize,
@@ -157,6 +163,7 @@ impl RepairReport {
             cavities: 0,
             inverted_components: 0,
             boundary_edges: 0,
+            non_manifold_edges: 0,
             unorientable_edges: 0,
         }
     }
@@ -544,7 +551,8 @@ pub fn repair(mesh: &MeshData) -> MeshRepair {
         let (j, k) = (h as usize / 3, h as usize % 3);
         [corner_m(j, k), corner_m(j, (k + 1) % 3)]
     };
-    if edges.non_manifold > 0 {
+    // An open mesh is a thin shell, which needs no inside: only a closed one is refused.
+    if edges.non_manifold > 0 && edges.boundary == 0 {
         return refuse(Refusal::NonManifold {
             edges: edges.non_manifold,
             example_m: example(edges.non_manifold_example),
@@ -614,6 +622,7 @@ pub fn repair(mesh: &MeshData) -> MeshRepair {
         cavities,
         inverted_components: inverted,
         boundary_edges: edges.boundary,
+        non_manifold_edges: edges.non_manifold,
         unorientable_edges: components
             .iter()
             .filter(|k| k.open)
@@ -738,7 +747,8 @@ impl fmt::Display for Refusal {
             Refusal::NonManifold { edges, example_m } => write!(
                 f,
                 "{} shared by more than two triangles (after dropping reversed twins and \
-                 duplicates), e.g. {}: which side is inside cannot be told",
+                 duplicates) in a mesh without holes, e.g. {}: which side is inside cannot \
+                 be told",
                 plural(*edges, "edge", "edges"),
                 edge(example_m)
             ),
@@ -825,6 +835,13 @@ impl fmt::Display for RepairReport {
                     plural(self.boundary_edges, "boundary edge", "boundary edges"),
                     self.closed_components
                 )?;
+                if self.non_manifold_edges > 0 {
+                    write!(
+                        f,
+                        ", {} on more than two triangles",
+                        plural(self.non_manifold_edges, "edge", "edges")
+                    )?;
+                }
                 if self.unorientable_edges > 0 {
                     write!(
                         f,
@@ -1059,47 +1076,61 @@ mod tests {
     }
 
     #[test]
-    fn three_triangles_on_one_edge_are_refused_naming_the_edge() {
-        let s = square();
-        let mut v = s.vertices_m.clone();
-        v.push(Vector3::new(0.5, 0.5, 1.0));
-        v.push(Vector3::new(0.5, 0.5, -1.0));
-        // Three triangles on the edge (0, 0, 0)–(1, 1, 0).
-        let fan = MeshData::new("fan", v, vec![[0, 1, 2], [0, 2, 4], [0, 5, 2]]).expect("valid");
-        let r = repair(&fan);
+    fn three_triangles_on_an_edge_refuse_a_closed_mesh_but_not_an_open_one() {
+        // A cube with a wall inside on its diagonal plane x/0.1 = y/0.2: the wall puts a
+        // third triangle on four of the cube's edges and leaves no edge on one triangle.
+        // Vertices read in single precision, as OBJ and STL files give them: the edge is
+        // named as the file has it.
+        let c = cube();
+        let v: Vec<_> = c
+            .vertices_m
+            .iter()
+            .map(|p| p.map(|x| f64::from(x as f32)))
+            .collect();
+        let mut t = c.triangles.clone();
+        t.extend([[0, 3, 7], [0, 7, 4]]);
+        let walled = MeshData::new("walled", v, t).expect("valid");
+        assert_eq!(Topology::of(&walled).boundary_edges, 0);
+        let r = repair(&walled);
         let Surface::Refused(why) = &r.report.surface else {
             panic!("not refused: {}", r.report);
         };
         assert!(
-            matches!(why, Refusal::NonManifold { edges: 1, .. }),
+            matches!(why, Refusal::NonManifold { edges: 4, .. }),
             "{why:?}"
         );
         let line = r.report.to_string();
         assert!(
             line.contains("refused")
-                && line.contains("1 edge shared by more than two triangles")
-                && line.contains("(1, 1, 0)–(0, 0, 0) m"),
+                && line.contains("4 edges shared by more than two triangles")
+                && line.contains("e.g. (-0.1, -0.2, -0.3)–(0.1, 0.2, -0.3) m"),
             "{line}"
         );
-        assert!(r.mesh == fan && !r.report.changed());
-        // A fin on a closed cube's edge, its vertices read in single precision as OBJ
-        // and STL files give them: the edge named as the file has it.
-        let c = cube();
-        let mut v: Vec<_> = c
-            .vertices_m
-            .iter()
-            .map(|p| p.map(|x| f64::from(x as f32)))
-            .collect();
+        assert!(r.mesh == walled && !r.report.changed());
+        // Three triangles on the edge (0, 0, 0)–(1, 1, 0) of an open fan: a thin shell
+        // needs no inside.
+        let s = square();
+        let mut v = s.vertices_m.clone();
+        v.push(Vector3::new(0.5, 0.5, 1.0));
+        v.push(Vector3::new(0.5, 0.5, -1.0));
+        let fan = MeshData::new("fan", v, vec![[0, 1, 2], [0, 2, 4], [0, 5, 2]]).expect("valid");
+        let r = repair(&fan);
+        assert_eq!(r.report.surface, Surface::Open, "{}", r.report);
+        assert_eq!((r.report.non_manifold_edges, r.report.components), (1, 3));
+        assert!(
+            r.report
+                .to_string()
+                .contains("1 edge on more than two triangles"),
+            "{}",
+            r.report
+        );
+        // A fin on a closed cube's edge: open too.
+        let mut v = c.vertices_m.clone();
         v.push(Vector3::new(0.0, -1.0, -1.0));
         let mut t = c.triangles.clone();
         t.push([0, 1, 8]);
         let r = repair(&MeshData::new("fin", v, t).expect("valid"));
-        assert!(r.report.surface.is_refused(), "{}", r.report);
-        let line = r.report.to_string();
-        assert!(
-            line.contains("e.g. (-0.1, -0.2, -0.3)–(0.1, -0.2, -0.3) m"),
-            "{line}"
-        );
+        assert_eq!(r.report.surface, Surface::Open, "{}", r.report);
     }
 
     #[test]

@@ -306,26 +306,19 @@ mod tests {
             checks[0]
         );
         assert!(checks[0].is_ok() && !checks[0].repair.as_ref().expect("ran").changed());
-        // Three triangles on one edge: refused, exit code 1, nothing written.
-        let fan = scene::MeshData::new(
-            "fan",
-            vec![
-                nalgebra::Vector3::new(0.0, 0.0, 0.0),
-                nalgebra::Vector3::new(0.1, 0.0, 0.0),
-                nalgebra::Vector3::new(0.0, 0.1, 0.0),
-                nalgebra::Vector3::new(0.0, -0.1, 0.0),
-                nalgebra::Vector3::new(0.0, 0.0, 0.1),
-            ],
-            vec![[0, 1, 2], [0, 3, 1], [0, 1, 4]],
-        )
-        .expect("mesh");
-        std::fs::write(dir.join("fan.obj"), fan.to_obj()).expect("obj");
-        let toml = with_mesh_obstacle(&dir, "fan", "fan.obj");
+        // A closed box with a wall inside on a diagonal plane: three triangles on four of
+        // its edges and no hole, so no inside can be told: refused, exit code 1, nothing
+        // written.
+        let mut t = cube.triangles.clone();
+        t.extend([[0, 3, 7], [0, 7, 4]]);
+        let walled = scene::MeshData::new("walled", cube.vertices_m.clone(), t).expect("mesh");
+        std::fs::write(dir.join("walled.obj"), walled.to_obj()).expect("obj");
+        let toml = with_mesh_obstacle(&dir, "walled", "walled.obj");
         let path = toml.display().to_string();
         assert_eq!(
             main_with_args(["planner", "scenes", "check", "--fix", &path]).expect("runs"),
             1
         );
-        assert!(!dir.join("fan.repaired.toml").exists());
+        assert!(!dir.join("walled.repaired.toml").exists());
     }
 }
