@@ -263,9 +263,8 @@ impl MeshCheck {
         let t = &self.topology;
         match t.kind() {
             MeshKind::ClosedOutward => Surface::ClosedOutward,
-            MeshKind::Open if t.non_manifold_edges == 0 && t.duplicate_triangles == 0 => {
-                Surface::Open
-            }
+            // A thin shell needs no inside: holes are enough.
+            MeshKind::Open if t.boundary_edges > 0 => Surface::Open,
             kind => Surface::Refused(Refusal::NotRepaired { kind }),
         }
     }
@@ -540,8 +539,48 @@ mod tests {
             let s = Scene::builtin(name).expect("builtin");
             for c in s.mesh_checks() {
                 assert!(c.is_ok(), "{name}: {c}");
+                assert_eq!(c.surface(), repair::Surface::ClosedOutward);
             }
         }
+    }
+
+    #[test]
+    fn meshes_built_in_code_are_judged_by_their_topology_until_repaired() {
+        use repair::{Refusal, Surface};
+        let cube = MeshData::cuboid("cube.obj", [0.05, 0.05, 0.05]);
+        let with = |triangles: Vec<[u32; 3]>| {
+            let mesh = MeshData::new("m.obj", cube.vertices_m.clone(), triangles).expect("valid");
+            let mut s = Scene::wall_with_hole();
+            s.moving_object = vec![Part {
+                primitive: Primitive::Mesh {
+                    mesh: Arc::new(mesh),
+                },
+                pose: Se3::identity(),
+            }];
+            s
+        };
+        let open = with(cube.triangles[..10].to_vec());
+        assert_eq!(open.mesh_checks()[0].surface(), Surface::Open);
+        let mut both = cube.triangles.clone();
+        both.extend(cube.triangles.iter().map(|&[a, b, c]| [a, c, b]));
+        let mut double = with(both);
+        let check = &double.mesh_checks()[0];
+        assert!(check.repair.is_none() && !check.is_ok());
+        assert_eq!(
+            check.surface(),
+            Surface::Refused(Refusal::NotRepaired {
+                kind: topology::MeshKind::DoubleSided
+            })
+        );
+        double.repair_meshes();
+        let check = &double.mesh_checks()[0];
+        assert!(check.is_ok(), "{check}");
+        assert_eq!(check.surface(), Surface::ClosedOutward);
+        assert_eq!(check.repair.as_ref().map(|r| r.twins), Some(12));
+        // Once repaired, a mesh is not repaired again.
+        let again = double.clone();
+        double.repair_meshes();
+        assert_eq!(double, again);
     }
 
     #[test]
