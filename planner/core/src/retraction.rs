@@ -163,6 +163,8 @@ fn shrink(part: &Part, s: f64) -> Part {
                     source: format!("{} × {s}", mesh.source),
                     vertices_m: mesh.vertices_m.iter().map(|v| c + (v - c) * s).collect(),
                     triangles: mesh.triangles.clone(),
+                    // Scaling about a point changes neither topology nor winding.
+                    repair: mesh.repair.clone(),
                 }),
             }
         }

@@ -297,6 +297,7 @@ impl Scene {
             source: "silencer-body.obj".into(),
             vertices_m: v,
             triangles: t,
+            repair: None,
         }
     }
 

@@ -1,10 +1,12 @@
 //! Writing scenes as TOML (the format of [`super::file`]) and meshes as OBJ, so that the
-//! embedded scenes and the files in `planner/scenes/` come from one source.
+//! embedded scenes and the files in `planner/scenes/` come from one source; and a loaded
+//! scene's repaired meshes beside their originals (`planner scenes check --fix`).
 
-use super::{MeshData, Part, Primitive, Scene, SpaceKind};
+use super::{MeshData, Part, Primitive, Scene, SceneError, SpaceKind};
 use crate::pose::Se3;
+use std::collections::HashMap;
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 fn fmt3(v: [f64; 3]) -> String {
     // `{:?}` prints the shortest text that parses back to the same f64.
@@ -25,9 +27,13 @@ fn pose_lines(out: &mut String, q: &Se3) {
 }
 
 impl MeshData {
-    /// The mesh as Wavefront OBJ text (vertices in m, 1-based faces).
+    /// The mesh as Wavefront OBJ text (vertices in m, 1-based faces), with what its
+    /// repair changed in a comment.
     pub fn to_obj(&self) -> String {
         let mut s = format!("# {}\n", self.source);
+        if let Some(r) = self.repair.as_ref().filter(|r| r.changed()) {
+            let _ = writeln!(s, "# repaired: {r}");
+        }
         for v in &self.vertices_m {
             let _ = writeln!(s, "v {:?} {:?} {:?}", v.x, v.y, v.z);
         }
@@ -101,6 +107,92 @@ impl Scene {
         let path = dir.join(format!("{}.toml", self.name));
         std::fs::write(&path, text)?;
         Ok(path)
+    }
+}
+
+/// `dir/<stem>.repaired.<ext>` for `dir/<stem>.<any extension>`.
+fn repaired_path(p: &Path, ext: &str) -> PathBuf {
+    let stem = p
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    p.with_file_name(format!("{stem}.repaired.{ext}"))
+}
+
+impl Scene {
+    /// Writes the meshes that loading changed ([`crate::repair::RepairReport::changed`])
+    /// as OBJ in metres beside their originals, `<stem>.repaired.obj`, and then a copy of
+    /// the scene file `path` (the file `self` was loaded from) whose parts point at them,
+    /// `<stem>.repaired.toml` beside it (its other lines and comments as they were).
+    /// Never writes over an input. Returns the files written, meshes first; none when no
+    /// mesh was changed.
+    pub fn write_repaired(&self, path: &Path) -> Result<Vec<PathBuf>, SceneError> {
+        let origin = path.display().to_string();
+        let io = |p: &Path, error| SceneError::Io {
+            origin: p.display().to_string(),
+            error,
+        };
+        let text = std::fs::read_to_string(path).map_err(|e| io(path, e))?;
+        let base_dir = path.parent().unwrap_or(Path::new(""));
+        // Part → its new `file`, relative to the scene file's directory as `file` is.
+        let mut files = HashMap::new();
+        // Mesh written → the source it came from.
+        let mut written: Vec<(PathBuf, &str)> = Vec::new();
+        let inputs: Vec<PathBuf> = self
+            .obstacles
+            .iter()
+            .chain(&self.moving_object)
+            .filter_map(|p| match &p.primitive {
+                Primitive::Mesh { mesh } => Some(PathBuf::from(&mesh.source)),
+                _ => None,
+            })
+            .collect();
+        for (list, parts) in [
+            ("obstacles", &self.obstacles),
+            ("moving_object", &self.moving_object),
+        ] {
+            for (i, part) in parts.iter().enumerate() {
+                let Primitive::Mesh { mesh } = &part.primitive else {
+                    continue;
+                };
+                if !mesh.repair.as_ref().is_some_and(|r| r.changed()) {
+                    continue;
+                }
+                let source = Path::new(&mesh.source);
+                let mut out = repaired_path(source, "obj");
+                // `a.obj` and `a.stl` would both give `a.repaired.obj`; a scene may also
+                // use an `a.repaired.obj` of its own.
+                if written.iter().any(|(p, s)| *p == out && *s != mesh.source)
+                    || inputs.contains(&out)
+                {
+                    let name = source.file_name().unwrap_or_default().to_string_lossy();
+                    out = source.with_file_name(format!("{name}.repaired.obj"));
+                }
+                if !written.iter().any(|(p, _)| *p == out) {
+                    std::fs::write(&out, mesh.to_obj()).map_err(|e| io(&out, e))?;
+                    written.push((out.clone(), &mesh.source));
+                }
+                let relative = out.strip_prefix(base_dir).unwrap_or(&out);
+                files.insert(
+                    format!("{list}[{i}]"),
+                    relative.to_string_lossy().into_owned(),
+                );
+            }
+        }
+        if files.is_empty() {
+            return Ok(Vec::new());
+        }
+        let text = super::file::retarget_mesh_files(&text, &origin, &files)?;
+        let name = path.file_name().unwrap_or_default().to_string_lossy();
+        let out = repaired_path(path, "toml");
+        let header = format!(
+            "# Written by `planner scenes check --fix` from {name}: mesh parts point at the \
+             repaired meshes (in metres).\n"
+        );
+        std::fs::write(&out, header + &text).map_err(|e| io(&out, e))?;
+        let mut paths: Vec<PathBuf> = written.into_iter().map(|(p, _)| p).collect();
+        paths.push(out);
+        Ok(paths)
     }
 }
 
@@ -204,5 +296,49 @@ mod tests {
                 panic!("{name}: {e} (run `planner scenes --write planner/scenes`)")
             });
         }
+    }
+
+    #[test]
+    fn repaired_meshes_are_written_beside_their_originals_with_a_scene_pointing_at_them() {
+        let dir = std::env::temp_dir().join(format!("planner-fix-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("meshes")).expect("dir");
+        // A double-sided box in millimetres, and a closed one in metres.
+        let c = MeshData::cuboid("c", [50.0, 50.0, 50.0]);
+        let mut t = c.triangles.clone();
+        t.extend(c.triangles.iter().map(|&[a, b, c]| [a, c, b]));
+        let double = MeshData::new("double", c.vertices_m.clone(), t).expect("valid");
+        let ok = MeshData::cuboid("ok", [0.05, 0.3, 0.3]);
+        std::fs::write(dir.join("meshes/ds.obj"), double.to_obj()).expect("obj");
+        std::fs::write(dir.join("meshes/ok.obj"), ok.to_obj()).expect("obj");
+        let text = "name = \"s\"\n[bounds]\nmin_m = [-1, -1, -1]\nmax_m = [1, 1, 1]\n\
+            [start]\nposition_m = [-0.5, 0, 0]\n[goal]\nposition_m = [0.5, 0, 0]\n\
+            [[obstacles]]\nshape = \"mesh\"\nfile = \"meshes/ok.obj\"  # a wall\n\
+            [[moving_object]]\nshape = \"mesh\"\nfile = \"meshes/ds.obj\"\nscale = 0.001 # mm\n";
+        let path = dir.join("s.toml");
+        std::fs::write(&path, text).expect("toml");
+        let scene = Scene::load(&path).expect("loads");
+        let written = scene.write_repaired(&path).expect("writes");
+        assert_eq!(
+            written,
+            [
+                dir.join("meshes/ds.repaired.obj"),
+                dir.join("s.repaired.toml")
+            ]
+        );
+        assert_eq!(std::fs::read_to_string(&path).expect("read"), text);
+        let fixed = std::fs::read_to_string(dir.join("s.repaired.toml")).expect("read");
+        assert!(
+            fixed.contains("file = \"meshes/ok.obj\"  # a wall")
+                && fixed.contains("file = \"meshes/ds.repaired.obj\"\nscale = 1.0 # mm"),
+            "{fixed}"
+        );
+        let obj = std::fs::read_to_string(&written[0]).expect("read");
+        assert!(obj.contains("# repaired: mesh '"), "{obj}");
+        let back = Scene::load(&written[1]).expect("reads back");
+        same_scene(&scene, &back).expect("the same scene");
+        let report = back.mesh_checks()[1].repair.clone().expect("repair ran");
+        assert!(!report.changed() && report.twins == 0, "{report}");
+        // Nothing left to repair: nothing written.
+        assert!(back.write_repaired(&written[1]).expect("runs").is_empty());
     }
 }

@@ -32,6 +32,7 @@ use super::{Bounds, MeshData, Part, Primitive, RouteStep, Scene, SceneError, Spa
 use crate::pose::Se3;
 use nalgebra::Vector3;
 use serde::Deserialize;
+use std::collections::HashMap;
 use std::path::Path;
 use std::sync::Arc;
 use toml::Spanned;
@@ -133,8 +134,8 @@ struct PartFile {
     shape: ShapeKind,
     half_extents_m: Option<[Positive; 3]>,
     radius_m: Option<Positive>,
-    file: Option<String>,
-    scale: Option<Positive>,
+    file: Option<Spanned<String>>,
+    scale: Option<Spanned<Positive>>,
     #[serde(default)]
     position_m: [Finite; 3],
     #[serde(default)]
@@ -187,16 +188,14 @@ pub(super) fn parse(text: &str, origin: &str) -> Result<Scene, SceneError> {
                     Primitive::Sphere { radius_m: r.0 }
                 }
                 (ShapeKind::Mesh, (None, None, Some(f), scale)) => {
-                    let path = base_dir.join(f);
-                    let mesh =
-                        MeshData::load(&path, scale.map_or(1.0, |s| s.0)).map_err(|source| {
-                            SceneError::Mesh {
-                                origin: origin.to_owned(),
-                                line,
-                                field: format!("{field}.file"),
-                                error: Box::new(source),
-                            }
-                        })?;
+                    let path = base_dir.join(f.get_ref());
+                    let scale = scale.as_ref().map_or(1.0, |s| s.get_ref().0);
+                    let mesh = MeshData::load(&path, scale).map_err(|source| SceneError::Mesh {
+                        origin: origin.to_owned(),
+                        line,
+                        field: format!("{field}.file"),
+                        error: Box::new(source),
+                    })?;
                     Primitive::Mesh {
                         mesh: Arc::new(mesh),
                     }
@@ -232,7 +231,7 @@ pub(super) fn parse(text: &str, origin: &str) -> Result<Scene, SceneError> {
             dwell_s: r.dwell_s.0,
         });
     }
-    let scene = Scene {
+    let mut scene = Scene {
         name: raw.name.clone().unwrap_or_else(|| default_name(origin)),
         obstacles,
         moving_object,
@@ -269,7 +268,47 @@ pub(super) fn parse(text: &str, origin: &str) -> Result<Scene, SceneError> {
         }
         other => other,
     })?;
+    scene.repair_meshes();
     Ok(scene)
+}
+
+/// `text`, a scene file, with the `file` of each part named in `files` (e.g.
+/// `obstacles[0]` → `meshes/part.repaired.obj`) replaced and its `scale`, if any, set to 1
+/// (the new files are in metres); everything else, comments included, as it was.
+pub(super) fn retarget_mesh_files(
+    text: &str,
+    origin: &str,
+    files: &HashMap<String, String>,
+) -> Result<String, SceneError> {
+    let raw: SceneFile = toml::from_str(text).map_err(|e| SceneError::Parse {
+        origin: origin.to_owned(),
+        message: e.to_string(),
+    })?;
+    let mut edits = Vec::new();
+    for (list, items) in [
+        ("obstacles", &raw.obstacles),
+        ("moving_object", &raw.moving_object),
+    ] {
+        for (i, item) in items.iter().enumerate() {
+            let Some(new) = files.get(&format!("{list}[{i}]")) else {
+                continue;
+            };
+            let p = item.get_ref();
+            if let Some(f) = &p.file {
+                edits.push((f.span(), toml::Value::String(new.clone()).to_string()));
+            }
+            if let Some(s) = &p.scale {
+                edits.push((s.span(), "1.0".to_owned()));
+            }
+        }
+    }
+    // Back to front, so that earlier spans stay where they were.
+    edits.sort_by_key(|(span, _)| std::cmp::Reverse(span.start));
+    let mut out = text.to_owned();
+    for (span, new) in edits {
+        out.replace_range(span, &new);
+    }
+    Ok(out)
 }
 
 /// The file stem of `origin`, or `origin` itself.
@@ -447,5 +486,38 @@ radius_m = 0.1
             .unwrap_err()
             .to_string();
         assert!(e.contains("plane") && e.contains("line 1"), "{e}");
+    }
+
+    #[test]
+    fn a_double_sided_mesh_is_repaired_on_load() {
+        let dir = std::env::temp_dir().join(format!("planner-scene-repair-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let c = MeshData::cuboid("c", [100.0, 100.0, 100.0]);
+        // The reversed twins first, so the triangles kept must also be turned outward.
+        let mut t: Vec<_> = c.triangles.iter().map(|&[a, b, c]| [a, c, b]).collect();
+        t.extend(&c.triangles);
+        let double = MeshData::new("double", c.vertices_m.clone(), t).expect("valid");
+        std::fs::write(dir.join("double.obj"), double.to_obj()).expect("obj");
+        let text = MINIMAL.replace(
+            "shape = \"sphere\"\nradius_m = 0.1",
+            "shape = \"mesh\"\nfile = \"double.obj\"\nscale = 0.001",
+        );
+        let origin = dir.join("s.toml").display().to_string();
+        let s = Scene::from_toml_str(&text, &origin).expect("loads");
+        let Primitive::Mesh { mesh } = &s.moving_object[0].primitive else {
+            panic!("mesh part")
+        };
+        let topology = crate::topology::Topology::of(mesh);
+        assert!(topology.is_closed_outward(), "{topology}");
+        assert!(
+            (topology.signed_volume_m3 - 0.008).abs() < 1e-12,
+            "{topology}"
+        );
+        let checks = s.mesh_checks();
+        assert!(checks[0].is_ok());
+        assert_eq!(checks[0].surface(), crate::repair::Surface::ClosedOutward);
+        let report = checks[0].repair.as_ref().expect("repaired on load");
+        assert_eq!((report.twins, report.triangles_out), (12, 12));
+        assert!(report.changed());
     }
 }

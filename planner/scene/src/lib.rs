@@ -15,7 +15,10 @@
 //! - `builtin`: the papers' scenes, built in code ([`BUILTIN_NAMES`]); `export` writes
 //!   them as TOML + OBJ;
 //! - [`shapes`]: parry shapes of parts, the one conversion both processes use;
-//! - [`topology`]: whether a mesh is closed and wound outward ([`Scene::mesh_checks`]).
+//! - [`topology`]: whether a mesh is closed and wound outward ([`Scene::mesh_checks`]);
+//! - [`repair`]: meshes as exported made closed and outward where they can be (twins,
+//!   duplicates and degenerate triangles dropped, winding made consistent and outward),
+//!   done on load ([`Scene::repair_meshes`]).
 //!
 //! Validation here covers numbers, sizes and bounds; whether start and goal are collision
 //! free is checked by the caller that owns a collision checker (`Planner::new` does it).
@@ -27,6 +30,7 @@ mod export;
 mod file;
 mod mesh;
 pub mod pose;
+pub mod repair;
 pub mod shapes;
 pub mod topology;
 
@@ -228,21 +232,41 @@ pub enum SceneError {
     },
 }
 
-/// The topology of one mesh part of a scene (see [`Scene::mesh_checks`]).
+/// The topology of one mesh part of a scene and what loading did to it (see
+/// [`Scene::mesh_checks`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeshCheck {
     /// The part, e.g. `obstacles[2]` or `moving_object[0]`.
     pub field: String,
     /// Where the mesh came from (its file).
     pub source: String,
-    /// What its triangles bound.
+    /// What its triangles bound, as they are in the scene (after any repair).
     pub topology: topology::Topology,
+    /// What [`repair::repair`] found and did on load; `None` for a mesh built in code.
+    pub repair: Option<repair::RepairReport>,
 }
 
 impl MeshCheck {
     /// True when containment and signed distances are right for it (closed, outward).
     pub fn is_ok(&self) -> bool {
         self.topology.is_closed_outward()
+    }
+
+    /// How contact can render it: the repair's verdict, or for a mesh that was never
+    /// repaired, its topology's (closed and outward, open, else refused as not repaired).
+    pub fn surface(&self) -> repair::Surface {
+        use repair::{Refusal, Surface};
+        use topology::MeshKind;
+        if let Some(r) = &self.repair {
+            return r.surface.clone();
+        }
+        let t = &self.topology;
+        match t.kind() {
+            MeshKind::ClosedOutward => Surface::ClosedOutward,
+            // A thin shell needs no inside: holes are enough.
+            MeshKind::Open if t.boundary_edges > 0 => Surface::Open,
+            kind => Surface::Refused(Refusal::NotRepaired { kind }),
+        }
     }
 }
 
@@ -331,9 +355,28 @@ impl Scene {
         file::parse(text, origin)
     }
 
-    /// The topology of every mesh part, obstacles then object. Planning works on any
-    /// triangles; contact rendering needs each mesh closed and wound outward
-    /// ([`MeshCheck::is_ok`]); callers warn about the others at load.
+    /// Repairs every mesh part that has not been ([`repair::repair`]; a scene file's
+    /// meshes are, on load), recording the report in the mesh ([`MeshData::repair`]).
+    /// Refused meshes stay as they were. Meshes with nothing to repair keep their
+    /// triangles as they are, so planning on them is unchanged.
+    pub fn repair_meshes(&mut self) {
+        for part in self
+            .obstacles
+            .iter_mut()
+            .chain(self.moving_object.iter_mut())
+        {
+            if let Primitive::Mesh { mesh } = &mut part.primitive
+                && mesh.repair.is_none()
+            {
+                *mesh = Arc::new(repair::repair(mesh).into_mesh());
+            }
+        }
+    }
+
+    /// The topology of every mesh part, obstacles then object, with what loading did to
+    /// it. Planning works on any triangles; contact rendering needs each mesh closed and
+    /// wound outward ([`MeshCheck::is_ok`]) or, as a thin shell, open
+    /// ([`MeshCheck::surface`]); callers log the repairs and warn about the others.
     pub fn mesh_checks(&self) -> Vec<MeshCheck> {
         let lists = [
             ("obstacles", &self.obstacles),
@@ -347,6 +390,7 @@ impl Scene {
                         field: format!("{list}[{i}]"),
                         source: mesh.source.clone(),
                         topology: topology::Topology::of(mesh),
+                        repair: mesh.repair.as_deref().cloned(),
                     });
                 }
             }
@@ -495,8 +539,48 @@ mod tests {
             let s = Scene::builtin(name).expect("builtin");
             for c in s.mesh_checks() {
                 assert!(c.is_ok(), "{name}: {c}");
+                assert_eq!(c.surface(), repair::Surface::ClosedOutward);
             }
         }
+    }
+
+    #[test]
+    fn meshes_built_in_code_are_judged_by_their_topology_until_repaired() {
+        use repair::{Refusal, Surface};
+        let cube = MeshData::cuboid("cube.obj", [0.05, 0.05, 0.05]);
+        let with = |triangles: Vec<[u32; 3]>| {
+            let mesh = MeshData::new("m.obj", cube.vertices_m.clone(), triangles).expect("valid");
+            let mut s = Scene::wall_with_hole();
+            s.moving_object = vec![Part {
+                primitive: Primitive::Mesh {
+                    mesh: Arc::new(mesh),
+                },
+                pose: Se3::identity(),
+            }];
+            s
+        };
+        let open = with(cube.triangles[..10].to_vec());
+        assert_eq!(open.mesh_checks()[0].surface(), Surface::Open);
+        let mut both = cube.triangles.clone();
+        both.extend(cube.triangles.iter().map(|&[a, b, c]| [a, c, b]));
+        let mut double = with(both);
+        let check = &double.mesh_checks()[0];
+        assert!(check.repair.is_none() && !check.is_ok());
+        assert_eq!(
+            check.surface(),
+            Surface::Refused(Refusal::NotRepaired {
+                kind: topology::MeshKind::DoubleSided
+            })
+        );
+        double.repair_meshes();
+        let check = &double.mesh_checks()[0];
+        assert!(check.is_ok(), "{check}");
+        assert_eq!(check.surface(), Surface::ClosedOutward);
+        assert_eq!(check.repair.as_ref().map(|r| r.twins), Some(12));
+        // Once repaired, a mesh is not repaired again.
+        let again = double.clone();
+        double.repair_meshes();
+        assert_eq!(double, again);
     }
 
     #[test]

@@ -4,7 +4,8 @@
 //! Vertices are in the part's local frame; a file's numbers are multiplied by `scale` to
 //! give metres (e.g. `scale = 0.001` for a CAD file in millimetres). Triangles must be
 //! wound counter-clockwise seen from outside (outward normals) for point containment and
-//! signed distances to be right; the loader does not fix winding.
+//! signed distances to be right; [`MeshData::load`] reads them as they are, and loading a
+//! scene repairs them ([`crate::repair`]).
 //!
 //! Every failure is a [`MeshError`] naming the file and, where the format allows, the line
 //! (OBJ) or the triangle; nothing here panics on bad input.
@@ -23,6 +24,9 @@ pub struct MeshData {
     pub vertices_m: Vec<Vector3<f64>>,
     /// Triangles as vertex indices, counter-clockwise seen from outside.
     pub triangles: Vec<[u32; 3]>,
+    /// What [`crate::repair::repair`] found and did, when these triangles came from it
+    /// (a scene file's meshes do, on load); `None` for a mesh as built or read.
+    pub repair: Option<Box<crate::repair::RepairReport>>,
 }
 
 /// Why a mesh could not be loaded.
@@ -88,6 +92,7 @@ impl MeshData {
             source: source.to_owned(),
             vertices_m,
             triangles,
+            repair: None,
         })
     }
 
@@ -142,6 +147,7 @@ impl MeshData {
             source: source.to_owned(),
             vertices_m: v,
             triangles: t,
+            repair: None,
         }
     }
 
@@ -185,6 +191,7 @@ impl MeshData {
             source: source.to_owned(),
             vertices_m: v,
             triangles: t,
+            repair: None,
         }
     }
 }

@@ -8,7 +8,7 @@
 //! position first (STL repeats them per triangle), so that shared edges are recognised.
 
 use crate::MeshData;
-use std::collections::HashMap;
+use crate::repair::{KeyMap, key_map, weld};
 use std::fmt;
 
 /// Edge and winding statistics of one mesh.
@@ -70,21 +70,13 @@ impl Topology {
     /// The topology of `mesh`.
     pub fn of(mesh: &MeshData) -> Topology {
         // Weld by exact position (with -0.0 == 0.0).
-        let key = |c: f64| if c == 0.0 { 0u64 } else { c.to_bits() };
-        let mut welded: HashMap<[u64; 3], u32> = HashMap::new();
-        let ids: Vec<u32> = mesh
-            .vertices_m
-            .iter()
-            .map(|v| {
-                let next = welded.len() as u32;
-                *welded.entry([key(v.x), key(v.y), key(v.z)]).or_insert(next)
-            })
-            .collect();
+        let ids = weld(&mesh.vertices_m);
         let mut degenerate = 0;
         let mut volume6 = 0.0;
         // Directed edge (a, b) → times used; unordered triangle corners → times seen.
-        let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
-        let mut faces: HashMap<[u32; 3], u32> = HashMap::new();
+        let n = mesh.triangles.len();
+        let mut directed: KeyMap<(u32, u32), u32> = key_map(3 * n);
+        let mut faces: KeyMap<[u32; 3], u32> = key_map(n);
         for t in &mesh.triangles {
             let [a, b, c] = t.map(|i| ids[i as usize]);
             let [pa, pb, pc] = t.map(|i| mesh.vertices_m[i as usize]);
@@ -101,7 +93,7 @@ impl Topology {
             corners.sort_unstable();
             *faces.entry(corners).or_insert(0) += 1;
         }
-        let mut undirected: HashMap<(u32, u32), (u32, u32)> = HashMap::new();
+        let mut undirected: KeyMap<(u32, u32), (u32, u32)> = key_map(directed.len());
         for (&(a, b), &n) in &directed {
             let (lo, hi, forward) = if a < b { (a, b, true) } else { (b, a, false) };
             let e = undirected.entry((lo, hi)).or_insert((0, 0));

@@ -72,11 +72,7 @@ impl CoreArgs {
     /// Loads the scene and validates the tree parameters.
     pub fn load(&self) -> anyhow::Result<(Scene, PlannerParams)> {
         let scene = Scene::by_name_or_path(&self.scene)?;
-        for c in scene.mesh_checks().iter().filter(|c| !c.is_ok()) {
-            tracing::warn!(
-                "mesh {c}; contact rendering needs it closed and wound outward (see `planner scenes check`)"
-            );
-        }
+        log_mesh_repairs(&scene);
         let params = PlannerParams {
             step: self.step,
             edge_resolution: self.edge_resolution,
@@ -195,4 +191,30 @@ pub fn non_negative(name: &str, v: f64) -> anyhow::Result<f64> {
 /// `Some(positive(v))` for a given optional value.
 pub fn positive_opt(name: &str, v: Option<f64>) -> anyhow::Result<Option<f64>> {
     v.map(|d| positive(name, d)).transpose()
+}
+
+/// One log line per mesh part that loading repaired, left open or refused.
+pub fn log_mesh_repairs(scene: &Scene) {
+    use scene::repair::Surface;
+    for c in scene.mesh_checks() {
+        match (c.surface(), &c.repair) {
+            (Surface::Refused(why), None) => tracing::warn!(
+                "{} ({}): {why}; contact rendering refuses it (see `planner scenes check`)",
+                c.source,
+                c.field
+            ),
+            (Surface::Refused(_), Some(r)) => tracing::warn!(
+                "{} {r}; contact rendering refuses it (see `planner scenes check`)",
+                c.field
+            ),
+            (Surface::Open, Some(r)) => tracing::warn!("{} {r}", c.field),
+            (Surface::Open, None) => {
+                tracing::warn!("mesh {c}; contact renders it as a thin shell")
+            }
+            (Surface::ClosedOutward, Some(r)) if r.changed() => {
+                tracing::info!("{} {r}", c.field)
+            }
+            (Surface::ClosedOutward, _) => {}
+        }
+    }
 }

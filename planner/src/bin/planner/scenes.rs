@@ -1,10 +1,11 @@
-//! `planner scenes`: list the built-in scenes, write them as TOML files, or check the
-//! meshes of scene files.
+//! `planner scenes`: list the built-in scenes, write them as TOML files, or check (and
+//! with `--fix` write repaired copies of) the meshes of scene files.
 
 use anyhow::Context;
 use clap::{Args, Subcommand};
 use planner::Scene;
-use std::path::PathBuf;
+use scene::repair::Surface;
+use std::path::{Path, PathBuf};
 
 /// Options of `planner scenes`.
 #[derive(Debug, Args, Clone)]
@@ -20,21 +21,28 @@ pub struct ScenesArgs {
 /// `planner scenes` subcommands.
 #[derive(Debug, Subcommand, Clone)]
 pub enum ScenesCommand {
-    /// Load scenes and say, for each mesh part, whether it is closed and wound outward
-    /// (what contact rendering needs) or open, double-sided or inconsistently wound, with
-    /// its boundary-edge count. Exit code 0 when every mesh is closed and outward, 1 when
-    /// one is not.
+    /// Load scenes and say, for each mesh part, what loading makes of it: OK (closed and
+    /// wound outward as it is), REPAIRED (what was dropped or flipped to make it so: twins
+    /// of a double-sided export, duplicates, degenerate triangles, inconsistent or inward
+    /// winding), OPEN (holes or a sheet: contact renders it as a thin shell) or REFUSED
+    /// (which side is inside cannot be told, with the reason; planning still works on it).
+    /// Exit code 1 when a mesh is refused, else 0.
     Check {
+        /// Also write each repaired mesh beside its original as `<stem>.repaired.obj` (in
+        /// metres) and a copy of the scene file pointing at them, `<stem>.repaired.toml`.
+        /// Never writes over an input.
+        #[arg(long)]
+        fix: bool,
         /// Scene files (or built-in names).
         #[arg(required = true, value_name = "SCENE")]
         scenes: Vec<String>,
     },
 }
 
-/// Runs the command; the exit code is 0, or 1 when `check` found a mesh to repair.
+/// Runs the command; the exit code is 0, or 1 when `check` found a mesh it refuses.
 pub fn run(args: &ScenesArgs) -> anyhow::Result<i32> {
-    if let Some(ScenesCommand::Check { scenes }) = &args.command {
-        return check(scenes);
+    if let Some(ScenesCommand::Check { fix, scenes }) = &args.command {
+        return check(scenes, *fix);
     }
     for name in scene::BUILTIN_NAMES {
         if name == "default" {
@@ -59,24 +67,57 @@ pub fn run(args: &ScenesArgs) -> anyhow::Result<i32> {
     Ok(0)
 }
 
-fn check(scenes: &[String]) -> anyhow::Result<i32> {
-    let mut to_repair = 0;
+fn check(scenes: &[String], fix: bool) -> anyhow::Result<i32> {
+    let mut refused = 0;
     for arg in scenes {
         let scene = Scene::by_name_or_path(arg)?;
         let checks = scene.mesh_checks();
         println!("{arg}: scene '{}', {} mesh parts", scene.name, checks.len());
+        let mut repaired = 0;
         for c in &checks {
-            let verdict = if c.is_ok() { "ok" } else { "REPAIR" };
-            println!("  {verdict:6} {c}");
-            to_repair += usize::from(!c.is_ok());
+            let surface = c.surface();
+            let changed = c.repair.as_ref().is_some_and(|r| r.changed());
+            let verdict = match &surface {
+                Surface::ClosedOutward if changed => "REPAIRED",
+                Surface::ClosedOutward => "OK",
+                Surface::Open => "OPEN",
+                Surface::Refused(_) => "REFUSED",
+            };
+            repaired += usize::from(changed);
+            refused += usize::from(surface.is_refused());
+            match (&c.repair, &surface) {
+                (Some(r), _) => println!("  {verdict:8} {}: {r}", c.field),
+                (None, Surface::Refused(why)) => println!("  {verdict:8} {c}: {why}"),
+                (None, _) => println!("  {verdict:8} {c}"),
+            }
+        }
+        if !fix {
+            if repaired > 0 {
+                println!(
+                    "  loading repairs {repaired} mesh(es) like this every time; `--fix` writes \
+                     the repaired copies"
+                );
+            }
+        } else if Scene::builtin(arg).is_some() {
+            println!("  a built-in scene: nothing to write");
+        } else {
+            let written = scene
+                .write_repaired(Path::new(arg))
+                .with_context(|| format!("cannot write the repaired files of {arg}"))?;
+            if written.is_empty() {
+                println!("  nothing changed: no files written");
+            }
+            for p in written {
+                println!("  wrote {}", p.display());
+            }
         }
     }
-    if to_repair > 0 {
+    if refused > 0 {
         println!(
-            "{to_repair} mesh(es) are not closed and wound outward: planning works on them, \
-             contact rendering refuses them; {}",
+            "{refused} mesh(es) refused: planning works on them, contact rendering does \
+             not; {}",
             scene::topology::REPAIR_HINT
         );
     }
-    Ok(i32::from(to_repair > 0))
+    Ok(i32::from(refused > 0))
 }
