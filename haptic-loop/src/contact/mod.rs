@@ -58,7 +58,9 @@ mod voxmap;
 pub use error::ContactError;
 pub use level::Resolution;
 pub use pointshell::{Cluster, LEVELS, Pointshell};
-pub use voxmap::{Sample, Voxmap, VoxmapConfig, VoxmapError, VoxmapReport};
+pub use voxmap::{
+    BuildControl, Obstacle, Sample, Surface, Voxmap, VoxmapConfig, VoxmapError, VoxmapReport,
+};
 
 use devices::DeviceSpec;
 use ipc_types::ContactCode;
@@ -236,24 +238,74 @@ pub struct ContactModel {
 
 impl ContactModel {
     /// Builds the voxmap of `scene.obstacles` and the pointshell of `scene.moving_object`.
-    /// Refuses a scene with a mesh that is not closed and wound outward
-    /// ([`ContactError::Mesh`]).
+    /// See [`Self::from_scene_with`].
     pub fn from_scene(scene: &Scene, voxmap: &VoxmapConfig) -> Result<Self, ContactError> {
-        if let Some(c) = scene.mesh_checks().into_iter().find(|c| !c.is_ok()) {
-            let t = c.topology;
-            return Err(ContactError::Mesh {
-                field: c.field,
-                source_file: c.source,
-                kind: t.kind().name(),
-                boundary_edges: t.boundary_edges,
-                misoriented_edges: t.misoriented_edges,
-                duplicate_triangles: t.duplicate_triangles,
-                hint: scene::topology::REPAIR_HINT,
+        Self::from_scene_with(scene, voxmap, &BuildControl::default())
+    }
+
+    /// Builds the voxmap of `scene.obstacles` and the pointshell of `scene.moving_object`,
+    /// reporting progress to and stopping on `control`. A closed, outward mesh is solid;
+    /// an open one (a panel, a sheet: holes in its surface) is rendered as a shell of
+    /// [`VoxmapConfig::shell_voxels`] around its surface, with a warning; a mesh whose
+    /// inside cannot be told is refused ([`ContactError::Mesh`]), naming why.
+    pub fn from_scene_with(
+        scene: &Scene,
+        voxmap: &VoxmapConfig,
+        control: &BuildControl,
+    ) -> Result<Self, ContactError> {
+        use scene::repair::Surface as Found;
+        let mut obstacles = Vec::with_capacity(scene.obstacles.len());
+        for (i, part) in scene.obstacles.iter().enumerate() {
+            let pose = scene::shapes::to_parry(&part.pose);
+            let scene::Primitive::Mesh { mesh } = &part.primitive else {
+                obstacles.push(Obstacle::Shape {
+                    pose,
+                    shape: scene::shapes::part_shape(part),
+                });
+                continue;
+            };
+            let surface = match mesh.surface() {
+                Found::ClosedOutward => Surface::Solid,
+                Found::Open => {
+                    let thickness_m = voxmap.shell_voxels * voxmap.voxel_m;
+                    tracing::warn!(
+                        "contact: mesh {} (obstacles[{i}]) is open: rendered as a shell {:.1} mm thick around its surface",
+                        mesh.source,
+                        thickness_m * 1e3
+                    );
+                    Surface::Shell { thickness_m }
+                }
+                Found::Refused(why) => {
+                    return Err(ContactError::Mesh {
+                        field: format!("obstacles[{i}]"),
+                        source_file: mesh.source.clone(),
+                        reason: why.to_string(),
+                    });
+                }
+            };
+            obstacles.push(Obstacle::Mesh {
+                pose,
+                mesh: mesh.clone(),
+                surface,
             });
         }
-        let obstacles = scene::shapes::part_shapes(&scene.obstacles);
+        for (i, part) in scene.moving_object.iter().enumerate() {
+            if let scene::Primitive::Mesh { mesh } = &part.primitive {
+                let reason = match mesh.surface() {
+                    Found::ClosedOutward => continue,
+                    Found::Open => "open: the moving object must be closed (its points need an inside to push from)".to_owned(),
+                    Found::Refused(why) => why.to_string(),
+                };
+                return Err(ContactError::Mesh {
+                    field: format!("moving_object[{i}]"),
+                    source_file: mesh.source.clone(),
+                    reason,
+                });
+            }
+        }
+        let voxmap = Voxmap::build_obstacles(&obstacles, voxmap, control)?;
         let object = scene::shapes::part_shapes(&scene.moving_object);
-        Self::build(&obstacles, &object, voxmap)
+        Self::with_voxmap(voxmap, &object)
     }
 
     /// Builds from parry shapes: obstacles in the scene frame, object parts in the object
@@ -263,7 +315,11 @@ impl ContactModel {
         object: &[(Pose, SharedShape)],
         voxmap: &VoxmapConfig,
     ) -> Result<Self, ContactError> {
-        let voxmap = Voxmap::build(obstacles, voxmap)?;
+        Self::with_voxmap(Voxmap::build(obstacles, voxmap)?, object)
+    }
+
+    /// The model of `object` (parts in the object frame) against a built `voxmap`.
+    fn with_voxmap(voxmap: Voxmap, object: &[(Pose, SharedShape)]) -> Result<Self, ContactError> {
         let started = Instant::now();
         let shells = Pointshell::build(object, voxmap.voxel_m())?.with_coarser();
         let shell = &shells[0];

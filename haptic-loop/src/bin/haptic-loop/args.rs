@@ -229,10 +229,12 @@ impl LoopArgs {
     /// command's defaults for `--operator` and `--operator-seed`.
     pub fn to_setup(&self, operator: &str, operator_seed: u64) -> anyhow::Result<LoopSetup> {
         let scene = Scene::by_name_or_path(&self.scene)?;
-        for c in scene.mesh_checks().iter().filter(|c| !c.is_ok()) {
-            tracing::warn!(
-                "mesh {c}; contact rendering needs it closed and wound outward (see `planner scenes check`)"
-            );
+        for (warning, line) in scene.mesh_notes() {
+            if warning {
+                tracing::warn!("{line}");
+            } else {
+                tracing::info!("{line}");
+            }
         }
         if !(self.rate_hz.is_finite() && (500.0..=4000.0).contains(&self.rate_hz)) {
             bail!("--rate-hz must be within 500–4000, got {}", self.rate_hz);

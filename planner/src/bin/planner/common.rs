@@ -195,26 +195,11 @@ pub fn positive_opt(name: &str, v: Option<f64>) -> anyhow::Result<Option<f64>> {
 
 /// One log line per mesh part that loading repaired, left open or refused.
 pub fn log_mesh_repairs(scene: &Scene) {
-    use scene::repair::Surface;
-    for c in scene.mesh_checks() {
-        match (c.surface(), &c.repair) {
-            (Surface::Refused(why), None) => tracing::warn!(
-                "{} ({}): {why}; contact rendering refuses it (see `planner scenes check`)",
-                c.source,
-                c.field
-            ),
-            (Surface::Refused(_), Some(r)) => tracing::warn!(
-                "{} {r}; contact rendering refuses it (see `planner scenes check`)",
-                c.field
-            ),
-            (Surface::Open, Some(r)) => tracing::warn!("{} {r}", c.field),
-            (Surface::Open, None) => {
-                tracing::warn!("mesh {c}; contact renders it as a thin shell")
-            }
-            (Surface::ClosedOutward, Some(r)) if r.changed() => {
-                tracing::info!("{} {r}", c.field)
-            }
-            (Surface::ClosedOutward, _) => {}
+    for (warning, line) in scene.mesh_notes() {
+        if warning {
+            tracing::warn!("{line}");
+        } else {
+            tracing::info!("{line}");
         }
     }
 }
