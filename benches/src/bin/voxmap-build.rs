@@ -8,7 +8,7 @@
 
 use anyhow::{Context, bail};
 use clap::Parser;
-use haptic_loop::contact::{BuildControl, Obstacle, Surface, Voxmap, VoxmapConfig};
+use haptic_loop::contact::{Obstacle, Progress, Surface, Voxmap, VoxmapConfig};
 use parry3d_f64::math::Pose;
 use scene::MeshData;
 use serde::{Deserialize, Serialize};
@@ -120,7 +120,7 @@ fn one(case: &str, voxel_mm: f64) -> anyhow::Result<Row> {
         ..VoxmapConfig::default()
     };
     let started = Instant::now();
-    let v = Voxmap::build_obstacles(&obstacles, &config, &BuildControl::default())?;
+    let v = Voxmap::build_obstacles(&obstacles, &config, &Progress::default())?;
     let build_s = started.elapsed().as_secs_f64();
     let r = v.report();
     Ok(Row {

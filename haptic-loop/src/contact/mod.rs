@@ -58,9 +58,9 @@ mod voxmap;
 pub use error::ContactError;
 pub use level::Resolution;
 pub use pointshell::{Cluster, LEVELS, Pointshell};
-pub use voxmap::{
-    BuildControl, Obstacle, Sample, Surface, Voxmap, VoxmapConfig, VoxmapError, VoxmapReport,
-};
+pub use scene::progress::Progress;
+pub use voxmap::cache as voxmap_cache;
+pub use voxmap::{Obstacle, Sample, Surface, Voxmap, VoxmapConfig, VoxmapError, VoxmapReport};
 
 use devices::DeviceSpec;
 use ipc_types::ContactCode;
@@ -240,18 +240,21 @@ impl ContactModel {
     /// Builds the voxmap of `scene.obstacles` and the pointshell of `scene.moving_object`.
     /// See [`Self::from_scene_with`].
     pub fn from_scene(scene: &Scene, voxmap: &VoxmapConfig) -> Result<Self, ContactError> {
-        Self::from_scene_with(scene, voxmap, &BuildControl::default())
+        Self::from_scene_with(scene, voxmap, &Progress::default(), None)
     }
 
     /// Builds the voxmap of `scene.obstacles` and the pointshell of `scene.moving_object`,
     /// reporting progress to and stopping on `control`. A closed, outward mesh is solid;
     /// an open one (a panel, a sheet: holes in its surface) is rendered as a shell of
     /// [`VoxmapConfig::shell_voxels`] around its surface, with a warning; a mesh whose
-    /// inside cannot be told is refused ([`ContactError::Mesh`]), naming why.
+    /// inside cannot be told is refused ([`ContactError::Mesh`]), naming why. With a
+    /// `cache_dir`, the voxmap is read from there when it was built from the same inputs
+    /// before, and written there when built (`voxmap::cache`).
     pub fn from_scene_with(
         scene: &Scene,
         voxmap: &VoxmapConfig,
-        control: &BuildControl,
+        control: &Progress,
+        cache_dir: Option<&std::path::Path>,
     ) -> Result<Self, ContactError> {
         use scene::repair::Surface as Found;
         let mut obstacles = Vec::with_capacity(scene.obstacles.len());
@@ -303,7 +306,7 @@ impl ContactModel {
                 });
             }
         }
-        let voxmap = Voxmap::build_obstacles(&obstacles, voxmap, control)?;
+        let voxmap = cached_voxmap(&obstacles, voxmap, control, cache_dir)?;
         let object = scene::shapes::part_shapes(&scene.moving_object);
         Self::with_voxmap(voxmap, &object)
     }
@@ -392,6 +395,39 @@ impl ContactModel {
             self.shell_build_s
         )
     }
+}
+
+/// The voxmap of `obstacles`: from `cache_dir` when built from the same inputs before, else
+/// built (and then written there). A cache file that cannot be used is reported and
+/// rebuilt over; one that cannot be written is reported, and the build is used as is.
+fn cached_voxmap(
+    obstacles: &[Obstacle],
+    config: &VoxmapConfig,
+    control: &Progress,
+    cache_dir: Option<&std::path::Path>,
+) -> Result<Voxmap, ContactError> {
+    let Some((dir, key)) =
+        cache_dir.and_then(|d| voxmap::cache::key(obstacles, config).map(|k| (d, k)))
+    else {
+        return Ok(Voxmap::build_obstacles(obstacles, config, control)?);
+    };
+    match voxmap::cache::load(dir, &key) {
+        Ok(Some(v)) => {
+            tracing::info!(
+                "voxmap read from {}",
+                voxmap::cache::path(dir, &key).display()
+            );
+            return Ok(v);
+        }
+        Ok(None) => {}
+        Err(e) => tracing::warn!("voxmap cache: {e}; building it again"),
+    }
+    let v = Voxmap::build_obstacles(obstacles, config, control)?;
+    match voxmap::cache::store(dir, &key, &v) {
+        Ok(path) => tracing::info!("voxmap written to {}", path.display()),
+        Err(e) => tracing::warn!("voxmap cache: cannot write it: {e}"),
+    }
+    Ok(v)
 }
 
 /// The motion of the device-mapped object this tick (scene frame).

@@ -34,10 +34,11 @@ use std::time::Duration;
 mod avx2;
 mod band;
 mod build;
+pub mod cache;
 mod mesh;
 mod query;
 
-pub use build::{BuildControl, Obstacle, Surface};
+pub use build::{Obstacle, Surface};
 
 /// Cells per block edge.
 const B: usize = 8;
@@ -106,7 +107,7 @@ pub enum VoxmapError {
         /// Distance layers inside asked for, voxels.
         layers_in: u32,
     },
-    /// The build was stopped (its [`BuildControl::cancel`] was set).
+    /// The build was stopped (its progress's cancel flag was set).
     #[error("voxmap: build stopped")]
     Cancelled,
     /// The grid would exceed the memory budget.
@@ -149,6 +150,8 @@ pub struct VoxmapReport {
     pub build_time: Duration,
     /// Largest working memory of one mesh's narrow band, bytes (0 without meshes).
     pub peak_band_bytes: usize,
+    /// When read from the cache instead of built: how long that took.
+    pub loaded_in: Option<Duration>,
 }
 
 impl std::fmt::Display for VoxmapReport {
@@ -165,7 +168,11 @@ impl std::fmt::Display for VoxmapReport {
             self.memory_bytes as f64 / 1e6,
             self.dense_bytes as f64 / 1e6,
             self.build_time.as_secs_f64()
-        )
+        )?;
+        if let Some(t) = self.loaded_in {
+            write!(f, " (loaded from the cache in {:.2} s)", t.as_secs_f64())?;
+        }
+        Ok(())
     }
 }
 

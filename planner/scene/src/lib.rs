@@ -30,6 +30,7 @@ mod export;
 mod file;
 mod mesh;
 pub mod pose;
+pub mod progress;
 pub mod repair;
 pub mod shapes;
 pub mod topology;

@@ -26,6 +26,7 @@
 use super::B;
 use super::mesh::Mesh;
 use nalgebra::Vector3;
+use scene::progress::Progress;
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -89,14 +90,15 @@ impl Band {
     /// Computes the band of `mesh` on `grid` out to `limits` from the surface, on
     /// `threads` threads (slabs of the grid along its longest axis, each spreading over
     /// its own slab and a margin wider than the limits, so that every node's closest
-    /// triangle reaches it within its thread). `cancel` is polled every few thousand nodes.
+    /// triangle reaches it within its thread). `progress` hears of every few thousand
+    /// triangles and nodes, and its cancel flag is polled as often.
     pub(super) fn compute(
         mesh: &Mesh,
         grid: Grid,
         side: Side,
         limits: Limits,
         threads: usize,
-        cancel: &AtomicBool,
+        progress: &Progress,
     ) -> Result<Band, Cancelled> {
         let started = std::time::Instant::now();
         let blocks = grid.nodes.map(|n| n.div_ceil(B));
@@ -123,10 +125,10 @@ impl Band {
                         sub.nodes[axis] = ((hi * B) + 1).min(grid.nodes[axis]) - lo * B;
                         let mut work = Work::new(mesh, sub, side, limits);
                         let t0 = std::time::Instant::now();
-                        work.seed(cancel)?;
+                        work.seed(progress)?;
                         let seeded = work.queue.len();
                         let t1 = std::time::Instant::now();
-                        let pops = work.propagate(cancel)?;
+                        let pops = work.propagate(progress)?;
                         tracing::debug!(
                             "slab {k}: seed {:.2} s ({seeded} nodes), spread {:.2} s ({pops} turns, {} blocks)",
                             (t1 - t0).as_secs_f64(),
@@ -192,7 +194,7 @@ impl Band {
         }
         let merged = started.elapsed().as_secs_f64();
         if side == Side::Solid {
-            band.fill_regions(cancel)?;
+            band.fill_regions(&progress.cancel)?;
         }
         tracing::debug!(
             "band of {} triangles on {slabs} thread(s): {} blocks; spread {spread:.2} s, merge {:.2} s, regions {:.2} s",
@@ -488,13 +490,16 @@ impl<'m> Work<'m> {
         }
     }
 
-    fn seed(&mut self, cancel: &AtomicBool) -> Result<(), Cancelled> {
+    fn seed(&mut self, progress: &Progress) -> Result<(), Cancelled> {
         let g = self.grid;
         let last = g.nodes.map(|n| n as f64 - 1.0);
         let (lo_g, hi_g) = (g.origin, g.position(g.nodes.map(|n| n - 1)));
         for t in 0..self.mesh.len() as u32 {
-            if t.is_multiple_of(8192) && cancel.load(Ordering::Relaxed) {
-                return Err(Cancelled);
+            if t.is_multiple_of(8192) && t > 0 {
+                if progress.cancelled() {
+                    return Err(Cancelled);
+                }
+                progress.add(8192);
             }
             let c = self.mesh.corners(t);
             let lo = c[0].inf(&c[1]).inf(&c[2]);
@@ -526,13 +531,16 @@ impl<'m> Work<'m> {
 
     /// Returns the turns taken (nodes refined and handed on, a node again after it
     /// improved).
-    fn propagate(&mut self, cancel: &AtomicBool) -> Result<u64, Cancelled> {
+    fn propagate(&mut self, progress: &Progress) -> Result<u64, Cancelled> {
         let g = self.grid;
         let mut turns = 0u64;
         while let Some(n) = self.queue.pop_front() {
             turns += 1;
-            if turns.is_multiple_of(8192) && cancel.load(Ordering::Relaxed) {
-                return Err(Cancelled);
+            if turns.is_multiple_of(8192) {
+                if progress.cancelled() {
+                    return Err(Cancelled);
+                }
+                progress.add(8192);
             }
             let n = n.map(|x| x as usize);
             let p = g.position(n);
@@ -592,8 +600,8 @@ impl<'m> Work<'m> {
 mod tests {
     use super::*;
 
-    fn no_cancel() -> AtomicBool {
-        AtomicBool::new(false)
+    fn no_cancel() -> Progress {
+        Progress::default()
     }
 
     /// A unit-ish cube (side 40 mm) at 2 mm nodes.
@@ -696,7 +704,8 @@ mod tests {
             h: 0.01,
             nodes: [201, 201, 201],
         };
-        let cancel = AtomicBool::new(true);
+        let cancel = Progress::default();
+        cancel.cancel.store(true, Ordering::Relaxed);
         let limits = Limits {
             out_m: 0.05,
             in_m: 0.05,

@@ -14,9 +14,9 @@ use parry3d_f64::bounding_volume::{Aabb, BoundingVolume};
 use parry3d_f64::math::{Pose, Vector as PVec};
 use parry3d_f64::shape::SharedShape;
 use scene::MeshData;
+use scene::progress::Progress;
 use std::collections::VecDeque;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
 
 fn pvec(v: &Vector3<f64>) -> PVec {
@@ -132,29 +132,6 @@ pub enum Surface {
     },
 }
 
-/// How far a build has come, and a request to stop it: shared with whoever shows the
-/// progress (another thread). Work is counted in units the build sets in `total` before it
-/// starts: triangles seeded and blocks sampled.
-#[derive(Debug, Default)]
-pub struct BuildControl {
-    /// Set to stop the build: it returns [`VoxmapError::Cancelled`] within milliseconds.
-    pub cancel: AtomicBool,
-    /// Units of work done.
-    pub done: AtomicU64,
-    /// Units of work in all (0 until known).
-    pub total: AtomicU64,
-}
-
-impl BuildControl {
-    fn cancelled(&self) -> bool {
-        self.cancel.load(Ordering::Relaxed)
-    }
-
-    fn add(&self, units: u64) {
-        self.done.fetch_add(units, Ordering::Relaxed);
-    }
-}
-
 /// Signed distance from `p` to one shape (negative inside).
 fn signed_distance(pose: &Pose, shape: &SharedShape, p: PVec) -> f64 {
     let proj = shape.project_point(pose, p, false);
@@ -263,10 +240,11 @@ impl Voxmap {
             .iter()
             .map(|(pose, shape)| Obstacle::from_shape(*pose, shape))
             .collect();
-        Self::build_obstacles(&obstacles, config, &BuildControl::default())
+        Self::build_obstacles(&obstacles, config, &Progress::default())
     }
 
-    /// Voxelises `obstacles`, reporting progress to and stopping on `control`.
+    /// Voxelises `obstacles`, reporting progress to and stopping on `control` (a stage
+    /// named `voxmap`, in units of triangles seeded, band nodes refined and blocks sampled).
     ///
     /// Primitives are sampled with parry at the nodes of the blocks near their surface
     /// (a block whose centre is farther from it than the block's half diagonal plus the
@@ -276,7 +254,7 @@ impl Voxmap {
     pub fn build_obstacles(
         obstacles: &[Obstacle],
         config: &VoxmapConfig,
-        control: &BuildControl,
+        control: &Progress,
     ) -> Result<Self, VoxmapError> {
         let started = Instant::now();
         let h = config.voxel_m;
@@ -348,7 +326,7 @@ impl Voxmap {
         let mesh_work: u64 = meshes
             .iter()
             .map(|&i| match &obstacles[i] {
-                Obstacle::Mesh { mesh, .. } => mesh.triangles.len() as u64,
+                Obstacle::Mesh { mesh, .. } => band_units(mesh, config),
                 Obstacle::Shape { .. } => 0,
             })
             .sum();
@@ -357,9 +335,7 @@ impl Voxmap {
             .filter_map(|&i| layout.blocks_over(&aabbs[i]))
             .map(|(lo, hi)| (0..3).map(|a| (hi[a] - lo[a] + 1) as u64).product::<u64>())
             .sum();
-        control
-            .total
-            .store(mesh_work + primitive_work, Ordering::Relaxed);
+        control.stage("voxmap", mesh_work + primitive_work);
 
         let mut peak_band_bytes = 0;
         for &i in &meshes {
@@ -447,9 +423,26 @@ impl Voxmap {
                 dense_bytes,
                 build_time: started.elapsed(),
                 peak_band_bytes,
+                loaded_in: None,
             },
         })
     }
+}
+
+/// About the work of a mesh's band, in [`Progress`] units: its triangles (seeded) and the
+/// nodes within its layers (each refined once, about).
+fn band_units(mesh: &MeshData, config: &VoxmapConfig) -> u64 {
+    let area: f64 = mesh
+        .triangles
+        .iter()
+        .filter_map(|t| {
+            let [a, b, c] = t.map(|i| mesh.vertices_m.get(i as usize));
+            Some(0.5 * (b? - a?).cross(&(c? - a?)).norm())
+        })
+        .sum();
+    let layers = f64::from(config.layers_out + config.layers_in + 4);
+    let nodes = area / (config.voxel_m * config.voxel_m) * layers;
+    mesh.triangles.len() as u64 + nodes.min(1e15) as u64
 }
 
 /// How far from an obstacle its distances are sampled, m: a voxel past the deepest layer.
@@ -463,7 +456,7 @@ fn add_mesh(
     obstacle: &Obstacle,
     aabb: &Aabb,
     config: &VoxmapConfig,
-    control: &BuildControl,
+    control: &Progress,
     merge: &mut Merge,
 ) -> Result<usize, VoxmapError> {
     let Obstacle::Mesh {
@@ -511,9 +504,8 @@ fn add_mesh(
         in_m: f64::from(config.layers_in + 2) * h,
     };
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let band = Band::compute(&mesh, grid, side, limits, threads, &control.cancel)
+    let band = Band::compute(&mesh, grid, side, limits, threads, control)
         .map_err(|_| VoxmapError::Cancelled)?;
-    control.add(data.triangles.len() as u64);
     let merging = Instant::now();
     let mut q = [0i16; BLOCK_NODES];
     for bz in lo[2]..=hi[2] {
@@ -555,7 +547,7 @@ fn add_primitives(
     aabbs: &[Aabb],
     which: &[usize],
     config: &VoxmapConfig,
-    control: &BuildControl,
+    control: &Progress,
     merge: &mut Merge,
 ) -> Result<(), VoxmapError> {
     let h = layout.h;
