@@ -35,6 +35,10 @@ struct Args {
     /// Only the assembly.
     #[arg(long)]
     assembly_only: bool,
+    /// Instead: the pointshell (and mass properties) of a moving part, a bumpy sphere of
+    /// this many triangles (radius 0.05 m), at the voxel size.
+    #[arg(long)]
+    part_triangles: Option<usize>,
     /// Write the rows as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
@@ -135,6 +139,36 @@ fn one(case: &str, voxel_mm: f64) -> anyhow::Result<Row> {
     })
 }
 
+/// Times the contact model of a bumpy-sphere part of about `triangles` triangles against
+/// an empty scene: its pointshell with levels of detail and mass properties.
+fn pointshell(triangles: usize, voxel_mm: f64) -> anyhow::Result<()> {
+    let s = ((triangles as f64).sqrt().round() as u32).max(8);
+    let mesh = MeshData::bumpy_sphere("part", 0.05, s / 2, s);
+    let n = mesh.triangles.len();
+    let part = scene::Part {
+        primitive: scene::Primitive::Mesh {
+            mesh: Arc::new(mesh),
+        },
+        pose: scene::Se3::identity(),
+    };
+    let started = Instant::now();
+    let object = scene::shapes::part_shapes(std::slice::from_ref(&part));
+    let shapes_s = started.elapsed().as_secs_f64();
+    let config = VoxmapConfig {
+        voxel_m: voxel_mm * 1e-3,
+        ..VoxmapConfig::default()
+    };
+    let started = Instant::now();
+    let model = haptic_loop::contact::ContactModel::build(&[], &object, &config)?;
+    let model_s = started.elapsed().as_secs_f64();
+    println!(
+        "part of {n} triangles at {voxel_mm} mm: parry shape {shapes_s:.2} s, pointshell and mass properties {model_s:.2} s ({} points); peak {:.0} MB",
+        model.pointshell().len(),
+        peak_rss_mb()
+    );
+    Ok(())
+}
+
 fn main() -> anyhow::Result<()> {
     let args = Args::parse();
     tracing_subscriber::fmt()
@@ -146,6 +180,9 @@ fn main() -> anyhow::Result<()> {
             "--voxel-mm must be a positive number, got {}",
             args.voxel_mm
         );
+    }
+    if let Some(n) = args.part_triangles {
+        return pointshell(n, args.voxel_mm);
     }
     if let Some(case) = &args.one {
         println!("{}", serde_json::to_string(&one(case, args.voxel_mm)?)?);

@@ -66,6 +66,9 @@ pub enum ContactError {
         /// Why its inside cannot be told.
         reason: String,
     },
+    /// The build was stopped (its progress's cancel flag was set).
+    #[error("contact: the pointshell's build was stopped")]
+    Cancelled,
     /// The moving object has no volume (no mass properties for the proxy).
     #[error("contact: the moving object has no volume")]
     NoVolume,

@@ -1,4 +1,4 @@
-//! A triangle mesh as the voxmap's band build reads it: vertices in the scene frame, the
+//! A triangle mesh as the voxmap's band build and the pointshell read it: vertices in the scene frame, the
 //! triangles across each edge and around each vertex (for walking from one triangle to a
 //! nearer one), and the angle-weighted pseudo-normals of Bærentzen & Aanæs (2005) that give
 //! the sign of a distance at whichever feature (face, edge, vertex) holds the closest
@@ -11,7 +11,7 @@ const NONE: u32 = u32::MAX;
 
 /// Where on a triangle the closest point lies.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum Feature {
+pub(in crate::contact) enum Feature {
     /// Inside the face.
     Face,
     /// On edge `e` (0: corners 0–1, 1: 1–2, 2: 2–0), between its ends.
@@ -22,23 +22,23 @@ pub(super) enum Feature {
 
 /// The closest point of a triangle to a point.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct Closest {
+pub(in crate::contact) struct Closest {
     /// Squared distance, m².
-    pub(super) distance2: f64,
+    pub(in crate::contact) distance2: f64,
     /// The closest point, m.
-    pub(super) point: Vector3<f64>,
+    pub(in crate::contact) point: Vector3<f64>,
     /// Where it lies on the triangle.
-    pub(super) feature: Feature,
+    pub(in crate::contact) feature: Feature,
 }
 
 /// A mesh in the scene frame with its adjacency and pseudo-normals.
 #[derive(Debug)]
-pub(super) struct Mesh {
+pub(in crate::contact) struct Mesh {
     /// Each triangle's corners (welded, positive area), inline: the band reads them for
     /// every distance, and one contiguous record per triangle keeps that to one cache miss.
     corners: Vec<[Vector3<f64>; 3]>,
     /// Each triangle's corners as indices of welded vertices.
-    pub(super) triangles: Vec<[u32; 3]>,
+    pub(in crate::contact) triangles: Vec<[u32; 3]>,
     /// The triangles sharing a corner with each triangle (itself excluded):
     /// `ring[ring_start[t]..ring_start[t + 1]]`.
     ring_start: Vec<u32>,
@@ -53,7 +53,7 @@ pub(super) struct Mesh {
 
 impl Mesh {
     /// Welds `vertices` by exact position and keeps the triangles with positive area.
-    pub(super) fn new(vertices: &[Vector3<f64>], triangles: &[[u32; 3]]) -> Self {
+    pub(in crate::contact) fn new(vertices: &[Vector3<f64>], triangles: &[[u32; 3]]) -> Self {
         let ids = scene::repair::weld(vertices);
         let mut unique =
             vec![Vector3::zeros(); ids.iter().map(|&i| i as usize + 1).max().unwrap_or(0)];
@@ -176,7 +176,7 @@ impl Mesh {
     }
 
     /// The surface's area, m².
-    pub(super) fn area_m2(&self) -> f64 {
+    pub(in crate::contact) fn area_m2(&self) -> f64 {
         self.corners
             .iter()
             .map(|[a, b, c]| 0.5 * (b - a).cross(&(c - a)).norm())
@@ -184,26 +184,26 @@ impl Mesh {
     }
 
     /// The number of triangles.
-    pub(super) fn len(&self) -> usize {
+    pub(in crate::contact) fn len(&self) -> usize {
         self.corners.len()
     }
 
     /// The corners of triangle `t`.
     #[inline]
-    pub(super) fn corners(&self, t: u32) -> [Vector3<f64>; 3] {
+    pub(in crate::contact) fn corners(&self, t: u32) -> [Vector3<f64>; 3] {
         self.corners[t as usize]
     }
 
     /// The closest point of triangle `t` to `p`.
     #[inline]
-    pub(super) fn closest(&self, t: u32, p: &Vector3<f64>) -> Closest {
+    pub(in crate::contact) fn closest(&self, t: u32, p: &Vector3<f64>) -> Closest {
         let [a, b, c] = &self.corners[t as usize];
         closest_on_triangle(p, a, b, c)
     }
 
     /// Whether triangle `n` shares a corner with triangle `t`.
     #[inline]
-    pub(super) fn in_ring(&self, t: u32, n: u32) -> bool {
+    pub(in crate::contact) fn in_ring(&self, t: u32, n: u32) -> bool {
         let (s, e) = (
             self.ring_start[t as usize] as usize,
             self.ring_start[t as usize + 1] as usize,
@@ -218,7 +218,12 @@ impl Mesh {
     /// projects into this face, both being local minima. Ends at a triangle none of whose
     /// neighbours is nearer: on a surface smooth at the scale of `p`'s distance, the
     /// closest.
-    pub(super) fn descend(&self, p: &Vector3<f64>, mut t: u32, mut at: Closest) -> (u32, Closest) {
+    pub(in crate::contact) fn descend(
+        &self,
+        p: &Vector3<f64>,
+        mut t: u32,
+        mut at: Closest,
+    ) -> (u32, Closest) {
         loop {
             let mut best = (t, at);
             let (s, e) = (
@@ -240,7 +245,7 @@ impl Mesh {
 
     /// The pseudo-normal at the feature of triangle `t` that holds a closest point: its
     /// sign against `p − closest` is the sign of `p`'s distance (positive outside).
-    pub(super) fn pseudo_normal(&self, t: u32, feature: Feature) -> Vector3<f64> {
+    pub(in crate::contact) fn pseudo_normal(&self, t: u32, feature: Feature) -> Vector3<f64> {
         match feature {
             Feature::Face => self.face_normals[t as usize],
             Feature::Edge(e) => self.edge_normals[t as usize][e as usize],
@@ -254,7 +259,7 @@ impl Mesh {
 /// The closest point of triangle (a, b, c) to `p`, by the regions of Ericson,
 /// "Real-Time Collision Detection" §5.1.5, naming the feature it lies on.
 #[inline]
-pub(super) fn closest_on_triangle(
+pub(in crate::contact) fn closest_on_triangle(
     p: &Vector3<f64>,
     a: &Vector3<f64>,
     b: &Vector3<f64>,
@@ -307,12 +312,12 @@ pub(super) fn closest_on_triangle(
 }
 
 #[cfg(test)]
-pub(super) mod tests {
+pub(in crate::contact) mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
 
     /// A unit cube's 12 triangles wound outward, corners (0|1)³.
-    pub(in crate::contact::voxmap) fn cube() -> (Vec<Vector3<f64>>, Vec<[u32; 3]>) {
+    pub(in crate::contact) fn cube() -> (Vec<Vector3<f64>>, Vec<[u32; 3]>) {
         let v = (0..8)
             .map(|i| Vector3::new((i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64))
             .collect();

@@ -49,6 +49,7 @@ mod error;
 mod jtj;
 mod lanes;
 mod level;
+mod mesh;
 mod near;
 mod pointshell;
 #[cfg(test)]
@@ -292,23 +293,35 @@ impl ContactModel {
                 surface,
             });
         }
+        let mut open = Vec::with_capacity(scene.moving_object.len());
         for (i, part) in scene.moving_object.iter().enumerate() {
-            if let scene::Primitive::Mesh { mesh } = &part.primitive {
-                let reason = match mesh.surface() {
-                    Found::ClosedOutward => continue,
-                    Found::Open => "open: the moving object must be closed (its points need an inside to push from)".to_owned(),
-                    Found::Refused(why) => why.to_string(),
-                };
-                return Err(ContactError::Mesh {
-                    field: format!("moving_object[{i}]"),
-                    source_file: mesh.source.clone(),
-                    reason,
-                });
+            let scene::Primitive::Mesh { mesh } = &part.primitive else {
+                open.push(false);
+                continue;
+            };
+            match mesh.surface() {
+                Found::ClosedOutward => open.push(false),
+                Found::Open => {
+                    tracing::warn!(
+                        "contact: mesh {} (moving_object[{i}]) is open: its points touch from either side, its mass is that of a shell {:.1} mm thick",
+                        mesh.source,
+                        voxmap.shell_voxels * voxmap.voxel_m * 1e3
+                    );
+                    open.push(true);
+                }
+                Found::Refused(why) => {
+                    return Err(ContactError::Mesh {
+                        field: format!("moving_object[{i}]"),
+                        source_file: mesh.source.clone(),
+                        reason: why.to_string(),
+                    });
+                }
             }
         }
+        let shell_m = voxmap.shell_voxels * voxmap.voxel_m;
         let voxmap = cached_voxmap(&obstacles, voxmap, control, cache_dir)?;
         let object = scene::shapes::part_shapes(&scene.moving_object);
-        Self::with_voxmap(voxmap, &object)
+        Self::with_voxmap(voxmap, &object, &open, shell_m, control)
     }
 
     /// Builds from parry shapes: obstacles in the scene frame, object parts in the object
@@ -318,20 +331,36 @@ impl ContactModel {
         object: &[(Pose, SharedShape)],
         voxmap: &VoxmapConfig,
     ) -> Result<Self, ContactError> {
-        Self::with_voxmap(Voxmap::build(obstacles, voxmap)?, object)
+        let voxmap = Voxmap::build(obstacles, voxmap)?;
+        Self::with_voxmap(voxmap, object, &[], 0.0, &Progress::default())
     }
 
     /// The model of `object` (parts in the object frame) against a built `voxmap`.
-    fn with_voxmap(voxmap: Voxmap, object: &[(Pose, SharedShape)]) -> Result<Self, ContactError> {
+    /// The parts `open` marks are open meshes: their points face both ways and their mass
+    /// is that of a shell `shell_m` thick.
+    fn with_voxmap(
+        voxmap: Voxmap,
+        object: &[(Pose, SharedShape)],
+        open: &[bool],
+        shell_m: f64,
+        progress: &Progress,
+    ) -> Result<Self, ContactError> {
         let started = Instant::now();
-        let shells = Pointshell::build(object, voxmap.voxel_m())?.with_coarser();
+        let shells =
+            Pointshell::build_with(object, open, voxmap.voxel_m(), progress)?.with_coarser();
         let shell = &shells[0];
         let shell_build_s = started.elapsed().as_secs_f64();
         // Summed part by part: parry's `Compound` refuses a mesh among its parts (it
         // panics on nested composite shapes), as the silencer's body is.
         let mp: MassProperties = object
             .iter()
-            .map(|(pose, shape)| shape.mass_properties(1.0).transform_by(pose))
+            .enumerate()
+            .map(|(i, (pose, shape))| match shape.as_trimesh() {
+                Some(t) if open.get(i).copied().unwrap_or(false) => {
+                    shell_mass_properties(pose, t, shell_m)
+                }
+                _ => shape.mass_properties(1.0).transform_by(pose),
+            })
             .sum();
         let volume = mp.mass();
         if !(volume.is_finite() && volume > 0.0) {
@@ -395,6 +424,61 @@ impl ContactModel {
             self.shell_build_s
         )
     }
+}
+
+/// The mass properties (density 1) of a triangle mesh taken as a shell `thickness_m`
+/// thick, in the frame `pose` maps the mesh into: per triangle of area A, mass A·t at its
+/// centroid and the second moment t·A/12·(Σ vᵢvᵢᵀ + (Σ vᵢ)(Σ vᵢ)ᵀ) of a thin triangle.
+fn shell_mass_properties(
+    pose: &Pose,
+    mesh: &parry3d_f64::shape::TriMesh,
+    thickness_m: f64,
+) -> MassProperties {
+    let v: Vec<Vector3<f64>> = mesh
+        .vertices()
+        .iter()
+        .map(|p| {
+            let q = pose.transform_point(*p);
+            Vector3::new(q.x, q.y, q.z)
+        })
+        .collect();
+    let (mut mass, mut first, mut second) = (0.0, Vector3::zeros(), Matrix3::zeros());
+    for t in mesh.indices() {
+        let [a, b, c] = t.map(|i| v[i as usize]);
+        let area = 0.5 * (b - a).cross(&(c - a)).norm();
+        let m = area * thickness_m;
+        let sum = a + b + c;
+        mass += m;
+        first += sum * (m / 3.0);
+        second +=
+            (a * a.transpose() + b * b.transpose() + c * c.transpose() + sum * sum.transpose())
+                * (m / 12.0);
+    }
+    // Zero area (or NaN from a degenerate mesh): no mass to speak of.
+    if mass.is_nan() || mass <= 0.0 {
+        return MassProperties::default();
+    }
+    let com = first / mass;
+    // Inertia about the origin from the second moment, then about the centre of mass.
+    let about_origin = Matrix3::identity() * second.trace() - second;
+    let about_com =
+        about_origin - (Matrix3::identity() * com.norm_squared() - com * com.transpose()) * mass;
+    let m = about_com;
+    MassProperties::with_inertia_matrix(
+        parry3d_f64::math::Vector::new(com.x, com.y, com.z),
+        mass,
+        parry3d_f64::math::Matrix::from_cols_array(&[
+            m[(0, 0)],
+            m[(1, 0)],
+            m[(2, 0)],
+            m[(0, 1)],
+            m[(1, 1)],
+            m[(2, 1)],
+            m[(0, 2)],
+            m[(1, 2)],
+            m[(2, 2)],
+        ]),
+    )
 }
 
 /// The voxmap of `obstacles`: from `cache_dir` when built from the same inputs before, else

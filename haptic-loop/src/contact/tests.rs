@@ -965,3 +965,32 @@ fn a_proxy_tipping_over_under_a_hard_pull_stays_within_a_voxel() {
     // The run is sharp: the same tip-over without the bound goes past a voxel (1.1 mm).
     assert!(unbounded > h, "unbounded: {} mm", unbounded * 1e3);
 }
+
+/// An open moving object's mass is that of a thin shell: for the six faces of a cube of side
+/// s as a shell t thick, mass 6·s²·t and inertia 5/18·M·s² about each axis.
+#[test]
+fn a_shell_has_the_mass_properties_of_a_thin_walled_box() {
+    let cube = scene::MeshData::cuboid("cube", [0.1, 0.1, 0.1]);
+    let shape = scene::shapes::part_shape(&scene::Part {
+        primitive: scene::Primitive::Mesh {
+            mesh: Arc::new(cube),
+        },
+        pose: Se3::identity(),
+    });
+    let at = Pose::translation(0.3, -0.2, 0.1);
+    let mp = super::shell_mass_properties(&at, shape.as_trimesh().unwrap(), 0.002);
+    let (s, t) = (0.2, 0.002);
+    let mass = 6.0 * s * s * t;
+    assert!((mp.mass() - mass).abs() < 1e-12, "{}", mp.mass());
+    let c = mp.local_com;
+    assert!((Vector3::new(c.x, c.y, c.z) - Vector3::new(0.3, -0.2, 0.1)).norm() < 1e-12);
+    let inv = mp.inv_principal_inertia;
+    for i in [inv.x, inv.y, inv.z] {
+        let expected = 5.0 / 18.0 * mass * s * s;
+        assert!(
+            (1.0 / i - expected).abs() < 1e-9 * expected,
+            "{} vs {expected}",
+            1.0 / i
+        );
+    }
+}

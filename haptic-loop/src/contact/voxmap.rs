@@ -35,7 +35,6 @@ mod avx2;
 mod band;
 mod build;
 pub mod cache;
-mod mesh;
 mod query;
 
 pub use build::{Obstacle, Surface};

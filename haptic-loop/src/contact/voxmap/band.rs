@@ -24,7 +24,7 @@
 //! exact point–mesh distances).
 
 use super::B;
-use super::mesh::Mesh;
+use crate::contact::mesh::Mesh;
 use nalgebra::Vector3;
 use scene::progress::Progress;
 use std::collections::VecDeque;
@@ -516,10 +516,26 @@ impl<'m> Work<'m> {
                 [0, 1, 2].map(|i| to_node(lo[i], i, false)),
                 [0, 1, 2].map(|i| to_node(hi[i], i, true)),
             );
-            for k in a[2]..=z[2] {
-                for j in a[1]..=z[1] {
-                    for i in a[0]..=z[0] {
-                        let n = [i, j, k];
+            // Only the nodes next to the triangle's plane: along its most normal axis `w`,
+            // each column of the box gets the nodes within a voxel and a half of where the
+            // plane crosses it (a big tilted triangle's box is a volume; its plane is not).
+            let normal = (c[1] - c[0]).cross(&(c[2] - c[0]));
+            let w = normal.iamax();
+            let (u, v) = ((w + 1) % 3, (w + 2) % 3);
+            for ju in a[u]..=z[u] {
+                for jv in a[v]..=z[v] {
+                    let mut n = [0usize; 3];
+                    n[u] = ju;
+                    n[v] = jv;
+                    let p = g.position(n);
+                    // The plane's w at this column, in node units.
+                    let pw = c[0][w]
+                        - (normal[u] * (p[u] - c[0][u]) + normal[v] * (p[v] - c[0][v])) / normal[w];
+                    let x = (pw - g.origin[w]) / g.h;
+                    let from = (x - 1.5).floor().max(a[w] as f64) as usize;
+                    let to = ((x + 1.5).ceil().min(z[w] as f64)).max(from as f64) as usize;
+                    for k in from..=to.min(z[w]) {
+                        n[w] = k;
                         let at = self.mesh.closest(t, &g.position(n));
                         self.offer(n, t, at.distance2.sqrt() as f32);
                     }
@@ -610,7 +626,7 @@ mod tests {
     }
 
     fn cube_band_on(side: Side, threads: usize) -> (Band, Grid) {
-        let (v, t) = super::super::mesh::tests::cube();
+        let (v, t) = crate::contact::mesh::tests::cube();
         let v: Vec<_> = v.iter().map(|p| p * 0.04).collect();
         let mesh = Mesh::new(&v, &t);
         let grid = Grid {
@@ -697,7 +713,7 @@ mod tests {
 
     #[test]
     fn a_set_cancel_flag_stops_the_band() {
-        let (v, t) = super::super::mesh::tests::cube();
+        let (v, t) = crate::contact::mesh::tests::cube();
         let mesh = Mesh::new(&v, &t);
         let grid = Grid {
             origin: Vector3::repeat(-0.5),

@@ -4,11 +4,11 @@
 //! start-up, never on the real-time path.
 
 use super::band::{Band, Grid, Limits, Side};
-use super::mesh::Mesh;
 use super::{
     B, BLOCK_NODES, FIRST, INSIDE, MAX_BYTES, N, OUTSIDE, Q, Voxmap, VoxmapConfig, VoxmapError,
     VoxmapReport,
 };
+use crate::contact::mesh::Mesh;
 use nalgebra::Vector3;
 use parry3d_f64::bounding_volume::{Aabb, BoundingVolume};
 use parry3d_f64::math::{Pose, Vector as PVec};
