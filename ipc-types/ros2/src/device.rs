@@ -146,9 +146,9 @@ impl DeviceConfig {
 /// What can stop the device gateway from starting.
 #[derive(Debug, thiserror::Error)]
 pub enum DeviceError {
-    /// The iceoryx2 namespace cannot name services.
-    #[error("namespace: {0}")]
-    Namespace(#[from] services::NamespaceError),
+    /// The iceoryx2 namespace cannot name services (not a source: the message says it all).
+    #[error("iceoryx2 namespace: {0}")]
+    Namespace(services::NamespaceError),
     /// ROS 2 names, Zenoh session or declarations.
     #[error(transparent)]
     Ros(#[from] RosError),
@@ -166,6 +166,12 @@ pub enum DeviceError {
         /// Why.
         reason: String,
     },
+}
+
+impl From<services::NamespaceError> for DeviceError {
+    fn from(e: services::NamespaceError) -> Self {
+        DeviceError::Namespace(e)
+    }
 }
 
 /// Why a pose sample was refused.

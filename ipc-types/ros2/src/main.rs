@@ -59,7 +59,7 @@ struct Common {
     #[arg(long, default_value = "jazzy", value_parser = ["jazzy", "kilted", "humble"])]
     ros_distro: String,
     /// Stop after this many seconds.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     duration_s: Option<f64>,
     /// Write what was sent, received and rejected as JSON here at the end.
     #[arg(long)]
@@ -131,10 +131,10 @@ struct ServeArgs {
     #[arg(long, default_value_t = 100)]
     state_poll_us: u64,
     /// Rate of the roadmap and path markers, Hz.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = 2.0, allow_hyphen_values = true)]
     marker_rate_hz: f64,
     /// Time-to-live of guidance from ROS 2, ms: the loop fades it out after this.
-    #[arg(long, default_value_t = 100.0)]
+    #[arg(long, default_value_t = 100.0, allow_hyphen_values = true)]
     guidance_ttl_ms: f64,
     /// Draw meshes of more triangles as their bounding boxes.
     #[arg(long, default_value_t = 100_000)]
@@ -161,22 +161,22 @@ struct DeviceArgs {
     #[arg(long)]
     wrench_frame: Option<String>,
     /// The arm's maximum force, N.
-    #[arg(long, default_value_t = Limits::default().max_force_n)]
+    #[arg(long, default_value_t = Limits::default().max_force_n, allow_hyphen_values = true)]
     max_force_n: f64,
     /// The arm's maximum torque, N·m (0: no torque output).
-    #[arg(long, default_value_t = Limits::default().max_torque_nm)]
+    #[arg(long, default_value_t = Limits::default().max_torque_nm, allow_hyphen_values = true)]
     max_torque_nm: f64,
     /// The arm's maximum stable stiffness at 1 kHz, N/m.
-    #[arg(long, default_value_t = Limits::default().max_stiffness_n_per_m)]
+    #[arg(long, default_value_t = Limits::default().max_stiffness_n_per_m, allow_hyphen_values = true)]
     stiffness_n_per_m: f64,
     /// The arm's maximum stable rotational stiffness, N·m/rad.
-    #[arg(long, default_value_t = Limits::default().max_rot_stiffness_nm_per_rad)]
+    #[arg(long, default_value_t = Limits::default().max_rot_stiffness_nm_per_rad, allow_hyphen_values = true)]
     rot_stiffness_nm_per_rad: f64,
     /// The arm's maximum stable damping, N·s/m.
-    #[arg(long, default_value_t = Limits::default().max_damping_n_s_per_m)]
+    #[arg(long, default_value_t = Limits::default().max_damping_n_s_per_m, allow_hyphen_values = true)]
     damping_n_s_per_m: f64,
     /// Radius of the arm's workspace about its base, m.
-    #[arg(long, default_value_t = Limits::default().workspace_radius_m)]
+    #[arg(long, default_value_t = Limits::default().workspace_radius_m, allow_hyphen_values = true)]
     workspace_radius_m: f64,
     /// Number of buttons (≤ 32).
     #[arg(long, default_value_t = 0)]
@@ -188,10 +188,10 @@ struct DeviceArgs {
     #[arg(long)]
     name: Option<String>,
     /// Send zero force when the loop's commands are older than this, ms.
-    #[arg(long, default_value_t = 20.0)]
+    #[arg(long, default_value_t = 20.0, allow_hyphen_values = true)]
     command_timeout_ms: f64,
     /// Time constant of the velocity filter (poses' finite differences), ms.
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, default_value_t = 10.0, allow_hyphen_values = true)]
     velocity_filter_ms: f64,
     /// The node's ROS namespace.
     #[arg(long, default_value = "/")]

@@ -102,9 +102,9 @@ impl ServeConfig {
 /// What can stop the gateway from starting.
 #[derive(Debug, thiserror::Error)]
 pub enum ServeError {
-    /// The iceoryx2 namespace cannot name services.
-    #[error("namespace: {0}")]
-    Namespace(#[from] services::NamespaceError),
+    /// The iceoryx2 namespace cannot name services (not a source: the message says it all).
+    #[error("iceoryx2 namespace: {0}")]
+    Namespace(services::NamespaceError),
     /// ROS 2 names, Zenoh session or declarations.
     #[error(transparent)]
     Ros(#[from] RosError),
@@ -122,6 +122,12 @@ pub enum ServeError {
         /// Why.
         reason: String,
     },
+}
+
+impl From<services::NamespaceError> for ServeError {
+    fn from(e: services::NamespaceError) -> Self {
+        ServeError::Namespace(e)
+    }
 }
 
 /// Samples put on one topic.
