@@ -116,8 +116,10 @@ pub fn open_session(config: &SessionConfig) -> Result<zenoh::Session, RosError> 
         ("mode", "\"peer\"".to_owned()),
         ("connect/endpoints", json_list(&config.connect)),
         ("listen/endpoints", json_list(&config.listen)),
-        // Start without the router; keep trying to reach it (as an rmw_zenoh peer does).
-        ("connect/timeout_ms", "0".to_owned()),
+        // Start without the router and keep trying to reach it in the background, as an
+        // rmw_zenoh peer does (an infinite timeout without exit on failure: zenoh then
+        // connects in the background; a zero timeout would try once).
+        ("connect/timeout_ms", "-1".to_owned()),
         ("connect/exit_on_failure", "false".to_owned()),
         (
             "connect/retry",
