@@ -130,6 +130,11 @@ struct ServeArgs {
     /// Poll period of the state blackboard, µs, before locking onto a real-time loop's ticks.
     #[arg(long, default_value_t = 100)]
     state_poll_us: u64,
+    /// SCHED_FIFO priority of the thread that reads the state and publishes the tick topics
+    /// (below the loop's 80), so that it wakes on time on a busy host; 0 keeps the normal
+    /// scheduler; without permission it is kept too, with a warning.
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u8).range(0..=98))]
+    state_priority: u8,
     /// Rate of the roadmap and path markers, Hz.
     #[arg(long, default_value_t = 2.0, allow_hyphen_values = true)]
     marker_rate_hz: f64,
@@ -261,6 +266,7 @@ fn serve(a: ServeArgs, stop: Arc<AtomicBool>) -> anyhow::Result<()> {
         parent_frame: a.parent_frame,
         state_decimation: a.state_decimation,
         state_poll_us: a.state_poll_us,
+        state_priority: a.state_priority,
         marker_rate_hz: a.marker_rate_hz,
         guidance_ttl_s: a.guidance_ttl_ms / 1e3,
         max_mesh_triangles: a.max_mesh_triangles,

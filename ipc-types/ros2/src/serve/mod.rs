@@ -1,11 +1,13 @@
 //! `hrrtc-ros2 serve`: one namespace's loop and planner as a ROS 2 node.
 //!
-//! On the loop's host, a non-RT process: it reads the state blackboard phase-locked to the
-//! loop's ticks (as `hrrtc-bridge` and the planner do, `ipc_types::pacing`) and publishes
-//! each tick (or every `state_decimation`-th) on the topics of [`topics`]; it republishes
-//! the planner's solution path and roadmap ([`markers`]) and the scene; and it hands
-//! guidance from ROS 2 ([`guidance`]) to the loop's guidance service, straight from Zenoh's
-//! callback through thread-safe ports, waking the loop's relay. Nothing waits on the network.
+//! On the loop's host, its own process: a state thread reads the state blackboard
+//! phase-locked to the loop's ticks (as `hrrtc-bridge` and the planner's receiver do,
+//! `ipc_types::pacing`; at SCHED_FIFO 10, below the loop's 80, when permitted, as the
+//! planner's receiver) and publishes each tick (or every `state_decimation`-th) on the
+//! topics of [`topics`]; a planner thread (normal scheduler) republishes the planner's
+//! solution path and roadmap ([`markers`]) and the scene; and guidance from ROS 2
+//! ([`guidance`]) goes to the loop's guidance service straight from Zenoh's callback
+//! through thread-safe ports, waking the loop's relay. Nothing waits on the network.
 //!
 //! | topic (under the node's namespace, default `/hrrtc`) | type | QoS | rate |
 //! |---|---|---|---|
@@ -65,6 +67,10 @@ pub struct ServeConfig {
     /// Poll period of the state blackboard before locking onto a real-time loop's ticks,
     /// and for a loop without real-time rights, µs.
     pub state_poll_us: u64,
+    /// SCHED_FIFO priority of the thread that reads the state and publishes the tick topics
+    /// (below the loop's 80), so that it wakes on time on a busy host; 0 keeps the normal
+    /// scheduler, as does a lack of permission (with a warning).
+    pub state_priority: u8,
     /// Rate of `planner_markers`, Hz.
     pub marker_rate_hz: f64,
     /// Time-to-live of guidance from ROS 2, s.
@@ -78,8 +84,8 @@ pub struct ServeConfig {
 }
 
 impl ServeConfig {
-    /// Defaults on `namespace`: ROS namespace `/hrrtc`, node `hrrtc_gateway`, every tick,
-    /// markers at 2 Hz, guidance fresh for 100 ms.
+    /// Defaults on `namespace`: ROS namespace `/hrrtc`, node `hrrtc_gateway`, every tick
+    /// from a SCHED_FIFO 10 thread, markers at 2 Hz, guidance fresh for 100 ms.
     pub fn new(namespace: &str) -> Self {
         ServeConfig {
             namespace: namespace.to_owned(),
@@ -90,6 +96,7 @@ impl ServeConfig {
             parent_frame: None,
             state_decimation: 1,
             state_poll_us: 100,
+            state_priority: 10,
             marker_rate_hz: 2.0,
             guidance_ttl_s: 0.1,
             max_mesh_triangles: 100_000,
@@ -447,27 +454,41 @@ pub fn run(config: &ServeConfig, stop: Arc<AtomicBool>) -> Result<ServeReport, S
     // The local thread: state, path, roadmap and markers.
     let (ready_tx, ready_rx) = std::sync::mpsc::channel();
     let pubs = Arc::new(pubs);
-    let local = {
-        let config = config.clone();
-        let frames = frames.clone();
-        let pubs = pubs.clone();
-        let counters = counters.clone();
-        let stop = stop.clone();
+    let spawn = |name: &'static str, body: ThreadBody| {
+        let (config, frames, pubs, counters, stop, ready) = (
+            config.clone(),
+            frames.clone(),
+            pubs.clone(),
+            counters.clone(),
+            stop.clone(),
+            ready_tx.clone(),
+        );
         std::thread::Builder::new()
-            .name("ros2-local".into())
-            .spawn(move || local_thread(&config, &frames, &pubs, &counters, &stop, ready_tx))
+            .name(format!("ros2-{name}"))
+            .spawn(move || body(&config, &frames, &pubs, &counters, &stop, ready))
             .map_err(|e| ServeError::Thread {
-                thread: "local",
+                thread: name,
                 reason: e.to_string(),
-            })?
+            })
     };
-    let setup = match ready_rx.recv() {
-        Ok(r) => r,
-        Err(_) => Err(ServeError::Thread {
-            thread: "local",
-            reason: "it died during set-up".into(),
-        }),
-    };
+    let threads = [
+        spawn("state", state_thread)?,
+        spawn("planner", planner_thread)?,
+    ];
+    drop(ready_tx);
+    let mut setup = Ok(());
+    for _ in 0..threads.len() {
+        match ready_rx.recv() {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => setup = Err(e),
+            Err(_) => {
+                setup = Err(ServeError::Thread {
+                    thread: "state or planner",
+                    reason: "it died during set-up".into(),
+                })
+            }
+        }
+    }
     if setup.is_ok() {
         let n = participant.node();
         tracing::info!(
@@ -508,7 +529,10 @@ pub fn run(config: &ServeConfig, stop: Arc<AtomicBool>) -> Result<ServeReport, S
         }
     }
     stop.store(true, Ordering::Release);
-    let boxed = local.join().unwrap_or_default();
+    let boxed = threads
+        .into_iter()
+        .flat_map(|t| t.join().unwrap_or_default())
+        .collect();
     drop(guidance_sub);
     setup?;
     let report = ServeReport {
@@ -554,9 +578,21 @@ fn static_transforms(config: &ServeConfig, frames: &Frames) -> TfMessage {
     TfMessage { transforms }
 }
 
-/// Owns the iceoryx2 ports (not `Send`): reads the state phase-locked to the loop, the path
-/// and roadmap, and publishes. Returns the meshes drawn as boxes.
-fn local_thread(
+/// A gateway thread's body: it says on `ready` whether its ports opened, runs until the stop
+/// flag, and returns the meshes it drew as boxes.
+type ThreadBody = fn(
+    &ServeConfig,
+    &Frames,
+    &StatePubs,
+    &Counters,
+    &AtomicBool,
+    std::sync::mpsc::Sender<Result<(), ServeError>>,
+) -> Vec<String>;
+
+/// The tick topics: reads the state phase-locked to the loop (as the planner's receiver, at
+/// SCHED_FIFO `state_priority` when permitted, so that it wakes on time on a busy host) and
+/// publishes each (or each n-th) tick. Owns its iceoryx2 ports (not `Send`).
+fn state_thread(
     config: &ServeConfig,
     frames: &Frames,
     pubs: &StatePubs,
@@ -564,15 +600,12 @@ fn local_thread(
     stop: &AtomicBool,
     ready: std::sync::mpsc::Sender<Result<(), ServeError>>,
 ) -> Vec<String> {
-    let ns = &config.namespace;
     let opened = (|| -> Result<_, ServeError> {
-        let (node, _) = services::create_node(&format!("ros2_local_{}", std::process::id()))?;
-        let state = services::StateFollower::open(&node, ns)?;
-        let path = services::subscriber::<Path>(&node, ns)?;
-        let roadmap = services::subscriber::<Roadmap>(&node, ns)?;
-        Ok((node, state, path, roadmap))
+        let (node, _) = services::create_node(&format!("ros2_state_{}", std::process::id()))?;
+        let state = services::StateFollower::open(&node, &config.namespace)?;
+        Ok((node, state))
     })();
-    let (_node, mut state, path_sub, roadmap_sub) = match opened {
+    let (_node, mut state) = match opened {
         Ok(o) => {
             let _ = ready.send(Ok(()));
             o
@@ -582,33 +615,19 @@ fn local_thread(
             return Vec::new();
         }
     };
-    if !ipc_types::set_thread_timer_slack_ns(1_000) {
-        tracing::debug!("cannot set the local thread's timer slack");
+    if config.state_priority > 0
+        && let Err(e) = ipc_types::set_thread_fifo_priority(config.state_priority)
+    {
+        tracing::warn!("state thread: {e}; it keeps the normal scheduler");
     }
-    let mut boxed = Vec::new();
-    let scene_markers = config.scene.as_ref().map(|s| {
-        let stamp = Clocks::now().to_ros(ipc_types::monotonic_ns());
-        let (m, b) = markers::scene_markers(s, frames, stamp, config.max_mesh_triangles);
-        for name in &b {
-            tracing::info!(
-                "mesh {name}: more than {} triangles, drawn as its bounding box",
-                config.max_mesh_triangles
-            );
-        }
-        boxed = b;
-        m.encode()
-    });
-    let mut next_scene = Instant::now();
-    let marker_period = Duration::from_secs_f64(1.0 / config.marker_rate_hz);
-    let mut next_markers = Instant::now() + marker_period;
-    let mut roadmap = RoadmapModel::new(config.max_roadmap_nodes);
-    let mut newest_path: Option<Box<Path>> = None;
+    if !ipc_types::set_thread_timer_slack_ns(1_000) {
+        tracing::debug!("cannot set the state thread's timer slack");
+    }
     let poll_ns = config.state_poll_us.max(10) * 1_000;
     let mut pacer = pacing::StatePacer::sleeping(poll_ns);
     let mut paced = false;
     let (mut last_seq, mut last_pid) = (0u64, 0u32);
     let mut next_poll = ipc_types::monotonic_ns();
-    let mut roadmap_warned = false;
     while !stop.load(Ordering::Acquire) {
         let s = state.get();
         let new = s.header.sequence != 0
@@ -648,7 +667,62 @@ fn local_thread(
             }
             next_poll
         };
-        // Between ticks: the path, the roadmap and the markers (cheap unless due).
+        ipc_types::sleep_until_ns(next);
+    }
+    Vec::new()
+}
+
+/// How often the planner thread looks for paths and roadmap increments.
+const PLANNER_POLL: Duration = Duration::from_millis(10);
+
+/// The planner's output and the scene, at the normal scheduler: the solution path (each new
+/// one), the roadmap and path markers (at `marker_rate_hz`), the scene markers (every
+/// [`SCENE_PERIOD_S`]). Owns its iceoryx2 ports. Returns the meshes drawn as boxes.
+fn planner_thread(
+    config: &ServeConfig,
+    frames: &Frames,
+    pubs: &StatePubs,
+    counters: &Counters,
+    stop: &AtomicBool,
+    ready: std::sync::mpsc::Sender<Result<(), ServeError>>,
+) -> Vec<String> {
+    let ns = &config.namespace;
+    let opened = (|| -> Result<_, ServeError> {
+        let (node, _) = services::create_node(&format!("ros2_planner_{}", std::process::id()))?;
+        let path = services::subscriber::<Path>(&node, ns)?;
+        let roadmap = services::subscriber::<Roadmap>(&node, ns)?;
+        Ok((node, path, roadmap))
+    })();
+    let (_node, path_sub, roadmap_sub) = match opened {
+        Ok(o) => {
+            let _ = ready.send(Ok(()));
+            o
+        }
+        Err(e) => {
+            let _ = ready.send(Err(e));
+            return Vec::new();
+        }
+    };
+    let mut boxed = Vec::new();
+    let scene_markers = config.scene.as_ref().map(|s| {
+        let stamp = Clocks::now().to_ros(ipc_types::monotonic_ns());
+        let (m, b) = markers::scene_markers(s, frames, stamp, config.max_mesh_triangles);
+        for name in &b {
+            tracing::info!(
+                "mesh {name}: more than {} triangles, drawn as its bounding box",
+                config.max_mesh_triangles
+            );
+        }
+        boxed = b;
+        m.encode()
+    });
+    let mut next_scene = Instant::now();
+    let marker_period = Duration::from_secs_f64(1.0 / config.marker_rate_hz);
+    let mut next_markers = Instant::now() + marker_period;
+    let mut roadmap = RoadmapModel::new(config.max_roadmap_nodes);
+    let mut newest_path: Option<Box<Path>> = None;
+    let mut roadmap_warned = false;
+    while !stop.load(Ordering::Acquire) {
         while let Ok(Some(p)) = path_sub.receive() {
             if p.header.sequence != 0 && p.waypoints().iter().all(|w| w.is_valid()) {
                 let stamp = Clocks::now().to_ros(p.header.timestamp_ns);
@@ -671,16 +745,16 @@ fn local_thread(
             );
             roadmap_warned = true;
         }
-        let wall = Instant::now();
+        let now = Instant::now();
         if let Some(bytes) = &scene_markers
-            && wall >= next_scene
+            && now >= next_scene
         {
             pubs.scene_markers
                 .publish_payload(bytes.clone(), crate::clock::realtime_ns());
-            next_scene = wall + Duration::from_secs_f64(SCENE_PERIOD_S);
+            next_scene = now + Duration::from_secs_f64(SCENE_PERIOD_S);
         }
-        if wall >= next_markers {
-            next_markers = wall + marker_period;
+        if now >= next_markers {
+            next_markers = now + marker_period;
             let stamp = Clocks::now().to_ros(ipc_types::monotonic_ns());
             let m = markers::planner_markers(&roadmap, newest_path.as_deref(), frames, stamp);
             if m.markers.len() > 1 {
@@ -688,7 +762,7 @@ fn local_thread(
                     .publish(&m, crate::clock::realtime_ns());
             }
         }
-        ipc_types::sleep_until_ns(next);
+        std::thread::sleep(PLANNER_POLL);
     }
     boxed
 }
