@@ -130,6 +130,12 @@ struct ServeArgs {
     /// Poll period of the state blackboard, µs, before locking onto a real-time loop's ticks.
     #[arg(long, default_value_t = 100)]
     state_poll_us: u64,
+    /// Longest the state thread spins after waking just before a predicted state, µs: it
+    /// then reads the state within ~1 µs of its write, for about the spread of its wake-ups
+    /// in CPU per tick; 0: it only sleeps (reading each state its wake-up latency after the
+    /// write). Only for a loop with a real-time thread.
+    #[arg(long, default_value_t = 100.0, allow_hyphen_values = true)]
+    state_spin_us: f64,
     /// SCHED_FIFO priority of the thread that reads the state and publishes the tick topics
     /// (below the loop's 80), so that it wakes on time on a busy host; 0 keeps the normal
     /// scheduler; without permission it is kept too, with a warning.
@@ -266,6 +272,7 @@ fn serve(a: ServeArgs, stop: Arc<AtomicBool>) -> anyhow::Result<()> {
         parent_frame: a.parent_frame,
         state_decimation: a.state_decimation,
         state_poll_us: a.state_poll_us,
+        state_spin_us: a.state_spin_us,
         state_priority: a.state_priority,
         marker_rate_hz: a.marker_rate_hz,
         guidance_ttl_s: a.guidance_ttl_ms / 1e3,

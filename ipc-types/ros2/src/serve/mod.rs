@@ -2,8 +2,8 @@
 //!
 //! On the loop's host, its own process: a state thread reads the state blackboard
 //! phase-locked to the loop's ticks (as `hrrtc-bridge` and the planner's receiver do,
-//! `ipc_types::pacing`; at SCHED_FIFO 10, below the loop's 80, when permitted, as the
-//! planner's receiver) and publishes each tick (or every `state_decimation`-th) on the
+//! `ipc_types::pacing`; at SCHED_FIFO 10, below the loop's 80, when permitted, and waking
+//! just before the write and watching for it, as the planner's receiver) and publishes each tick (or every `state_decimation`-th) on the
 //! topics of [`topics`]; a planner thread (normal scheduler) republishes the planner's
 //! solution path and roadmap ([`markers`]) and the scene; and guidance from ROS 2
 //! ([`guidance`]) goes to the loop's guidance service straight from Zenoh's callback
@@ -67,6 +67,10 @@ pub struct ServeConfig {
     /// Poll period of the state blackboard before locking onto a real-time loop's ticks,
     /// and for a loop without real-time rights, µs.
     pub state_poll_us: u64,
+    /// Longest the state thread spins for a predicted state after waking before it, µs
+    /// (0: it only sleeps, reading each state its wake-up latency after the write); only
+    /// for a loop with a real-time thread (see `ipc_types::pacing`).
+    pub state_spin_us: f64,
     /// SCHED_FIFO priority of the thread that reads the state and publishes the tick topics
     /// (below the loop's 80), so that it wakes on time on a busy host; 0 keeps the normal
     /// scheduler, as does a lack of permission (with a warning).
@@ -96,6 +100,7 @@ impl ServeConfig {
             parent_frame: None,
             state_decimation: 1,
             state_poll_us: 100,
+            state_spin_us: 100.0,
             state_priority: 10,
             marker_rate_hz: 2.0,
             guidance_ttl_s: 0.1,
@@ -327,6 +332,12 @@ fn validate(config: &ServeConfig) -> Result<(), ServeError> {
         }
     };
     positive("marker rate (Hz)", config.marker_rate_hz)?;
+    if !(config.state_spin_us.is_finite() && config.state_spin_us >= 0.0) {
+        return Err(ServeError::Config(format!(
+            "state spin {} µs: must be a number ≥ 0",
+            config.state_spin_us
+        )));
+    }
     positive("guidance time-to-live (s)", config.guidance_ttl_s)?;
     if let Some(d) = config.duration_s {
         positive("duration (s)", d)?;
@@ -624,8 +635,11 @@ fn state_thread(
         tracing::debug!("cannot set the state thread's timer slack");
     }
     let poll_ns = config.state_poll_us.max(10) * 1_000;
+    let spin_ns = (config.state_spin_us * 1e3) as u64;
     let mut pacer = pacing::StatePacer::sleeping(poll_ns);
-    let mut paced = false;
+    // Phase-locked (and spinning) only for a loop with a real-time thread, as the planner's
+    // receiver: a loop at normal priority ticks late and in bursts, and needs the CPU.
+    let (mut paced, mut spin, mut came) = (false, false, false);
     let (mut last_seq, mut last_pid) = (0u64, 0u32);
     let mut next_poll = ipc_types::monotonic_ns();
     while !stop.load(Ordering::Acquire) {
@@ -638,7 +652,12 @@ fn state_thread(
         if new {
             if s.header.writer_pid != last_pid {
                 paced = pacing::has_real_time_thread(s.header.writer_pid);
-                pacer = pacing::StatePacer::sleeping(poll_ns);
+                spin = paced && spin_ns > 0;
+                pacer = if spin {
+                    pacing::StatePacer::spinning(poll_ns)
+                } else {
+                    pacing::StatePacer::sleeping(poll_ns)
+                };
             }
             last_seq = s.header.sequence;
             last_pid = s.header.writer_pid;
@@ -651,13 +670,16 @@ fn state_thread(
         }
         let now = ipc_types::monotonic_ns();
         let next = if paced {
-            let seen = if new {
-                pacing::Seen::Found {
+            let seen = match (new, came) {
+                (false, _) => pacing::Seen::Nothing,
+                (true, false) => pacing::Seen::Found {
                     sequence: s.header.sequence,
                     stamp_ns: s.header.timestamp_ns,
-                }
-            } else {
-                pacing::Seen::Nothing
+                },
+                (true, true) => pacing::Seen::Came {
+                    sequence: s.header.sequence,
+                    stamp_ns: s.header.timestamp_ns,
+                },
             };
             pacer.next_poll(now, seen)
         } else {
@@ -668,6 +690,17 @@ fn state_thread(
             next_poll
         };
         ipc_types::sleep_until_ns(next);
+        came = false;
+        if spin && pacer.predicted() && state.get().header.sequence == last_seq {
+            // Woken before the write (the pacer aims so four times in five): watch the entry
+            // until the state comes or the window closes, and read it within about a
+            // microsecond of its write.
+            let end = ipc_types::monotonic_ns() + spin_ns;
+            while state.get().header.sequence == last_seq && ipc_types::monotonic_ns() < end {
+                std::hint::spin_loop();
+            }
+            came = true;
+        }
     }
     Vec::new()
 }
