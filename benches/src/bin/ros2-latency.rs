@@ -54,6 +54,9 @@ struct Args {
     /// The `hrrtc-ros2` executable (default: beside this one).
     #[arg(long)]
     gateway: Option<PathBuf>,
+    /// More `hrrtc-ros2 serve` options, as one string (e.g. "--state-spin-us 0").
+    #[arg(long, allow_hyphen_values = true)]
+    gateway_args: Option<String>,
     /// Write the results as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
@@ -310,6 +313,12 @@ fn one_round(args: &Args, gateway: &std::path::Path, round: u32) -> anyhow::Resu
                 &format!("tcp/127.0.0.1:{ros_port}"),
             ])
             .args(["--scene", "none"])
+            .args(
+                args.gateway_args
+                    .as_deref()
+                    .unwrap_or_default()
+                    .split_whitespace(),
+            )
             .stdin(Stdio::null())
             .stdout(Stdio::null())
             .stderr(Stdio::null())
