@@ -5,8 +5,9 @@
 //! F_s = k·F_a is the wrench), which the loop renders as any planner's guidance: bounded to
 //! 40 % of the device's force, rate limited, faded after its time-to-live.
 //!
-//! Every sample is checked before it is handed on, and a rejected one is counted by kind and
-//! never reaches the loop:
+//! Every sample is checked before it is handed on, and a rejected one is counted by kind,
+//! logged (at most once a second per kind, so a flood cannot flood the log) and never
+//! reaches the loop:
 //!
 //! | kind | what |
 //! |---|---|
