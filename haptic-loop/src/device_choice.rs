@@ -1,7 +1,7 @@
 //! Which device the loop drives (`sim`, `sim-spacemouse`, `spacemouse`, `dhd`,
-//! `openhaptics`, `bridge`, `replay:FILE`), building it with an optional recorder around it, and describing a
-//! device's limits. Errors name the device and what to check (permissions, library path,
-//! driver).
+//! `openhaptics`, `bridge`, `ros2:...`, `replay:FILE`), building it with an optional recorder
+//! around it, and describing a device's limits. Errors name the device and what to check
+//! (permissions, library path, driver).
 
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
@@ -30,6 +30,9 @@ pub enum DeviceChoice {
     OpenHaptics,
     /// A device served by an external driver over the bridge services.
     Bridge,
+    /// A ROS 2 driver's arm: the bridge services served by `hrrtc-ros2 device` (which the
+    /// `haptic-loop` binary starts).
+    Ros2(Ros2Device),
     /// A recorded session played back.
     Replay(PathBuf),
 }
@@ -37,9 +40,105 @@ pub enum DeviceChoice {
 /// A device name that is none of the choices.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error(
-    "unknown device {0:?}: expected sim, sim-spacemouse, spacemouse, dhd, openhaptics, bridge or replay:FILE"
+    "unknown device {0:?}: expected sim, sim-spacemouse, spacemouse, dhd, openhaptics, bridge, ros2:pose=TOPIC,wrench=TOPIC[,...] or replay:FILE{1}"
 )]
-pub struct UnknownDevice(pub String);
+pub struct UnknownDevice(pub String, pub String);
+
+/// A ROS 2 driver's arm: `ros2:pose=TOPIC,wrench=TOPIC[,KEY=VALUE...]`.
+///
+/// Keys: `pose` (its geometry_msgs/PoseStamped topic) and `wrench` (where the
+/// geometry_msgs/WrenchStamped command goes), both required; `twist` (TwistStamped), `joy`
+/// (sensor_msgs/Joy buttons) and `frame` (the command's frame_id); the arm's limits
+/// `max_force` (N), `max_torque` (N·m), `stiffness` (N/m), `rot_stiffness` (N·m/rad),
+/// `damping` (N·s/m), `workspace` (radius, m), `buttons`; `stale_ms` (a pose older than this
+/// is a fault, default 20); and the ROS 2 side's `domain`, `connect`, `listen` (Zenoh
+/// endpoints) and `distro` (jazzy, kilted, humble). See `hrrtc-ros2 device --help`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Ros2Device {
+    /// The options in the order given, keys checked, values checked per key.
+    pub options: Vec<(String, String)>,
+}
+
+/// Keys that take a ROS 2 topic (absolute name).
+const ROS2_TOPIC_KEYS: [&str; 4] = ["pose", "wrench", "twist", "joy"];
+/// Keys that take a non-negative number.
+const ROS2_NUMBER_KEYS: [&str; 8] = [
+    "max_force",
+    "max_torque",
+    "stiffness",
+    "rot_stiffness",
+    "damping",
+    "workspace",
+    "buttons",
+    "stale_ms",
+];
+/// Keys that take another value (checked by `hrrtc-ros2`).
+const ROS2_OTHER_KEYS: [&str; 6] = ["frame", "domain", "connect", "listen", "distro", "name"];
+
+impl Ros2Device {
+    /// Parses the text after `ros2:`; the error says which key or value is wrong.
+    pub fn parse(spec: &str) -> Result<Self, String> {
+        let mut options: Vec<(String, String)> = Vec::new();
+        for item in spec.split(',').filter(|s| !s.is_empty()) {
+            let Some((k, v)) = item.split_once('=') else {
+                return Err(format!("{item:?} is not KEY=VALUE"));
+            };
+            let known = ROS2_TOPIC_KEYS
+                .iter()
+                .chain(&ROS2_NUMBER_KEYS)
+                .chain(&ROS2_OTHER_KEYS)
+                .any(|key| *key == k);
+            if !known {
+                return Err(format!("unknown key {k:?}"));
+            }
+            if options.iter().any(|(key, _)| key == k) && k != "connect" && k != "listen" {
+                return Err(format!("{k} given twice"));
+            }
+            if ROS2_TOPIC_KEYS.contains(&k) {
+                let ok = v.starts_with('/')
+                    && v[1..].split('/').all(|t| {
+                        !t.is_empty() && t.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+                    });
+                if !ok {
+                    return Err(format!(
+                        "{k}={v:?}: a topic is an absolute ROS name (/a/b: letters, digits, '_')"
+                    ));
+                }
+            }
+            if ROS2_NUMBER_KEYS.contains(&k)
+                && !v.parse::<f64>().is_ok_and(|x| x.is_finite() && x >= 0.0)
+            {
+                return Err(format!("{k}={v:?}: must be a number ≥ 0"));
+            }
+            if v.is_empty() {
+                return Err(format!("{k}: empty value"));
+            }
+            options.push((k.to_owned(), v.to_owned()));
+        }
+        for required in ["pose", "wrench"] {
+            if !options.iter().any(|(k, _)| k == required) {
+                return Err(format!("{required}=TOPIC is required"));
+            }
+        }
+        Ok(Ros2Device { options })
+    }
+
+    /// The value of `key`, if given (the first, for repeatable keys).
+    pub fn get(&self, key: &str) -> Option<&str> {
+        self.options
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.as_str())
+    }
+
+    /// How old a pose may be before it is a fault, s (`stale_ms`, default 20 ms).
+    pub fn stale_s(&self) -> f64 {
+        self.get("stale_ms")
+            .and_then(|v| v.parse::<f64>().ok())
+            .filter(|v| *v > 0.0)
+            .map_or(0.02, |ms| ms / 1e3)
+    }
+}
 
 impl FromStr for DeviceChoice {
     type Err = UnknownDevice;
@@ -51,10 +150,17 @@ impl FromStr for DeviceChoice {
             "dhd" => DeviceChoice::Dhd,
             "openhaptics" => DeviceChoice::OpenHaptics,
             "bridge" => DeviceChoice::Bridge,
-            _ => match s.strip_prefix("replay:") {
-                Some(f) if !f.is_empty() => DeviceChoice::Replay(PathBuf::from(f)),
-                _ => return Err(UnknownDevice(s.to_owned())),
-            },
+            _ => {
+                if let Some(spec) = s.strip_prefix("ros2:") {
+                    return Ros2Device::parse(spec)
+                        .map(DeviceChoice::Ros2)
+                        .map_err(|e| UnknownDevice(s.to_owned(), format!(" (ros2: {e})")));
+                }
+                match s.strip_prefix("replay:") {
+                    Some(f) if !f.is_empty() => DeviceChoice::Replay(PathBuf::from(f)),
+                    _ => return Err(UnknownDevice(s.to_owned(), String::new())),
+                }
+            }
         })
     }
 }
@@ -69,6 +175,10 @@ impl DeviceChoice {
             DeviceChoice::Dhd => "the Force Dimension device (libdhd)".into(),
             DeviceChoice::OpenHaptics => "the OpenHaptics device (libHD)".into(),
             DeviceChoice::Bridge => "the bridged driver".into(),
+            DeviceChoice::Ros2(d) => format!(
+                "the ROS 2 driver's arm ({})",
+                d.get("pose").unwrap_or_default()
+            ),
             DeviceChoice::Replay(p) => format!("the replay of {}", p.display()),
         }
     }
@@ -88,6 +198,9 @@ impl DeviceChoice {
             }
             DeviceChoice::Bridge => {
                 "start the driver with the same --namespace, e.g. `cargo run -p haptic-loop --example bridge_driver -- --namespace NAME`"
+            }
+            DeviceChoice::Ros2(_) => {
+                "check that the driver publishes its pose (`ros2 topic hz`), that rmw_zenoh's router runs or `connect=` names a reachable endpoint, and hrrtc-ros2's log above"
             }
             DeviceChoice::Replay(_) => "check that the file is a recording made with --record",
         }
@@ -153,6 +266,15 @@ pub fn build(
         ),
         DeviceChoice::Bridge => Box::new(
             BridgeDevice::new(BridgeConfig::new(namespace)).map_err(|e| choice.open_error(e))?,
+        ),
+        // The gateway process needs its Zenoh session and the driver's first pose.
+        DeviceChoice::Ros2(d) => Box::new(
+            BridgeDevice::new(BridgeConfig {
+                open_timeout_s: 10.0,
+                stale_s: d.stale_s(),
+                ..BridgeConfig::new(namespace)
+            })
+            .map_err(|e| choice.open_error(e))?,
         ),
         DeviceChoice::Replay(p) => {
             Box::new(ReplayDevice::from_file(p).map_err(|source| Error::Record {
@@ -235,6 +357,40 @@ mod tests {
         assert!(e.contains("replay:FILE"));
         let e = "phantom".parse::<DeviceChoice>().unwrap_err().to_string();
         assert!(e.contains("\"phantom\"") && e.contains("spacemouse"));
+    }
+
+    #[test]
+    fn ros2_devices_parse_and_bad_specs_say_what_is_wrong() {
+        let d = match "ros2:pose=/arm/pose,wrench=/arm/wrench,max_force=8,connect=tcp/a:1,connect=tcp/b:2,stale_ms=50"
+            .parse::<DeviceChoice>()
+        {
+            Ok(DeviceChoice::Ros2(d)) => d,
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(d.get("pose"), Some("/arm/pose"));
+        assert_eq!(d.get("max_force"), Some("8"));
+        assert_eq!(d.options.iter().filter(|(k, _)| k == "connect").count(), 2);
+        assert_eq!(d.stale_s(), 0.05);
+        assert_eq!(
+            Ros2Device::parse("pose=/a,wrench=/b").unwrap().stale_s(),
+            0.02
+        );
+        for (spec, says) in [
+            ("ros2:pose=/a", "wrench=TOPIC is required"),
+            ("ros2:pose=a,wrench=/b", "absolute"),
+            ("ros2:pose=/a//b,wrench=/b", "absolute"),
+            ("ros2:pose=/a,wrench=/b,max_force=-1", "max_force"),
+            ("ros2:pose=/a,wrench=/b,max_force=nan", "max_force"),
+            (
+                "ros2:pose=/a,wrench=/b,colour=red",
+                "unknown key \"colour\"",
+            ),
+            ("ros2:pose=/a,wrench=/b,pose=/c", "pose given twice"),
+            ("ros2:pose=/a,wrench", "not KEY=VALUE"),
+        ] {
+            let e = spec.parse::<DeviceChoice>().unwrap_err().to_string();
+            assert!(e.contains(says), "{spec}: {e}");
+        }
     }
 
     #[test]

@@ -24,7 +24,8 @@ pub fn bin_dir() -> &'static Path {
         let mut cmd = Command::new(cargo);
         // Everything the tests start, in one build before any test proceeds, so no build
         // competes for the CPU with a timing-sensitive test: the binaries, the bridge's
-        // example driver, the fake vendor libraries and the C client library (cdylibs).
+        // example driver, the fake vendor libraries and the C client library (cdylibs), the
+        // bridge and the ROS 2 gateway.
         cmd.args([
             "build",
             "--quiet",
@@ -40,6 +41,8 @@ pub fn bin_dir() -> &'static Path {
             "hrrtc-c",
             "-p",
             "hrrtc-bridge",
+            "-p",
+            "hrrtc-ros2",
             "--lib",
             "--bins",
             "--example",
@@ -160,6 +163,15 @@ pub fn wait_for<T>(what: &str, timeout: Duration, mut f: impl FnMut() -> Option<
         );
         std::thread::sleep(Duration::from_millis(5));
     }
+}
+
+/// A loopback TCP port free a moment ago.
+pub fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
 }
 
 /// |v| of a 3-vector.

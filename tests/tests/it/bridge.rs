@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 use tests::loop_watch::{PHASES, condition};
-use tests::{Proc, bin, norm, one_loop_at_a_time, unique_namespace, wait_for};
+use tests::{Proc, bin, free_port, norm, one_loop_at_a_time, unique_namespace, wait_for};
 
 /// A folder that makes processes started in it "host B": iceoryx2 reads
 /// `config/iceoryx2.toml` from the working directory.
@@ -25,15 +25,6 @@ fn host_b(tag: &str) -> PathBuf {
     )
     .unwrap();
     dir
-}
-
-/// A loopback TCP port free a moment ago.
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
 }
 
 fn bridge_a(ns: &str, port: u16) -> Proc {

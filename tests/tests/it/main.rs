@@ -12,6 +12,7 @@ mod devices;
 mod external_c;
 mod issue_16;
 mod live;
+mod ros2;
 mod rt_deps;
 mod startup;
 mod two_process;

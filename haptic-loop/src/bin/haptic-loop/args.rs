@@ -110,7 +110,9 @@ pub struct LoopArgs {
 #[derive(Debug, Args, Clone)]
 pub struct DeviceArgs {
     /// Device: sim (simulated arm), sim-spacemouse (simulated SpaceMouse), spacemouse, dhd,
-    /// openhaptics, bridge or replay:FILE.
+    /// openhaptics, bridge, ros2:pose=TOPIC,wrench=TOPIC[,KEY=VALUE...] (a ROS 2 driver's arm,
+    /// served by the hrrtc-ros2 executable beside this one; keys in the README) or
+    /// replay:FILE.
     #[arg(long, default_value = "sim", value_parser = DeviceChoice::from_str)]
     pub device: DeviceChoice,
     /// Vendor library for dhd / openhaptics (default: $HRRTC_DHD_LIB / $HRRTC_HD_LIB, else
@@ -120,6 +122,9 @@ pub struct DeviceArgs {
     /// Record device states and commanded wrenches to this MCAP file.
     #[arg(long)]
     pub record: Option<PathBuf>,
+    /// The hrrtc-ros2 executable for --device ros2:... [default: beside this executable].
+    #[arg(long)]
+    pub ros2_exe: Option<PathBuf>,
 }
 
 impl DeviceArgs {

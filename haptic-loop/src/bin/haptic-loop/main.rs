@@ -5,6 +5,7 @@
 mod args;
 mod demo;
 mod devices;
+mod ros2;
 mod run;
 
 use anyhow::Context;

@@ -2,7 +2,8 @@
 //! its own (start one with `planner serve`). Runs until Ctrl-C / SIGTERM or --duration-s.
 
 use crate::args::{self, RunArgs};
-use haptic_loop::device_choice;
+use crate::ros2;
+use haptic_loop::device_choice::{self, DeviceChoice};
 use haptic_loop::session::{self, scenario};
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
@@ -15,6 +16,15 @@ pub fn run(args: &RunArgs, stop: &Arc<AtomicBool>) -> anyhow::Result<i32> {
         .map(|d| args::seconds("duration-s", d))
         .transpose()?;
     let choice = &args.device.device;
+    // A ROS 2 driver's arm is served by hrrtc-ros2 on the driver bridge: start it first.
+    let mut gateway = match choice {
+        DeviceChoice::Ros2(d) => Some(ros2::Gateway::start(
+            d,
+            &setup.namespace,
+            args.device.ros2_exe.as_deref(),
+        )?),
+        _ => None,
+    };
     let mut operator = None;
     let mut device = device_choice::build(&args.device.options(), &setup.namespace, |input| {
         let (device, stats) = scenario::simulated_device(&setup, input)?;
@@ -42,8 +52,14 @@ pub fn run(args: &RunArgs, stop: &Arc<AtomicBool>) -> anyhow::Result<i32> {
         |e| choice.open_error(e),
         contact,
         stop,
-        |_, elapsed| duration.is_some_and(|d| elapsed >= d),
+        |_, elapsed| {
+            if let Some(g) = gateway.as_mut() {
+                g.watch();
+            }
+            duration.is_some_and(|d| elapsed >= d)
+        },
     )?;
+    drop(gateway);
     let mut summary = end.summary();
     summary.operator = operator.as_deref().map(session::OperatorSummary::of);
     crate::finish(&summary, args.common.summary_json.as_deref())?;
