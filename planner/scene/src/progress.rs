@@ -145,10 +145,14 @@ fn describe(stage: &str, done: u64, total: u64, elapsed: Duration) -> String {
     if total == 0 {
         return format!("{stage}: {done} … ({secs:.1} s)");
     }
-    let share = done as f64 / total as f64;
+    // The total is an estimate: work past it is the last few per cent, never "100 %" and
+    // "0 s left" while the work goes on.
+    let share = (done as f64 / total as f64).min(0.99);
     let width = 30;
     let filled = ((share * width as f64) as usize).min(width);
-    let left = if share > 0.02 {
+    let left = if done >= total {
+        ", finishing".to_owned()
+    } else if share > 0.02 {
         format!(", about {:.0} s left", secs * (1.0 - share) / share)
     } else {
         String::new()
@@ -179,6 +183,12 @@ mod tests {
         );
         p.add(500);
         assert_eq!(p.read().1, 200, "done never passes the total");
+        // Past the estimate: 99 % and "finishing", not 100 % with nothing left.
+        let line = describe("voxmap", 200, 200, Duration::from_secs(9));
+        assert!(
+            line.contains(" 99 %") && line.contains("finishing") && !line.contains("left"),
+            "{line}"
+        );
         p.stage("pointshell", 0);
         assert_eq!(p.read(), ("pointshell".to_owned(), 0, 0));
         assert_eq!(

@@ -112,6 +112,8 @@ impl Band {
             .min(blocks[axis] / (2 * reach_nodes.div_ceil(B)).max(1))
             .max(1);
         let per = blocks[axis].div_ceil(slabs);
+        // Each slab looks at every triangle once; the estimate counted them once in all.
+        progress.add_total(mesh.len() as u64 * (slabs as u64 - 1));
         let parts: Vec<Result<Part, Cancelled>> = std::thread::scope(|scope| {
             let workers: Vec<_> = (0..slabs)
                 .map(|k| {
