@@ -1,5 +1,6 @@
 //! Planner parameters and errors.
 
+use crate::authority::Authority;
 use crate::sampling::{ContactParams, Sampling};
 use crate::space::Weights;
 use scene::SceneError;
@@ -123,6 +124,9 @@ pub struct PlannerParams {
     pub contact: ContactParams,
     /// What H-RRT-C's human mode samples (default [`HumanMode::Fresh`]).
     pub human_mode: HumanMode,
+    /// H-RRT-C's authority sharing: the paper's fixed α (the default here) or adaptive
+    /// ([`crate::authority`]).
+    pub authority: Authority,
     /// Random shortcut attempts on a new solution (default 100; 0 keeps the raw path).
     pub shortcut_attempts: u32,
 }
@@ -144,6 +148,7 @@ impl Default for PlannerParams {
             aligned_share: 0.0,
             aligned_jitter_rad: 0.02,
             human_mode: HumanMode::Fresh,
+            authority: Authority::Fixed,
             user_sigma: 0.03,
             fr_alpha: 0.5,
             local_trees: false,
@@ -200,6 +205,11 @@ impl PlannerParams {
                 name: "lookahead",
                 reason: format!("must be finite and >= 0, got {}", self.lookahead),
             });
+        }
+        if let Authority::Adaptive(rule) = &self.authority
+            && let Some((name, reason)) = rule.invalid()
+        {
+            return Err(PlannerError::InvalidParam { name, reason });
         }
         for (name, v) in [("fr_alpha", self.fr_alpha), ("goal_bias", self.goal_bias)] {
             if !(0.0..=1.0).contains(&v) {
@@ -279,5 +289,14 @@ mod tests {
             ..Default::default()
         };
         assert!(p.validate().unwrap_err().to_string().contains("fr_alpha"));
+        let p = PlannerParams {
+            authority: Authority::Adaptive(crate::authority::AdaptiveAuthority {
+                patience_s: -1.0,
+                ..Default::default()
+            }),
+            ..Default::default()
+        };
+        let e = p.validate().unwrap_err().to_string();
+        assert!(e.contains("authority.patience_s"), "{e}");
     }
 }
