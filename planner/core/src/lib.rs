@@ -19,7 +19,8 @@
 //! - [`rrt`]: RRT, RRT-Connect with I-RRT Extend and local trees, the `Planner` API.
 //! - [`retraction`]: small-step retraction (plan a thinned object, carry the path back).
 //! - [`path`]: shortcut smoothing, CSV / JSON export.
-//! - [`guidance`]: F_a (label-weighted barycenter) and solution-path following.
+//! - [`guidance`]: F_a (label-weighted barycenter) and, once solved, the lead along the
+//!   path (a saturating spring towards a carrot ahead, force and torque).
 //! - [`params`]: `PlannerParams` and `PlannerError`.
 #![warn(missing_docs)]
 #![deny(unsafe_code)]

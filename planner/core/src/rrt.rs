@@ -24,7 +24,7 @@
 use crate::aligned::AlignedOrientations;
 use crate::authority::{Authority, AuthorityState, TrustTracker};
 use crate::collision::CollisionChecker;
-use crate::guidance::{PathGuide, barycenter_force};
+use crate::guidance::{Lead, PathGuide, barycenter_force};
 use crate::params::{Algorithm, ExtendA, HumanMode, MachineSampler, PlannerError, PlannerParams};
 use crate::sampling::{Sampling, UserInput, apply_delta, contact_sample};
 use crate::space::{ConfigSpace, Space};
@@ -704,7 +704,12 @@ impl Planner {
                 .reachable_from_contact(a, b, crate::guidance::GUIDANCE_CONTACT_SKIP)
         };
         if let Some(guide) = &self.guide {
-            return guide.force(&self.space, &q, self.params.lookahead, &reach);
+            let lead = Lead {
+                lookahead: self.params.lookahead,
+                saturation_m: self.params.lead_saturation_m,
+                saturation_rad: self.params.lead_saturation_rad,
+            };
+            return guide.force(&self.space, &q, &lead, &reach);
         }
         let mut best = (START, f64::INFINITY);
         for (i, t) in self.trees.iter().enumerate() {

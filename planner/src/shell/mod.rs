@@ -53,10 +53,16 @@ pub struct ShellConfig {
     pub seed: u64,
     /// Guidance publish rate, Hz.
     pub guidance_rate_hz: f64,
-    /// k for the translational part of F_s, N/m.
+    /// k for the translational part of F_s, N/m (before a solution).
     pub gain_n_per_m: f64,
-    /// k for the rotational part of F_s, N·m/rad.
+    /// k for the rotational part of F_s, N·m/rad (before a solution).
     pub gain_nm_per_rad: f64,
+    /// Once solved, the force the path's guidance saturates at, N: its samples carry
+    /// `k = lead_force_n / params.lead_saturation_m` ([`make_guidance`]).
+    pub lead_force_n: f64,
+    /// Once solved, the torque the path's guidance saturates at, N·m: `k =
+    /// lead_torque_nm / params.lead_saturation_rad`.
+    pub lead_torque_nm: f64,
     /// Time-to-live written into each guidance sample, s.
     pub ttl_s: f64,
     /// How often the receiver thread polls the haptic state before it has locked onto the
@@ -354,6 +360,11 @@ fn new_planner_id() -> u32 {
     ((v >> 32) as u32 ^ v as u32).max(1)
 }
 
+/// The guidance sample of this moment. Before a solution F_a is I-RRT's barycenter with
+/// the gains `gain_n_per_m` and `gain_nm_per_rad`; after it, the lead along the path
+/// ([`crate::guidance::PathGuide::force`]), whose pull and turn saturate at the core's
+/// `lead_saturation_m` and `lead_saturation_rad`, with the gains that render those as
+/// `lead_force_n` and `lead_torque_nm`.
 fn make_guidance(
     config: &ShellConfig,
     planner: &Planner,
@@ -376,6 +387,11 @@ fn make_guidance(
         }
         None => ([0.0; 6], GuidanceMode::NONE),
     };
+    let (gain_n_per_m, gain_nm_per_rad) = if planner.solved() {
+        lead_gains(config)
+    } else {
+        (config.gain_n_per_m, config.gain_nm_per_rad)
+    };
     Guidance {
         header: Header {
             sequence: seq,
@@ -384,8 +400,8 @@ fn make_guidance(
             reserved: 0,
         },
         attractive,
-        gain_n_per_m: config.gain_n_per_m,
-        gain_nm_per_rad: config.gain_nm_per_rad,
+        gain_n_per_m,
+        gain_nm_per_rad,
         time_to_live_ns: (config.ttl_s * 1e9) as u64,
         state_sequence: op.state.map_or(0, |s| s.header.sequence),
         mode,
@@ -397,6 +413,16 @@ fn make_guidance(
         distance_to_goal: s.best_distance_to_goal,
         collision_checks: s.collision_checks,
     }
+}
+
+/// The gains of the path's guidance: N/m and N·m/rad that render the core's saturated
+/// pull and turn as `lead_force_n` and `lead_torque_nm`.
+pub fn lead_gains(config: &ShellConfig) -> (f64, f64) {
+    let p = &config.params;
+    (
+        config.lead_force_n / p.lead_saturation_m,
+        config.lead_torque_nm / p.lead_saturation_rad,
+    )
 }
 
 /// Fills a loaned sample in place and sends it; false (and a debug log) when no sample
@@ -444,5 +470,73 @@ fn publish_guidance(publisher: &Publisher<Guidance>, event: &GuidanceNotifier, g
     // Without the wake-up the relay still polls: a failed notification only costs latency.
     if let Err(e) = event.notify() {
         tracing::debug!("cannot notify the guidance event: {e:?}");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn config(scene: Scene) -> ShellConfig {
+        ShellConfig {
+            namespace: "test".into(),
+            scene,
+            params: PlannerParams::default(),
+            seed: 1,
+            guidance_rate_hz: 100.0,
+            gain_n_per_m: 20.0,
+            gain_nm_per_rad: 0.05,
+            lead_force_n: 2.0,
+            lead_torque_nm: 0.1,
+            ttl_s: 0.1,
+            state_poll_hz: 2000.0,
+            state_spin_us: 0.0,
+            state_priority: 0,
+            state_timeout_s: 0.5,
+            plan_without_operator: false,
+            duration_s: None,
+            roadmap_rate_hz: 0.0,
+        }
+    }
+
+    /// The force and torque the loop renders from `g` (before its device bound), N, N·m.
+    fn rendered(g: &Guidance) -> (f64, f64) {
+        let a = &g.attractive;
+        let f = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt() * g.gain_n_per_m;
+        let t = (a[3] * a[3] + a[4] * a[4] + a[5] * a[5]).sqrt() * g.gain_nm_per_rad;
+        (f, t)
+    }
+
+    #[test]
+    fn the_paths_guidance_saturates_at_the_lead_force_and_torque() {
+        let c = config(Scene::wall_with_square_hole(0.3));
+        let mut planner = Planner::new(&c.scene, c.params.clone(), c.seed).expect("planner");
+        let op = Operator::default();
+        let start = c.scene.start;
+        let g = make_guidance(&c, &planner, Some(&start), &op, 1, 1, 7);
+        assert_eq!((g.gain_n_per_m, g.gain_nm_per_rad), (20.0, 0.05));
+        assert_eq!(g.mode, GuidanceMode::ROADMAP);
+        for _ in 0..5000 {
+            if planner.iterate(None).solved {
+                break;
+            }
+        }
+        assert!(planner.solved());
+        let g = make_guidance(&c, &planner, Some(&start), &op, 2, 1, 7);
+        assert_eq!(g.mode, GuidanceMode::PATH);
+        assert_eq!((g.gain_n_per_m, g.gain_nm_per_rad), (40.0, 0.2));
+        assert_eq!(lead_gains(&c), (40.0, 0.2));
+        // At the start the carrot is 0.1 weighted m ahead: the pull is at its saturation
+        // unless the path turns there, and neither part ever exceeds its lead level.
+        let (f, t) = rendered(&g);
+        assert!(
+            f > 0.0 && f <= 2.0 + 1e-9 && t <= 0.1 + 1e-9,
+            "{f} N, {t} N·m"
+        );
+        // 4 cm behind the start on the line to the goal, the pull saturates at 2 N.
+        let behind = Se3::from_xyz(start.pos.x - 0.04, start.pos.y, start.pos.z);
+        let g = make_guidance(&c, &planner, Some(&behind), &op, 3, 1, 7);
+        let (f, _) = rendered(&g);
+        assert!((f - 2.0).abs() < 1e-9, "{f} N");
     }
 }

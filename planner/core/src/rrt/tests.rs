@@ -193,18 +193,20 @@ fn attractive_force_before_and_after_solution() {
         Vector6::zeros()
     );
     run(&mut p, 2_000, None).expect("solved");
-    // On the (smoothed) path: F_a leads forward along it, with the lookahead length.
+    // On the (smoothed) path: F_a leads forward along it, the pull at most
+    // `lead_saturation_m` long and the turn at most `lead_saturation_rad`.
     let path = p.solution().expect("path").to_vec();
     let mid = p.space().interpolate(&path[0], &path[1], 0.5);
     let f = p.attractive_force(&mid);
     let next = path[1];
     let towards = p.space().delta(&mid, &next);
     assert!(f.dot(&towards) > 0.0, "{f} vs {towards}");
-    let w = p.params().weights;
-    let len = (w.translation * f.fixed_rows::<3>(0).norm_squared()
-        + w.rotation * f.fixed_rows::<3>(3).norm_squared())
-    .sqrt();
-    assert!(len > 0.0 && len <= p.params().lookahead + 0.011, "{len}");
+    let (pull, turn) = (f.fixed_rows::<3>(0).norm(), f.fixed_rows::<3>(3).norm());
+    assert!(
+        pull > 0.0 && pull <= p.params().lead_saturation_m + 1e-12,
+        "{pull}"
+    );
+    assert!(turn <= p.params().lead_saturation_rad + 1e-12, "{turn}");
     assert!(p.attractive_force(&scene.goal).norm() < 1e-12);
 }
 
