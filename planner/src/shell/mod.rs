@@ -128,6 +128,13 @@ pub struct ShellReport {
     pub roadmap_published: u64,
     /// Roadmap increments skipped because no sample could be loaned.
     pub roadmap_skipped: u64,
+    /// H-RRT-C's authority (`fixed` or `adaptive`).
+    pub authority: String,
+    /// Times the adaptive authority took every sample from a stuck operator (its trust
+    /// fell to 0).
+    pub authority_takeovers: u64,
+    /// Times it gave the operator its share back after it had started taking it.
+    pub authority_restores: u64,
     /// Mean time the main thread spent on one roadmap increment (loan, fill, send), µs.
     pub roadmap_publish_mean_us: f64,
     /// Longest time the main thread spent on one roadmap increment, µs.
@@ -205,6 +212,8 @@ pub fn run_with_guidance_out(
     report.planner_id = planner_id;
     let mut last_connection_update = Instant::now();
     let mut announced_operator = false;
+    let mut authority_log = AuthorityLog::default();
+    report.authority = config.params.authority.name().to_owned();
 
     while !stop.load(Ordering::Acquire) {
         if config
@@ -237,6 +246,7 @@ pub fn run_with_guidance_out(
         } else if !planner.solved() {
             let input = op.state.filter(|_| fresh).and_then(|s| user_input(&s));
             planner.iterate_input(input.as_ref());
+            authority_log.update(&planner.authority());
             if planner.solved() {
                 let t = started.elapsed().as_secs_f64();
                 report.time_to_solve_s = Some(t);
@@ -333,6 +343,8 @@ pub fn run_with_guidance_out(
         report.roadmap_publish_mean_us = roadmap_publish_total_us / attempts as f64;
     }
     report.solved = planner.solved();
+    report.authority_takeovers = authority_log.takeovers;
+    report.authority_restores = planner.authority().restores;
     report.iterations = s.iterations;
     report.nodes = s.nodes as u64;
     report.collision_checks = s.collision_checks;
@@ -358,6 +370,36 @@ fn new_planner_id() -> u32 {
     h.write_u64(ipc_types::monotonic_ns());
     let v = h.finish();
     ((v >> 32) as u32 ^ v as u32).max(1)
+}
+
+/// Logs the adaptive authority's turns: when it has taken every sample from a stuck
+/// operator, and when the operator's share comes back.
+#[derive(Default)]
+struct AuthorityLog {
+    taken: bool,
+    takeovers: u64,
+}
+
+impl AuthorityLog {
+    fn update(&mut self, a: &crate::AuthorityState) {
+        if !self.taken && a.trust == 0.0 {
+            self.taken = true;
+            self.takeovers += 1;
+            tracing::info!(
+                "authority: no progress for {:.1} s: machine share {:.2} in contact, {:.2} in free space",
+                a.stagnant_s,
+                a.machine_share_contact,
+                a.machine_share_free
+            );
+        } else if self.taken && a.trust == 1.0 {
+            self.taken = false;
+            tracing::info!(
+                "authority: the operator progresses: machine share back to {:.2} in contact, {:.2} in free space",
+                a.machine_share_contact,
+                a.machine_share_free
+            );
+        }
+    }
 }
 
 /// The guidance sample of this moment. Before a solution F_a is I-RRT's barycenter with
