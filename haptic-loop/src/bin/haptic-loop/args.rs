@@ -180,6 +180,11 @@ pub struct DemoArgs {
     /// The planner executable [default: `planner` beside this executable].
     #[arg(long)]
     pub planner_exe: Option<PathBuf>,
+    /// Start no planner: the simulated operator alone, with no guidance and nothing to
+    /// solve. The session runs to --time-limit-s, or with --until-goal until the object
+    /// reaches the goal; the exit code is then 0 when it did, 1 when not.
+    #[arg(long, conflicts_with_all = ["alpha", "planner_args", "planner_exe"])]
+    pub no_planner: bool,
 }
 
 /// Options of `haptic-loop devices`.
