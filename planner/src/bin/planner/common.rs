@@ -136,10 +136,10 @@ pub struct SamplingArgs {
     pub authority: Option<String>,
     /// Adaptive authority: seconds without progress (towards the goal, on new ground, or
     /// samples that open new ground for the trees) before the operator's share falls.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 0.5)]
     pub authority_patience_s: f64,
     /// Adaptive authority: seconds over which the machine share then rises to its cap.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 0.5)]
     pub authority_ramp_s: f64,
     /// Adaptive authority: the machine share of a stuck operator, in [0, 1] (1: every
     /// sample is the machine's).
@@ -295,7 +295,7 @@ mod tests {
             planner::Authority::Adaptive(a) => {
                 assert_eq!(
                     (a.patience_s, a.ramp_s, a.max_machine_share),
-                    (1.0, 2.0, 1.0)
+                    (0.5, 2.0, 1.0)
                 )
             }
             other => panic!("{other:?}"),
