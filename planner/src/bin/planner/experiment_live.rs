@@ -1,8 +1,10 @@
 //! `planner experiment live`: real sessions of the two processes, one per scene × method ×
 //! seed: `haptic-loop demo` runs the loop at its rate with contact on the simulated arm (or
 //! SpaceMouse) held by the simulated operator, and starts this planner as its own process.
-//! Each session's `--summary-json` becomes a row of OUT/runs.csv (written after every run,
-//! so an interrupted sweep keeps what it did); OUT/summary.md and OUT/live.png at the end.
+//! Sessions run scene by scene, and within a scene seed by seed with every method of a
+//! seed back to back. Each session's `--summary-json` becomes a row of OUT/runs.csv
+//! (written after every run, so an interrupted sweep keeps what it did); OUT/summary.md
+//! and OUT/live.png at the end.
 //! The methods, rows and reports are `lab::live`'s; this file starts and stops processes.
 
 use crate::experiment::ExperimentArgs;
@@ -224,9 +226,11 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<i32> {
     );
     let csv = sweep.out.join("runs.csv");
     let mut runs: Vec<LiveRun> = Vec::new();
+    // Every method of a seed back to back: a change of the machine's load (it is shared)
+    // then falls on all methods alike rather than on one.
     'all: for (scene, scene_arg) in sweep.scenes.iter().zip(&sweep.scene_args) {
-        for method in &sweep.methods {
-            for seed in 1..=sweep.seeds {
+        for seed in 1..=sweep.seeds {
+            for method in &sweep.methods {
                 if cancel.load(std::sync::atomic::Ordering::Acquire) {
                     break 'all;
                 }
