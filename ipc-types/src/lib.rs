@@ -32,6 +32,7 @@ pub mod pacing;
 mod path;
 mod roadmap;
 pub mod services;
+pub mod startup;
 mod state;
 
 pub use codes::{ContactCode, FaultCode, GuidanceFreshness, GuidanceMode};

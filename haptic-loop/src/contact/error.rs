@@ -52,28 +52,23 @@ pub enum ContactError {
     /// The moving object has no surface point to sample.
     #[error("pointshell: the moving object has no surface to sample")]
     NoSurface,
-    /// A mesh of the scene is not closed and wound outward: the voxmap's containment and the
-    /// pointshell's inward normals would be wrong, so contact is refused rather than
-    /// rendered wrong.
+    /// A mesh of the scene whose inside cannot be told (or an open moving object): the
+    /// voxmap's signs and the pointshell's inward normals would be wrong, so contact is
+    /// refused rather than rendered wrong.
     #[error(
-        "contact: mesh {source_file} ({field}) is {kind}: {boundary_edges} boundary edges, {misoriented_edges} misoriented edges, {duplicate_triangles} duplicate triangles; contact rendering needs a closed, outward-wound mesh: {hint}, or run without contact (--no-contact)"
+        "contact: mesh {source_file} ({field}) cannot be rendered: {reason}; repair it (`planner scenes check --fix FILE` says what it can repair) or run without contact (--no-contact)"
     )]
     Mesh {
         /// The part, e.g. `obstacles[2]`.
         field: String,
         /// The mesh file.
         source_file: String,
-        /// What it is (`open`, `double-sided`, ...).
-        kind: &'static str,
-        /// Edges used by one triangle only.
-        boundary_edges: usize,
-        /// Edges along which the winding flips.
-        misoriented_edges: usize,
-        /// Triangles repeating another one's corners.
-        duplicate_triangles: usize,
-        /// How to repair it.
-        hint: &'static str,
+        /// Why its inside cannot be told.
+        reason: String,
     },
+    /// The build was stopped (its progress's cancel flag was set).
+    #[error("contact: the pointshell's build was stopped")]
+    Cancelled,
     /// The moving object has no volume (no mass properties for the proxy).
     #[error("contact: the moving object has no volume")]
     NoVolume,

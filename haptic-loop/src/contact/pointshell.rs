@@ -1,11 +1,15 @@
 //! The pointshell: points on the moving object's surface at about voxel spacing, each with
 //! its inward unit normal, in the object frame (origin = the object's reference point).
 //!
-//! Built from the object's parry shapes, so primitives and meshes go through the same code:
-//! every cell of a grid of the target spacing that the surface of a part passes through (centre within half a cell diagonal)
-//! surface contributes the nearest surface point; one point is kept per grid cell, and points
-//! buried inside another part of the object (not on the union's surface) are dropped. The
-//! normal is the gradient of the part's signed distance (central differences), negated.
+//! Every cell of a grid of the target spacing that the surface of a part passes through
+//! (centre within half a cell diagonal) contributes the surface point nearest its centre;
+//! one point is kept per grid cell, and points buried inside another part of the object (not
+//! on the union's surface) are dropped. A triangle mesh is sampled triangle by triangle
+//! (each visits the cells around it, so the cost follows the surface), its normal the
+//! angle-weighted pseudo-normal of the feature holding the point, negated; a primitive by
+//! projecting the cell centres of its box, its normal the gradient of its signed distance
+//! (central differences), negated. An open mesh (a sheet) gets each point twice, once with
+//! each normal, so either side can touch.
 //!
 //! Points are grouped into clusters (cells of `CLUSTER_CELLS` points' spacing) with a bounding
 //! sphere each, so that the contact stage can reject a whole cluster far from the scene with
@@ -33,6 +37,8 @@ use parry3d_f64::shape::SharedShape;
 use std::collections::BTreeMap;
 
 use super::error::ContactError;
+use super::mesh::{Feature, Mesh};
+use scene::progress::Progress;
 
 /// A surface point and its inward normal.
 type PointNormal = (Vector3<f64>, Vector3<f64>);
@@ -107,6 +113,20 @@ impl Pointshell {
     /// Samples the surface of the union of `parts` (poses in the object frame) at about
     /// `spacing_m`. Fails on a non-positive spacing or an object without surface.
     pub fn build(parts: &[(Pose, SharedShape)], spacing_m: f64) -> Result<Self, ContactError> {
+        Self::build_with(parts, &[], spacing_m, &Progress::default())
+    }
+
+    /// [`Self::build`], where the parts `open` marks (by index; missing: closed) are open
+    /// meshes: each of their points is sampled twice, once with each normal, so that
+    /// either side of the sheet can touch. Triangle meshes are sampled from their
+    /// triangles (a cost that follows their surface, not their box); the build reports to
+    /// and stops on `progress`.
+    pub fn build_with(
+        parts: &[(Pose, SharedShape)],
+        open: &[bool],
+        spacing_m: f64,
+        progress: &Progress,
+    ) -> Result<Self, ContactError> {
         if !(spacing_m.is_finite() && spacing_m > 0.0) {
             return Err(ContactError::Spacing(spacing_m));
         }
@@ -114,7 +134,40 @@ impl Pointshell {
         let key = |p: &Vector3<f64>| cell_of(p, h);
         // One point per cell, ordered by cell so that the result is deterministic.
         let mut cells: BTreeMap<[i64; 3], (Vector3<f64>, Vector3<f64>)> = BTreeMap::new();
+        // Open parts' points with their other normal.
+        let mut backs: BTreeMap<[i64; 3], (Vector3<f64>, Vector3<f64>)> = BTreeMap::new();
+        let buried = |i: usize, s: &Vector3<f64>| {
+            parts
+                .iter()
+                .enumerate()
+                .any(|(j, (pj, sj))| j != i && signed_distance(pj, sj, s) < -1e-9)
+        };
+        let triangles: u64 = parts
+            .iter()
+            .filter_map(|(_, s)| s.as_trimesh())
+            .map(|t| t.indices().len() as u64)
+            .sum();
+        progress.stage("pointshell", triangles);
         for (i, (pose, shape)) in parts.iter().enumerate() {
+            if let Some(trimesh) = shape.as_trimesh() {
+                let vertices: Vec<Vector3<f64>> = trimesh
+                    .vertices()
+                    .iter()
+                    .map(|v| nvec(pose.transform_point(*v)))
+                    .collect();
+                let mesh = Mesh::new(&vertices, trimesh.indices());
+                let sampled = surface_points(&mesh, h, progress).ok_or(ContactError::Cancelled)?;
+                for (s, outward) in sampled {
+                    if buried(i, &s) {
+                        continue;
+                    }
+                    cells.entry(key(&s)).or_insert((s, -outward));
+                    if open.get(i).copied().unwrap_or(false) {
+                        backs.entry(key(&s)).or_insert((s, outward));
+                    }
+                }
+                continue;
+            }
             let aabb: Aabb = shape.compute_aabb(pose).loosened(h);
             let lo = key(&nvec(aabb.mins));
             let hi = key(&nvec(aabb.maxs));
@@ -135,11 +188,7 @@ impl Pointshell {
                         if (s - c).norm() > 0.87 * h {
                             continue;
                         }
-                        let buried = parts
-                            .iter()
-                            .enumerate()
-                            .any(|(j, (pj, sj))| j != i && signed_distance(pj, sj, &s) < -1e-9);
-                        if buried {
+                        if buried(i, &s) {
                             continue;
                         }
                         let e = 1e-3 * h;
@@ -169,11 +218,7 @@ impl Pointshell {
             for (p_local, outward_local) in box_features(&he, h) {
                 let p = nvec(pose.transform_point(pvec(&p_local)));
                 let outward = nvec(pose.rotation * pvec(&outward_local));
-                let buried = parts
-                    .iter()
-                    .enumerate()
-                    .any(|(j, (pj, sj))| j != i && signed_distance(pj, sj, &p) < -1e-9);
-                if !buried {
+                if !buried(i, &p) {
                     cells.insert(key(&p), (p, -outward));
                 }
             }
@@ -183,7 +228,11 @@ impl Pointshell {
         }
 
         Ok(Self::clustered(
-            cells.into_values().map(|(p, n)| (p, n, 1.0)).collect(),
+            cells
+                .into_values()
+                .chain(backs.into_values())
+                .map(|(p, n)| (p, n, 1.0))
+                .collect(),
             h,
         ))
     }
@@ -397,6 +446,60 @@ fn levels(points: &[PointNormal], h: f64) -> [Vec<f64>; LEVELS] {
     weights
 }
 
+/// For every cell of a grid of spacing `h` whose centre lies within half a cell diagonal
+/// of `mesh`, the mesh's point nearest the centre with the unit outward pseudo-normal of
+/// the feature (face, edge, vertex) holding it, in cell order: what projecting each cell
+/// centre on the mesh gives, found triangle by triangle (each visits only the cells around
+/// it). `None` when `progress` was cancelled.
+fn surface_points(
+    mesh: &Mesh,
+    h: f64,
+    progress: &Progress,
+) -> Option<Vec<(Vector3<f64>, Vector3<f64>)>> {
+    let reach = 0.87 * h;
+    // Cell → (squared distance from its centre, point, triangle, feature).
+    let mut best: foldhash::HashMap<[i64; 3], (f64, Vector3<f64>, u32, Feature)> =
+        foldhash::HashMap::with_capacity_and_hasher(mesh.len() * 2, Default::default());
+    for t in 0..mesh.len() as u32 {
+        if t.is_multiple_of(8192) && t > 0 {
+            if progress.cancelled() {
+                return None;
+            }
+            progress.add(8192);
+        }
+        let c = mesh.corners(t);
+        let lo = c[0].inf(&c[1]).inf(&c[2]).add_scalar(-reach);
+        let hi = c[0].sup(&c[1]).sup(&c[2]).add_scalar(reach);
+        let (a, z) = (cell_of(&lo, h), cell_of(&hi, h));
+        for k in a[2]..=z[2] {
+            for j in a[1]..=z[1] {
+                for i in a[0]..=z[0] {
+                    let centre = Vector3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5) * h;
+                    let at = mesh.closest(t, &centre);
+                    if at.distance2 > reach * reach {
+                        continue;
+                    }
+                    let e =
+                        best.entry([i, j, k])
+                            .or_insert((f64::INFINITY, at.point, t, at.feature));
+                    if at.distance2 < e.0 {
+                        *e = (at.distance2, at.point, t, at.feature);
+                    }
+                }
+            }
+        }
+    }
+    let mut out: Vec<([i64; 3], Vector3<f64>, Vector3<f64>)> = best
+        .into_iter()
+        .filter_map(|(cell, (_, p, t, f))| {
+            let n = mesh.pseudo_normal(t, f).try_normalize(1e-12)?;
+            Some((cell, p, n))
+        })
+        .collect();
+    out.sort_unstable_by_key(|(cell, _, _)| *cell);
+    Some(out.into_iter().map(|(_, p, n)| (p, n)).collect())
+}
+
 /// Points on the 12 edges (corners included) of a box of half extents `he`, at most `h`
 /// apart, with the outward normal of each: the normalised sum of the adjacent faces'.
 fn box_features(he: &Vector3<f64>, h: f64) -> Vec<(Vector3<f64>, Vector3<f64>)> {
@@ -426,6 +529,92 @@ fn box_features(he: &Vector3<f64>, h: f64) -> Vec<(Vector3<f64>, Vector3<f64>)> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A mesh part's points (sampled from its triangles) lie on its surface with inward
+    /// normals, one per cell, as a primitive's do: a box mesh and the box give the same
+    /// cells, and a bumpy sphere's points lie on it.
+    #[test]
+    fn mesh_points_come_from_the_triangles_on_the_surface_with_inward_normals() {
+        use scene::{MeshData, Part, Primitive, Se3};
+        let part = |m: MeshData| Part {
+            primitive: Primitive::Mesh {
+                mesh: std::sync::Arc::new(m),
+            },
+            pose: Se3::from_xyz(0.003, -0.002, 0.001),
+        };
+        let boxed =
+            scene::shapes::part_shapes(&[part(MeshData::cuboid("box", [0.01, 0.015, 0.02]))]);
+        let primitive = scene::shapes::part_shapes(&[Part::axis_box(
+            [0.01, 0.015, 0.02],
+            [0.003, -0.002, 0.001],
+        )]);
+        let (m, p) = (
+            Pointshell::build(&boxed, 0.001).unwrap(),
+            Pointshell::build(&primitive, 0.001).unwrap(),
+        );
+        let cells = |s: &Pointshell| -> std::collections::BTreeSet<[i64; 3]> {
+            s.points().iter().map(|q| cell_of(q, 0.001)).collect()
+        };
+        let (cm, cp) = (cells(&m), cells(&p));
+        let shared = cm.intersection(&cp).count();
+        assert!(
+            shared as f64 >= 0.97 * cp.len() as f64,
+            "{shared} of {} cells",
+            cp.len()
+        );
+        let inside = |q: &Vector3<f64>| {
+            let l = q - Vector3::new(0.003, -0.002, 0.001);
+            l.x.abs() < 0.01 && l.y.abs() < 0.015 && l.z.abs() < 0.02
+        };
+        for (q, n) in m.points().iter().zip(m.normals()) {
+            assert!(
+                !inside(&(q - n * 1e-4)) && inside(&(q + n * 1e-4)),
+                "{q:?} {n:?}"
+            );
+        }
+        let sphere = scene::shapes::part_shapes(&[part(MeshData::bumpy_sphere("s", 0.03, 40, 80))]);
+        let s = Pointshell::build(&sphere, 0.001).unwrap();
+        for (q, n) in s.points().iter().zip(s.normals()) {
+            let (pose, shape) = &sphere[0];
+            assert!(
+                signed_distance(pose, shape, q).abs() < 1e-9,
+                "{q:?} off the surface"
+            );
+            assert!(
+                signed_distance(pose, shape, &(q + n * 1e-4)) < 0.0,
+                "{q:?} normal {n:?}"
+            );
+        }
+    }
+
+    /// An open part (a square sheet) gets each point with both normals.
+    #[test]
+    fn an_open_part_has_points_facing_both_ways() {
+        use scene::{MeshData, Part, Primitive, Se3};
+        let v = vec![
+            Vector3::new(-0.01, -0.01, 0.0),
+            Vector3::new(0.01, -0.01, 0.0),
+            Vector3::new(0.01, 0.01, 0.0),
+            Vector3::new(-0.01, 0.01, 0.0),
+        ];
+        let sheet = MeshData::new("sheet", v, vec![[0, 1, 2], [0, 2, 3]]).unwrap();
+        let parts = scene::shapes::part_shapes(&[Part {
+            primitive: Primitive::Mesh {
+                mesh: std::sync::Arc::new(sheet),
+            },
+            pose: Se3::identity(),
+        }]);
+        let s = Pointshell::build_with(&parts, &[true], 0.001, &Progress::default()).unwrap();
+        let up = s.normals().iter().filter(|n| n.z > 0.99).count();
+        let down = s.normals().iter().filter(|n| n.z < -0.99).count();
+        assert!(
+            up > 300 && up == down,
+            "{up} up, {down} down of {}",
+            s.len()
+        );
+        let closed = Pointshell::build(&parts, 0.001).unwrap();
+        assert_eq!(closed.len() * 2, s.len());
+    }
 
     #[test]
     fn cube_points_lie_on_the_surface_with_inward_normals() {

@@ -640,15 +640,49 @@ fn points_found_together_come_due_for_a_look_up_at_different_ticks() {
     );
 }
 
-/// Issue 20: a mesh that is open, double-sided or wound inward would give the voxmap wrong
-/// containment; contact refuses it with a message that names the file and how to repair
-/// it, and takes the same box closed and outward.
+/// Issues 20 and 36: meshes as exported. A double-sided or inward-wound mesh, once
+/// repaired (scene files' meshes are, on load), renders as the closed plate does; never
+/// repaired, it is refused with a message naming the file and the way out. An open mesh is
+/// a shell that pushes the object out on either side. A mesh whose inside cannot be told
+/// (an edge shared by four triangles of a closed surface) stays refused after repair, with
+/// the reason.
 #[test]
-fn issue_20_contact_refuses_meshes_that_are_not_closed_and_outward() {
+fn issue_36_exported_meshes_are_repaired_open_ones_are_shells_the_untellable_refused() {
     use scene::{MeshData, Primitive};
     let closed = MeshData::cuboid("plate.obj", [0.05, 0.2, 0.2]);
-    let variants: [(&str, Vec<[u32; 3]>); 3] = [
-        ("open", closed.triangles[..10].to_vec()),
+    let with_obstacle = |mesh: MeshData| {
+        let mut s = Scene::wall_with_hole();
+        s.obstacles[0].primitive = Primitive::Mesh {
+            mesh: Arc::new(mesh),
+        };
+        s
+    };
+    let config = VoxmapConfig {
+        voxel_m: 0.004,
+        ..VoxmapConfig::default()
+    };
+    let mesh = |triangles: Vec<[u32; 3]>| {
+        MeshData::new("plate.obj", closed.vertices_m.clone(), triangles).unwrap()
+    };
+    // The plate (obstacles[0]) spans x ∈ [−0.05, 0.05] about its centre, the S x ∈
+    // [−0.05, 0.05] about its reference point: probes at `x` from the plate's centre.
+    let probe = |scene: &Scene, x: f64| {
+        let model = Arc::new(ContactModel::from_scene(scene, &config).unwrap());
+        let contact = ContactConfig {
+            voxmap: config,
+            ..ContactConfig::default()
+        };
+        let spec = SimulatedArmConfig::default().spec();
+        let coupling = Coupling::from_spec(&spec, 1.0, contact.coupling_fraction);
+        let stage = ContactStage::new(model, contact, coupling);
+        let centre = scene.obstacles[0].pose.pos;
+        stage.probe(&Isometry3::translation(centre.x + x, centre.y, centre.z))
+    };
+    // Outside the −x face, 0.5 mm in.
+    let touching = -0.0995;
+    let reference = probe(&with_obstacle(closed.clone()), touching);
+    assert!(reference.force_n.x < -0.1, "{reference:?}");
+    for (kind, triangles) in [
         ("double-sided", {
             let mut t = closed.triangles.clone();
             t.extend(closed.triangles.iter().map(|&[a, b, c]| [a, c, b]));
@@ -662,31 +696,65 @@ fn issue_20_contact_refuses_meshes_that_are_not_closed_and_outward() {
                 .map(|&[a, b, c]| [a, c, b])
                 .collect(),
         ),
-    ];
-    let with_obstacle = |mesh: MeshData| {
-        let mut s = Scene::wall_with_hole();
-        s.obstacles[0].primitive = Primitive::Mesh {
-            mesh: Arc::new(mesh),
-        };
-        s
-    };
-    let config = VoxmapConfig {
-        voxel_m: 0.004,
-        ..VoxmapConfig::default()
-    };
-    for (kind, triangles) in variants {
-        let mesh = MeshData::new("plate.obj", closed.vertices_m.clone(), triangles).unwrap();
-        let e = ContactModel::from_scene(&with_obstacle(mesh), &config)
+    ] {
+        let e = ContactModel::from_scene(&with_obstacle(mesh(triangles.clone())), &config)
             .err()
-            .unwrap_or_else(|| panic!("{kind}: accepted"))
+            .unwrap_or_else(|| panic!("{kind}: accepted unrepaired"))
             .to_string();
         assert!(
             e.contains("plate.obj") && e.contains("obstacles[0]") && e.contains(kind),
             "{e}"
         );
-        assert!(e.contains("--no-contact") && e.contains("outward"), "{e}");
+        assert!(e.contains("--no-contact") && e.contains("--fix"), "{e}");
+        let mut repaired = with_obstacle(mesh(triangles));
+        repaired.repair_meshes();
+        let p = probe(&repaired, touching);
+        assert_eq!(p.force_n, reference.force_n, "{kind}");
     }
-    assert!(ContactModel::from_scene(&with_obstacle(closed), &config).is_ok());
+    // Open: the plate without its +x face pushes out on either side of its surface.
+    let open = with_obstacle(mesh(
+        closed
+            .triangles
+            .iter()
+            .filter(|t| t.iter().any(|&i| closed.vertices_m[i as usize].x < 0.0))
+            .copied()
+            .collect(),
+    ));
+    assert!(matches!(open.mesh_notes().as_slice(), [(true, line)] if line.contains("open")));
+    // The shell is 2 voxels (8 mm) thick: 2 mm off the −x face, outside and inside.
+    let outside = probe(&open, -0.1 - 0.002);
+    let inside = probe(&open, 0.002);
+    assert!(
+        outside.force_n.x < -0.1 && inside.force_n.x > 0.1,
+        "{outside:?} {inside:?}"
+    );
+    // The closed plate pushes nothing 2 mm outside, and nothing but deep inside.
+    assert_eq!(
+        probe(&with_obstacle(closed.clone()), -0.1 - 0.002).contacts,
+        0
+    );
+    // Non-manifold: two closed boxes sharing an edge (four triangles on it).
+    let mut walled = closed.clone();
+    let n = walled.vertices_m.len() as u32;
+    walled.vertices_m.extend(
+        closed
+            .vertices_m
+            .iter()
+            .map(|v| v + nalgebra::Vector3::new(0.1, 0.4, 0.0)),
+    );
+    walled
+        .triangles
+        .extend(closed.triangles.iter().map(|t| t.map(|i| i + n)));
+    let mut s = with_obstacle(walled);
+    s.repair_meshes();
+    let e = ContactModel::from_scene(&s, &config)
+        .err()
+        .map(|e| e.to_string());
+    assert!(
+        e.as_deref()
+            .is_some_and(|e| e.contains("plate.obj") && e.contains("obstacles[0]")),
+        "{e:?}"
+    );
 }
 
 #[test]
@@ -896,4 +964,33 @@ fn a_proxy_tipping_over_under_a_hard_pull_stays_within_a_voxel() {
     assert!(bounded <= h, "bounded: {} mm", bounded * 1e3);
     // The run is sharp: the same tip-over without the bound goes past a voxel (1.1 mm).
     assert!(unbounded > h, "unbounded: {} mm", unbounded * 1e3);
+}
+
+/// An open moving object's mass is that of a thin shell: for the six faces of a cube of side
+/// s as a shell t thick, mass 6·s²·t and inertia 5/18·M·s² about each axis.
+#[test]
+fn a_shell_has_the_mass_properties_of_a_thin_walled_box() {
+    let cube = scene::MeshData::cuboid("cube", [0.1, 0.1, 0.1]);
+    let shape = scene::shapes::part_shape(&scene::Part {
+        primitive: scene::Primitive::Mesh {
+            mesh: Arc::new(cube),
+        },
+        pose: Se3::identity(),
+    });
+    let at = Pose::translation(0.3, -0.2, 0.1);
+    let mp = super::shell_mass_properties(&at, shape.as_trimesh().unwrap(), 0.002);
+    let (s, t) = (0.2, 0.002);
+    let mass = 6.0 * s * s * t;
+    assert!((mp.mass() - mass).abs() < 1e-12, "{}", mp.mass());
+    let c = mp.local_com;
+    assert!((Vector3::new(c.x, c.y, c.z) - Vector3::new(0.3, -0.2, 0.1)).norm() < 1e-12);
+    let inv = mp.inv_principal_inertia;
+    for i in [inv.x, inv.y, inv.z] {
+        let expected = 5.0 / 18.0 * mass * s * s;
+        assert!(
+            (1.0 / i - expected).abs() < 1e-9 * expected,
+            "{} vs {expected}",
+            1.0 / i
+        );
+    }
 }

@@ -32,8 +32,12 @@ use std::time::Duration;
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
+mod band;
 mod build;
+pub mod cache;
 mod query;
+
+pub use build::{Obstacle, Surface};
 
 /// Cells per block edge.
 const B: usize = 8;
@@ -61,6 +65,11 @@ pub struct VoxmapConfig {
     /// Distance layers stored inside the surface, in voxels (≥ 1): the deepest penetration
     /// that still gets a force direction.
     pub layers_in: u32,
+    /// Thickness of the band an open mesh obstacle (a panel, a sheet) is rendered as,
+    /// centred on its surface, in voxels (> 0): the object is kept out of it from either
+    /// side. Two voxels keep a point that entered half a voxel deep (the most one step
+    /// carries it, see `ContactConfig::max_travel_voxels`) on its own side.
+    pub shell_voxels: f64,
 }
 
 impl Default for VoxmapConfig {
@@ -69,6 +78,7 @@ impl Default for VoxmapConfig {
             voxel_m: 0.001,
             layers_out: 4,
             layers_in: 8,
+            shell_voxels: 2.0,
         }
     }
 }
@@ -96,6 +106,9 @@ pub enum VoxmapError {
         /// Distance layers inside asked for, voxels.
         layers_in: u32,
     },
+    /// The build was stopped (its progress's cancel flag was set).
+    #[error("voxmap: build stopped")]
+    Cancelled,
     /// The grid would exceed the memory budget.
     #[error(
         "voxmap: {what} would need {needed_mb:.0} MB at {voxel_mm} mm voxels (limit {limit_mb:.0} MB); use larger voxels"
@@ -134,6 +147,10 @@ pub struct VoxmapReport {
     pub dense_bytes: usize,
     /// Wall-clock build time.
     pub build_time: Duration,
+    /// Largest working memory of one mesh's narrow band, bytes (0 without meshes).
+    pub peak_band_bytes: usize,
+    /// When read from the cache instead of built: how long that took.
+    pub loaded_in: Option<Duration>,
 }
 
 impl std::fmt::Display for VoxmapReport {
@@ -150,7 +167,11 @@ impl std::fmt::Display for VoxmapReport {
             self.memory_bytes as f64 / 1e6,
             self.dense_bytes as f64 / 1e6,
             self.build_time.as_secs_f64()
-        )
+        )?;
+        if let Some(t) = self.loaded_in {
+            write!(f, " (loaded from the cache in {:.2} s)", t.as_secs_f64())?;
+        }
+        Ok(())
     }
 }
 

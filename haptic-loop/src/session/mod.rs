@@ -44,13 +44,20 @@ pub struct LoopSetup {
     pub operator: scenario::SimOperator,
     /// Contact rendering parameters; `None` = contact off.
     pub contact: Option<ContactConfig>,
+    /// Where built voxmaps are kept (`contact::voxmap_cache`); `None`: always build.
+    pub voxmap_cache: Option<std::path::PathBuf>,
 }
 
 impl LoopSetup {
     /// Builds the contact stage (voxmap, pointshell, coupling sized from `spec`) when
-    /// contact is on, and logs its size and build time. Takes seconds at fine voxel sizes:
-    /// call it before anything starts.
-    pub fn contact_stage(&self, spec: &DeviceSpec) -> Result<Option<ContactStage>, Error> {
+    /// contact is on, and logs its size and build time. Takes seconds at fine voxel sizes
+    /// and for big meshes (less when the voxmap is in the cache): call it before anything
+    /// starts. Reports to `progress` and stops when its cancel flag is set.
+    pub fn contact_stage(
+        &self,
+        spec: &DeviceSpec,
+        progress: &crate::contact::Progress,
+    ) -> Result<Option<ContactStage>, Error> {
         let Some(config) = self.contact else {
             return Ok(None);
         };
@@ -59,7 +66,13 @@ impl LoopSetup {
             error: Box::new(source),
         };
         config.validate().map_err(contact_error)?;
-        let model = ContactModel::from_scene(&self.scene, &config.voxmap).map_err(contact_error)?;
+        let model = ContactModel::from_scene_with(
+            &self.scene,
+            &config.voxmap,
+            progress,
+            self.voxmap_cache.as_deref(),
+        )
+        .map_err(contact_error)?;
         tracing::info!("contact: {}", model.describe());
         let coupling = Coupling::from_spec(
             spec,

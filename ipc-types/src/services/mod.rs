@@ -201,6 +201,7 @@ pub fn create_node(name: &str) -> Result<(Node<Ipc>, usize), ServiceError> {
 pub fn create_node_in<S: iceoryx2::service::Service>(
     name: &str,
 ) -> Result<(Node<S>, usize), ServiceError> {
+    crate::startup::hold_resources();
     let cleaned = cleanup_dead_nodes();
     let node_error = |reason: String| ServiceError::Node {
         node: name.to_owned(),

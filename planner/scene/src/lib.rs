@@ -30,6 +30,7 @@ mod export;
 mod file;
 mod mesh;
 pub mod pose;
+pub mod progress;
 pub mod repair;
 pub mod shapes;
 pub mod topology;
@@ -255,17 +256,9 @@ impl MeshCheck {
     /// How contact can render it: the repair's verdict, or for a mesh that was never
     /// repaired, its topology's (closed and outward, open, else refused as not repaired).
     pub fn surface(&self) -> repair::Surface {
-        use repair::{Refusal, Surface};
-        use topology::MeshKind;
-        if let Some(r) = &self.repair {
-            return r.surface.clone();
-        }
-        let t = &self.topology;
-        match t.kind() {
-            MeshKind::ClosedOutward => Surface::ClosedOutward,
-            // A thin shell needs no inside: holes are enough.
-            MeshKind::Open if t.boundary_edges > 0 => Surface::Open,
-            kind => Surface::Refused(Refusal::NotRepaired { kind }),
+        match &self.repair {
+            Some(r) => r.surface.clone(),
+            None => repair::Surface::judged(&self.topology),
         }
     }
 }
@@ -396,6 +389,57 @@ impl Scene {
             }
         }
         out
+    }
+
+    /// One line per mesh part that loading repaired, that is open (contact renders it as
+    /// a thin shell) or whose inside cannot be told (contact refuses it), for the log:
+    /// `(is a warning, line)`. Reads the repair's report; judges a mesh that never went
+    /// through the repair from its topology.
+    pub fn mesh_notes(&self) -> Vec<(bool, String)> {
+        use repair::Surface;
+        let lists = [
+            ("obstacles", &self.obstacles),
+            ("moving_object", &self.moving_object),
+        ];
+        let mut notes = Vec::new();
+        for (list, parts) in lists {
+            for (i, part) in parts.iter().enumerate() {
+                let Primitive::Mesh { mesh } = &part.primitive else {
+                    continue;
+                };
+                let field = format!("{list}[{i}]");
+                let report = mesh.repair.as_deref();
+                let note = match (mesh.surface(), report) {
+                    (Surface::Refused(why), None) => Some((
+                        true,
+                        format!(
+                            "mesh {} ({field}): {why}; contact rendering refuses it (see `planner scenes check`)",
+                            mesh.source
+                        ),
+                    )),
+                    (Surface::Refused(_), Some(r)) => Some((
+                        true,
+                        format!(
+                            "{field} {r}; contact rendering refuses it (see `planner scenes check`)"
+                        ),
+                    )),
+                    (Surface::Open, Some(r)) => Some((true, format!("{field} {r}"))),
+                    (Surface::Open, None) => Some((
+                        true,
+                        format!(
+                            "mesh {} ({field}) is open; contact renders it as a thin shell",
+                            mesh.source
+                        ),
+                    )),
+                    (Surface::ClosedOutward, Some(r)) if r.changed() => {
+                        Some((false, format!("{field} {r}")))
+                    }
+                    (Surface::ClosedOutward, _) => None,
+                };
+                notes.extend(note);
+            }
+        }
+        notes
     }
 
     /// Largest distance from the reference point to any point of the object (m).

@@ -112,6 +112,16 @@ impl MeshData {
         Self::new(&name, vertices, triangles)
     }
 
+    /// What contact can make of it: the repair's verdict when it went through
+    /// [`crate::repair::repair`] (a scene file's meshes do, on load), else judged from its
+    /// topology ([`crate::repair::Surface::judged`]).
+    pub fn surface(&self) -> crate::repair::Surface {
+        match &self.repair {
+            Some(r) => r.surface.clone(),
+            None => crate::repair::Surface::judged(&crate::topology::Topology::of(self)),
+        }
+    }
+
     /// Largest distance of a vertex from the local origin after `transform` (m).
     pub fn reach_m(&self, transform: impl Fn(&Vector3<f64>) -> Vector3<f64>) -> f64 {
         self.vertices_m

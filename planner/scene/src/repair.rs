@@ -54,6 +54,18 @@ pub enum Surface {
 }
 
 impl Surface {
+    /// What contact can make of a mesh that never went through [`repair`], from its
+    /// topology alone: closed and outward, open when it has holes (a thin shell needs
+    /// nothing more), else refused as not repaired.
+    pub fn judged(t: &crate::topology::Topology) -> Surface {
+        use crate::topology::MeshKind;
+        match t.kind() {
+            MeshKind::ClosedOutward => Surface::ClosedOutward,
+            MeshKind::Open if t.boundary_edges > 0 => Surface::Open,
+            kind => Surface::Refused(Refusal::NotRepaired { kind }),
+        }
+    }
+
     /// Whether contact refuses it.
     pub fn is_refused(&self) -> bool {
         matches!(self, Surface::Refused(_))
@@ -247,7 +259,7 @@ pub(crate) fn key_map<K, V>(capacity: usize) -> KeyMap<K, V> {
 
 /// The welded index of every vertex: vertices at exactly the same position (with
 /// −0 = +0) share one, numbered by first appearance.
-pub(crate) fn weld(vertices: &[Vector3<f64>]) -> Vec<u32> {
+pub fn weld(vertices: &[Vector3<f64>]) -> Vec<u32> {
     let key = |c: f64| if c == 0.0 { 0u64 } else { c.to_bits() };
     let mut ids: KeyMap<[u64; 3], u32> = key_map(vertices.len());
     vertices

@@ -155,6 +155,11 @@ pub fn run_with_guidance_out(
     out: &dyn Fn(&Guidance),
 ) -> Result<ShellReport, ShellError> {
     let started = Instant::now();
+    // The planner first (collision trees of big meshes take seconds): until the node below
+    // exists, a signal ends the process at once (`ipc_types::startup`).
+    let built = Instant::now();
+    let mut planner = Planner::new(&config.scene, config.params.clone(), config.seed)?;
+    tracing::debug!("planner built in {:.2} s", built.elapsed().as_secs_f64());
     let node_name = format!("planner_{}", std::process::id());
     let (node, cleaned) = services::create_node(&node_name)?;
     if cleaned > 0 {
@@ -176,7 +181,6 @@ pub fn run_with_guidance_out(
     let mut next_roadmap = Instant::now();
     let mut roadmap_publish_total_us = 0.0;
     let state_source = services::StateFollower::open(&node, &config.namespace)?;
-    let mut planner = Planner::new(&config.scene, config.params.clone(), config.seed)?;
 
     let operator = Arc::new(Mutex::new(Operator::default()));
     let receiver = {

@@ -13,5 +13,6 @@ mod external_c;
 mod issue_16;
 mod live;
 mod rt_deps;
+mod startup;
 mod two_process;
 mod view;

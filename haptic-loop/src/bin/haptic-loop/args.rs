@@ -84,6 +84,14 @@ pub struct LoopArgs {
     /// Render no contact: the object follows the hand through obstacles.
     #[arg(long)]
     pub no_contact: bool,
+    /// Build the voxmap every time instead of reading it from (and writing it to) the
+    /// cache folder.
+    #[arg(long)]
+    pub no_voxmap_cache: bool,
+    /// Where built voxmaps are kept, keyed by the scene's content, voxel size and layers
+    /// [default: $XDG_CACHE_HOME/hrrtc/voxmaps, or ~/.cache/hrrtc/voxmaps].
+    #[arg(long, value_name = "DIR", conflicts_with = "no_voxmap_cache")]
+    pub voxmap_cache_dir: Option<PathBuf>,
     /// Contact point budget: points near the surface the contact stage may look at per
     /// millisecond of tick period; past it, contact is rendered from a coarser level of
     /// detail of the object's points (down to 4 mm spacing).
@@ -233,11 +241,15 @@ impl LoopArgs {
     /// Validates the arguments into a [`LoopSetup`]; `operator` and `operator_seed` are the
     /// command's defaults for `--operator` and `--operator-seed`.
     pub fn to_setup(&self, operator: &str, operator_seed: u64) -> anyhow::Result<LoopSetup> {
-        let scene = Scene::by_name_or_path(&self.scene)?;
-        for c in scene.mesh_checks().iter().filter(|c| !c.is_ok()) {
-            tracing::warn!(
-                "mesh {c}; contact rendering needs it closed and wound outward (see `planner scenes check`)"
-            );
+        let scene = scene::progress::showing(&format!("reading scene {}", self.scene), || {
+            Scene::by_name_or_path(&self.scene)
+        })?;
+        for (warning, line) in scene.mesh_notes() {
+            if warning {
+                tracing::warn!("{line}");
+            } else {
+                tracing::info!("{line}");
+            }
         }
         if !(self.rate_hz.is_finite() && (500.0..=4000.0).contains(&self.rate_hz)) {
             bail!("--rate-hz must be within 500–4000, got {}", self.rate_hz);
@@ -332,6 +344,11 @@ impl LoopArgs {
             },
             scene,
             arm,
+            voxmap_cache: match (&self.voxmap_cache_dir, self.no_voxmap_cache) {
+                (_, true) => None,
+                (Some(dir), false) => Some(dir.clone()),
+                (None, false) => haptic_loop::contact::voxmap_cache::default_dir(),
+            },
             operator: match self.operator.as_deref().unwrap_or(operator) {
                 "scripted" => SimOperator::Scripted(ScriptedUserConfig {
                     linear_speed_m_per_s: self.user_speed,

@@ -10,6 +10,7 @@ use haptic_loop::device_choice::DeviceChoice;
 use haptic_loop::session::{self, scenario};
 use std::path::PathBuf;
 use std::process::{Child, Command};
+use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
@@ -54,7 +55,7 @@ fn stop_planner(child: &mut Child) {
 }
 
 /// Runs the command; see the module docs for the exit code.
-pub fn run(args: &DemoArgs, stop: &AtomicBool) -> anyhow::Result<i32> {
+pub fn run(args: &DemoArgs, stop: &Arc<AtomicBool>) -> anyhow::Result<i32> {
     let setup = args.common.to_setup("expert", args.seed)?;
     let limit = args::seconds("time-limit-s", args.time_limit_s)?;
     let after = args::seconds_or_zero("after-solve-s", args.after_solve_s)?;
@@ -71,7 +72,10 @@ pub fn run(args: &DemoArgs, stop: &AtomicBool) -> anyhow::Result<i32> {
     let (mut device, operator) = scenario::simulated_device(&setup, input)?;
     device.open().map_err(|e| choice.open_error(e))?;
     // Build the voxmap before anything starts: it takes seconds at fine voxel sizes.
-    let contact = setup.contact_stage(device.spec())?;
+    let Some(contact) = crate::build_contact(&setup, device.spec(), stop)? else {
+        eprintln!("haptic-loop: stopped during start-up");
+        return Ok(130);
+    };
 
     let mut child = match &exe {
         Some(exe) => Some(start_planner(exe, args, &setup)?),
@@ -153,6 +157,8 @@ fn start_planner(
     if let Some(extra) = &args.planner_args {
         command.args(extra.split_whitespace());
     }
+    // A signal now stops the session in order (and the planner with it).
+    ipc_types::startup::hold_resources();
     command
         .spawn()
         .with_context(|| format!("cannot start the planner process ({})", exe.display()))

@@ -54,13 +54,35 @@ fn init_logging() {
         .try_init();
 }
 
-/// A flag set by SIGINT / SIGTERM.
+/// A flag set by SIGINT / SIGTERM once the process holds IPC resources or a child; before
+/// that (reading the scene, building the contact model for a simulated device) the signal
+/// ends the process at once with exit code 130 (`ipc_types::startup`).
 fn stop_on_signal() -> anyhow::Result<Arc<AtomicBool>> {
     let stop = Arc::new(AtomicBool::new(false));
     let s = stop.clone();
-    ctrlc::set_handler(move || s.store(true, Ordering::Release))
+    ctrlc::set_handler(move || ipc_types::startup::on_signal(&s, "haptic-loop"))
         .context("cannot install the SIGINT/SIGTERM handler")?;
     Ok(stop)
+}
+
+/// Shows the contact model's build (a progress line on a terminal, a log line every 2 s
+/// otherwise) and stops it on `stop`; the build's error, or `None` when it was stopped.
+fn build_contact(
+    setup: &haptic_loop::session::LoopSetup,
+    spec: &::devices::DeviceSpec,
+    stop: &Arc<AtomicBool>,
+) -> anyhow::Result<Option<Option<haptic_loop::contact::ContactStage>>> {
+    use haptic_loop::contact::Progress;
+    use scene::progress::Display;
+    let progress = Arc::new(Progress::new(stop.clone()));
+    let display = Display::start(progress.clone(), std::time::Duration::from_secs(2));
+    let built = setup.contact_stage(spec, &progress);
+    drop(display);
+    match built {
+        Ok(stage) => Ok(Some(stage)),
+        Err(_) if stop.load(Ordering::Acquire) => Ok(None),
+        Err(e) => Err(e.into()),
+    }
 }
 
 /// Prints the summary and writes it as JSON when asked.

@@ -4,10 +4,11 @@
 use crate::args::{self, RunArgs};
 use haptic_loop::device_choice;
 use haptic_loop::session::{self, scenario};
+use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
 /// Runs the command; the exit code is 0.
-pub fn run(args: &RunArgs, stop: &AtomicBool) -> anyhow::Result<i32> {
+pub fn run(args: &RunArgs, stop: &Arc<AtomicBool>) -> anyhow::Result<i32> {
     let setup = args.common.to_setup("scripted", 1)?;
     let duration = args
         .duration_s
@@ -24,7 +25,10 @@ pub fn run(args: &RunArgs, stop: &AtomicBool) -> anyhow::Result<i32> {
     // sized from them. `Tick::new` opens it again, which the device trait allows.
     device.open().map_err(|e| choice.open_error(e))?;
     // Build the voxmap before anything starts: it takes seconds at fine voxel sizes.
-    let contact = setup.contact_stage(device.spec())?;
+    let Some(contact) = crate::build_contact(&setup, device.spec(), stop)? else {
+        eprintln!("haptic-loop: stopped during start-up");
+        return Ok(130);
+    };
     tracing::info!(
         "haptic loop at {} Hz on {}, namespace '{}', scene '{}'",
         setup.runner.rate_hz,

@@ -71,8 +71,7 @@ pub struct CoreArgs {
 impl CoreArgs {
     /// Loads the scene and validates the tree parameters.
     pub fn load(&self) -> anyhow::Result<(Scene, PlannerParams)> {
-        let scene = Scene::by_name_or_path(&self.scene)?;
-        log_mesh_repairs(&scene);
+        let scene = load_scene(&self.scene)?;
         let params = PlannerParams {
             step: self.step,
             edge_resolution: self.edge_resolution,
@@ -244,28 +243,23 @@ pub fn positive_opt(name: &str, v: Option<f64>) -> anyhow::Result<Option<f64>> {
     v.map(|d| positive(name, d)).transpose()
 }
 
+/// The scene `arg` (a built-in name or a file) with its meshes' repairs logged; reading a
+/// big mesh shows how long it has been at it (a line on a terminal, log lines otherwise).
+pub fn load_scene(arg: &str) -> anyhow::Result<Scene> {
+    let scene = scene::progress::showing(&format!("reading scene {arg}"), || {
+        Scene::by_name_or_path(arg)
+    })?;
+    log_mesh_repairs(&scene);
+    Ok(scene)
+}
+
 /// One log line per mesh part that loading repaired, left open or refused.
 pub fn log_mesh_repairs(scene: &Scene) {
-    use scene::repair::Surface;
-    for c in scene.mesh_checks() {
-        match (c.surface(), &c.repair) {
-            (Surface::Refused(why), None) => tracing::warn!(
-                "{} ({}): {why}; contact rendering refuses it (see `planner scenes check`)",
-                c.source,
-                c.field
-            ),
-            (Surface::Refused(_), Some(r)) => tracing::warn!(
-                "{} {r}; contact rendering refuses it (see `planner scenes check`)",
-                c.field
-            ),
-            (Surface::Open, Some(r)) => tracing::warn!("{} {r}", c.field),
-            (Surface::Open, None) => {
-                tracing::warn!("mesh {c}; contact renders it as a thin shell")
-            }
-            (Surface::ClosedOutward, Some(r)) if r.changed() => {
-                tracing::info!("{} {r}", c.field)
-            }
-            (Surface::ClosedOutward, _) => {}
+    for (warning, line) in scene.mesh_notes() {
+        if warning {
+            tracing::warn!("{line}");
+        } else {
+            tracing::info!("{line}");
         }
     }
 }

@@ -127,6 +127,8 @@ fn session(
     let _ = std::fs::remove_file(&summary);
     let log_file =
         std::fs::File::create(&log).with_context(|| format!("cannot write {}", log.display()))?;
+    // Children from now on: a signal stops them in order (`ipc_types::startup`).
+    ipc_types::startup::hold_resources();
     let mut cmd = Command::new(&sweep.exe);
     cmd.arg("demo")
         .args(["--scene", scene_arg])

@@ -22,7 +22,7 @@ use serve::ServeArgs;
 use solve::SolveArgs;
 use std::io::IsTerminal;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 
 /// Interactive motion planner (I-RRT / H-RRT-C) paired with the 1 kHz haptic loop.
 #[derive(Debug, Parser)]
@@ -69,13 +69,20 @@ fn init_logging() {
         .try_init();
 }
 
-/// A flag set by SIGINT / SIGTERM.
+/// The flag SIGINT / SIGTERM set, installed once per process: once the process holds IPC
+/// resources or children the signal sets it; before that (reading a scene, building a
+/// planner's collision trees) it ends the process at once with exit code 130
+/// (`ipc_types::startup`).
 fn stop_on_signal() -> anyhow::Result<Arc<AtomicBool>> {
+    static STOP: std::sync::OnceLock<Arc<AtomicBool>> = std::sync::OnceLock::new();
+    if let Some(s) = STOP.get() {
+        return Ok(s.clone());
+    }
     let stop = Arc::new(AtomicBool::new(false));
     let s = stop.clone();
-    ctrlc::set_handler(move || s.store(true, Ordering::Release))
+    ctrlc::set_handler(move || ipc_types::startup::on_signal(&s, "planner"))
         .context("cannot install the SIGINT/SIGTERM handler")?;
-    Ok(stop)
+    Ok(STOP.get_or_init(|| stop).clone())
 }
 
 /// Writes `value` as pretty JSON (and a newline) to `path`.
@@ -112,6 +119,11 @@ where
 }
 
 fn main() -> std::process::ExitCode {
+    // Before anything that takes long (loading a big scene): see `stop_on_signal`.
+    if let Err(e) = stop_on_signal() {
+        eprintln!("planner: error: {e:#}");
+        return std::process::ExitCode::from(2);
+    }
     match main_with_args(std::env::args_os()) {
         Ok(code) => std::process::ExitCode::from(code.clamp(0, 255) as u8),
         Err(e) => {
