@@ -13,7 +13,8 @@
 //!   being blocked only by seeing no progress.
 //!
 //! # The model, per decision (every 1 ms of the operator's clock)
-//! 0. **Take hold**: still for `start_hold_s` after the first decision.
+//! 0. **Take hold**: still for `start_hold_s` after the first decision; the route's
+//!    first step (the start) then counts as reached wherever the object is.
 //! 1. **Perceive** the object's pose and felt wrench now; act on the perception of
 //!    `reaction_delay_s` ago ([`perception`]).
 //! 2. **Target**: the current route step's pose, moved sideways by a wrong turn and turned
@@ -328,6 +329,13 @@ impl Operator {
         if t - first < self.config.start_hold_s {
             self.intent = Intent::STILL;
             return self.intent;
+        }
+        if self.step == 0 && self.route.len() > 1 {
+            // The first step is the start, where it took hold: reached however far a
+            // guidance pull moved the object during the hold (heading back to it, it would
+            // read the pull as resistance and fight the planner's lead from the start).
+            self.stats.steps_reached += 1;
+            self.next_step(t);
         }
         self.update_pressing(&seen);
         if self.best.is_infinite() {

@@ -83,6 +83,33 @@ fn it_holds_still_for_the_start_hold_then_moves() {
     assert!((moved - 0.6).abs() <= 1.5 * MS, "set off after {moved} s");
 }
 
+/// The planner's lead may pull the object off the start while the operator still takes
+/// hold: it then sets off from where the object is, with the pull, instead of fighting it
+/// back to the start (each 2 N pull against the way to the start would read as a block).
+#[test]
+fn a_pull_during_the_start_hold_is_followed_not_fought() {
+    let config = OperatorConfig {
+        start_hold_s: 0.6,
+        ..calm()
+    };
+    let route = vec![
+        RouteStep::to(at(0.0, 0.0, 0.0)),
+        RouteStep::to(at(0.1, 0.0, 0.0)),
+    ];
+    let mut op = Operator::new(config, route).unwrap();
+    // Pulled 7 mm toward the goal by a 2 N lead, held there for 0.5 s after the hold
+    // (heading back, the pull would read as a block after reaction delay + blocked_time_s
+    // = 0.32 s; seen still, a stall only after stall_time_s = 0.6 s).
+    let pull = Some(Wrench::from_force(Vector3::new(2.0, 0.0, 0.0)));
+    let mut last = Intent::STILL;
+    for k in 0..1100 {
+        last = op.decide(&seen(k as f64 * MS, at(0.007, 0.0, 0.0), pull));
+    }
+    assert_eq!(op.step_index(), 1);
+    assert_eq!(op.stats().blocks, 0, "{:?}", op.stats());
+    assert!(last.linear_velocity.x > 0.0, "{last:?}");
+}
+
 #[test]
 fn a_felt_pull_takes_the_stated_share_of_its_intent() {
     let config = OperatorConfig {
