@@ -105,6 +105,45 @@ pub struct OperatorConfig {
     pub max_torque_nm: f64,
     /// Seed of every random choice (ChaCha8). Default 1.
     pub seed: u64,
+    /// How an operator who does not know the way behaves (the `newcomer` preset); `None`
+    /// for one that follows a route it was given (expert, novice).
+    pub newcomer: Option<NewcomerConfig>,
+}
+
+/// What makes the newcomer: it has no route, only its own coarse way (positions, from what
+/// it sees of the scene), it guesses the goal's orientation, turns the object the way a
+/// person would try when blocked, and lets felt guidance lead more the longer it is stuck.
+/// Lengths at the device (device base frame).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct NewcomerConfig {
+    /// Error of its perception of the goal's orientation, rad: the orientation it turns the
+    /// object toward along its way is the goal's turned by this angle about an axis drawn
+    /// from the seed. Newcomer 0.06 (the goal zone accepts 0.1).
+    pub goal_orientation_error_rad: f64,
+    /// A waypoint of its way before the last counts as passed once the object is seen within
+    /// this distance of it or of any later waypoint, m; the orientation does not count there
+    /// (a person checks off "past the opening" by position). Newcomer 0.008.
+    pub waypoint_reach_m: f64,
+    /// Size of the turns it tries when blocked and not led, rad: plus and minus this about
+    /// each base axis, and no turn, in an order drawn from the seed; each try is wiggled by
+    /// `retry_jitter_m` / `retry_jitter_rad` (σ, not halved). Newcomer π/2 (quarter turns).
+    pub trial_rad: f64,
+    /// Guidance share added at each block at one waypoint, from `guidance_share` up to
+    /// `stuck_guidance_share` (the share grows while it is stuck). Once there, it follows the
+    /// whole felt wrench, even where it pushes against its own way. Newcomer 0.1.
+    pub share_per_block: f64,
+}
+
+impl Default for NewcomerConfig {
+    fn default() -> Self {
+        NewcomerConfig {
+            goal_orientation_error_rad: 0.06,
+            waypoint_reach_m: 0.008,
+            trial_rad: std::f64::consts::FRAC_PI_2,
+            share_per_block: 0.1,
+        }
+    }
 }
 
 impl Default for OperatorConfig {
@@ -166,6 +205,7 @@ impl OperatorConfig {
             max_force_n: 6.0,
             max_torque_nm: 0.4,
             seed: 1,
+            newcomer: None,
         }
     }
 
@@ -195,11 +235,44 @@ impl OperatorConfig {
         }
     }
 
-    /// The preset named `name` (`expert` or `novice`).
+    /// An operator who does not know the way (see [`NewcomerConfig`]): a novice's pace and
+    /// reactions, no route, and guidance felt at full share from 0.3 N and 0.015 N·m (the
+    /// planner's guidance before a solution is about 0.1–0.8 N, its lead at most 2 N and
+    /// 0.1 N·m), a share growing from 50 % to 90 % while stuck. It makes no wrong
+    /// orientations of its own on top of its guess of the goal's orientation.
+    pub fn newcomer() -> Self {
+        OperatorConfig {
+            reaction_delay_s: 0.2,
+            speed_m_per_s: 0.05,
+            angular_speed_rad_per_s: 0.6,
+            hesitation_rate_per_s: 0.1,
+            hesitation_min_s: 0.3,
+            hesitation_max_s: 1.0,
+            wrong_turn_probability: 0.1,
+            wrong_turn_m: 0.01,
+            wrong_orientation_probability: 0.0,
+            blocked_force_n: 2.5,
+            blocked_time_s: 0.3,
+            stall_time_s: 1.0,
+            retry_back_s: 0.4,
+            retry_jitter_m: 0.003,
+            retry_jitter_rad: 0.15,
+            guidance_share: 0.5,
+            stuck_guidance_share: 0.9,
+            stuck_after_blocks: 4,
+            guidance_full_n: 0.3,
+            guidance_full_nm: 0.015,
+            newcomer: Some(NewcomerConfig::default()),
+            ..OperatorConfig::expert()
+        }
+    }
+
+    /// The preset named `name` (`expert`, `novice` or `newcomer`).
     pub fn preset(name: &str) -> Option<Self> {
         match name {
             "expert" => Some(OperatorConfig::expert()),
             "novice" => Some(OperatorConfig::novice()),
+            "newcomer" => Some(OperatorConfig::newcomer()),
             _ => None,
         }
     }
@@ -275,6 +348,29 @@ impl OperatorConfig {
             && (0.0..=Self::MAX_REACTION_DELAY_S).contains(&self.reaction_delay_s))
         {
             return Err(DeviceError::InvalidConfig("reaction_delay_s (0–1 s)"));
+        }
+        if let Some(n) = &self.newcomer {
+            let fields = [
+                (
+                    n.goal_orientation_error_rad,
+                    "newcomer.goal_orientation_error_rad",
+                ),
+                (n.waypoint_reach_m, "newcomer.waypoint_reach_m"),
+                (n.trial_rad, "newcomer.trial_rad"),
+                (n.share_per_block, "newcomer.share_per_block"),
+            ];
+            for (v, name) in fields {
+                if !(v.is_finite() && v >= 0.0) {
+                    return Err(DeviceError::InvalidConfig(name));
+                }
+            }
+            if n.goal_orientation_error_rad > std::f64::consts::PI
+                || n.trial_rad > std::f64::consts::PI
+            {
+                return Err(DeviceError::InvalidConfig(
+                    "newcomer.goal_orientation_error_rad / trial_rad (at most π)",
+                ));
+            }
         }
         if !(self.hesitation_max_s.is_finite() && self.hesitation_max_s >= self.hesitation_min_s) {
             return Err(DeviceError::InvalidConfig(
