@@ -1,5 +1,6 @@
 //! `haptic-loop demo`: the loop on the simulated arm (or SpaceMouse) held by a simulated
-//! operator following the scene's route, the planner as a child process (the `planner`
+//! operator following the scene's route (or, on a scene without one, the newcomer on its
+//! own coarse way), the planner as a child process (the `planner`
 //! executable, H-RRT-C by default), progress each second and a summary. Exit code 0 when
 //! solved within the time limit, 1 when not, 130 when interrupted unsolved. With
 //! `--no-planner` the operator is alone: 0 when the object reached the goal, 1 when not.
