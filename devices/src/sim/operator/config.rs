@@ -13,16 +13,17 @@ use crate::sim::grip::Grip;
 #[serde(default, deny_unknown_fields)]
 pub struct OperatorConfig {
     /// Time between what the operator perceives (pose, felt force) and its reaction to it,
-    /// s (people: about 0.1–0.25). Expert 0.12, novice 0.22.
+    /// s (people: about 0.1–0.25). Expert 0.12, novice 0.22, newcomer 0.2.
     pub reaction_delay_s: f64,
     /// How long it holds the handle still before it starts, s: a person takes hold of the
     /// arm and waits until it comes alive (the loop keeps forces off until the device has
     /// been still, then ramps them in over 0.5 s; an operator who starts at once may meet the
     /// first obstacle with no force felt). Default 0.6.
     pub start_hold_s: f64,
-    /// Hand speed toward the next route step in free motion, m/s. Expert 0.08, novice 0.05.
+    /// Hand speed toward the next route step in free motion, m/s. Expert 0.08, novice and newcomer 0.05.
     pub speed_m_per_s: f64,
-    /// Turning rate toward the next step's orientation, rad/s. Expert 1.0, novice 0.6.
+    /// Turning rate toward the next step's orientation, rad/s. Expert 1.0, novice and
+    /// newcomer 0.6.
     pub angular_speed_rad_per_s: f64,
     /// Slowing near a target: the speed is at most distance / this, s. Default 0.25.
     pub approach_time_s: f64,
@@ -39,57 +40,66 @@ pub struct OperatorConfig {
     /// Default 0.003.
     pub press_slack_m: f64,
     /// Hesitations start at this rate while moving, 1/s (a Poisson process). Expert 0.05,
-    /// novice 0.2.
+    /// novice 0.2, newcomer 0.1.
     pub hesitation_rate_per_s: f64,
-    /// Shortest hesitation, s (its length is uniform between the two). Expert 0.2, novice 0.4.
+    /// Shortest hesitation, s (its length is uniform between the two). Expert 0.2, novice 0.4,
+    /// newcomer 0.3.
     pub hesitation_min_s: f64,
-    /// Longest hesitation, s. Expert 0.6, novice 1.5.
+    /// Longest hesitation, s. Expert 0.6, novice 1.5, newcomer 1.0.
     pub hesitation_max_s: f64,
     /// Probability, per route step after the first, of heading first to a wrong place
-    /// (the step's position moved sideways by `wrong_turn_m`). Expert 0.05, novice 0.25.
+    /// (the step's position moved sideways by `wrong_turn_m`). Expert 0.05, novice 0.25,
+    /// newcomer 0.1 (per waypoint of its own way).
     pub wrong_turn_probability: f64,
-    /// How far sideways a wrong turn aims, m. Expert 0.015, novice 0.025.
+    /// How far sideways a wrong turn aims, m. Expert 0.015, novice 0.025, newcomer 0.01.
     pub wrong_turn_m: f64,
     /// Probability, per route step after the first, of holding the object at a wrong
     /// orientation (off by `wrong_orientation_rad` × U(0.5, 1.5) about a random axis).
-    /// Expert 0.15, novice 0.5.
+    /// Expert 0.15, novice 0.5, newcomer 0 (its orientations are guesses already: see
+    /// `NewcomerConfig::goal_orientation_error_rad`).
     pub wrong_orientation_probability: f64,
     /// Typical size of a wrong orientation, rad. Expert 0.12, novice 0.3.
     pub wrong_orientation_rad: f64,
     /// Felt force against the intended motion that the operator reads as "blocked", N.
-    /// Expert 1.5, novice 2.5. (Only with force feedback.)
+    /// Expert 1.5, novice and newcomer 2.5. (Only with force feedback.)
     pub blocked_force_n: f64,
-    /// ... once felt for this long, s. Expert 0.2, novice 0.4.
+    /// ... once felt for this long, s. Expert 0.2, novice 0.4, newcomer 0.3.
     pub blocked_time_s: f64,
     /// Seen progress toward the step smaller than `stall_progress_m` for this long reads as
     /// "blocked" too, s (what a SpaceMouse user, who feels nothing, goes by). Expert 0.6,
-    /// novice 1.2.
+    /// novice 1.2, newcomer 1.0.
     pub stall_time_s: f64,
     /// Progress that counts, m (angles weighed by `rotation_length_m`). Default 0.001.
     pub stall_progress_m: f64,
     /// Share of a wrong orientation removed at each correction, 0–1. Expert 0.8, novice 0.5.
     pub correction_share: f64,
     /// After a block with nothing to correct: back off for this long, s, then retry with a
-    /// small random change. Default 0.3.
+    /// small random change. Default 0.3, newcomer 0.4.
     pub retry_back_s: f64,
     /// Sideways change of a first retry at a step, m (σ per axis; halved at each further
-    /// block there). Expert 0.002, novice 0.004.
+    /// block there; the newcomer's wiggle, not halved). Expert 0.002, novice 0.004, newcomer
+    /// 0.003.
     pub retry_jitter_m: f64,
-    /// Orientation change of a first retry, rad (σ per axis; halved likewise). Expert 0.03,
-    /// novice 0.06.
+    /// Orientation change of a first retry, rad (σ per axis; halved likewise, but not the
+    /// newcomer's). Expert 0.03, novice 0.06, newcomer 0.15 (a person's turn by hand is off
+    /// by about that).
     pub retry_jitter_rad: f64,
     /// Share of the operator's intent that comes from a guidance force it feels at
     /// `guidance_full_n` or more (0–1; weaker forces give a proportionally smaller share).
-    /// Expert 0.3, novice 0.5.
+    /// Expert 0.3, novice and newcomer 0.5.
     pub guidance_share: f64,
     /// The same share once blocked `stuck_after_blocks` times at one step: stuck, it lets
-    /// the guidance lead more. Expert 0.5, novice 0.7.
+    /// the guidance lead more. Expert 0.5, novice 0.7, newcomer 0.9 (reached by
+    /// `NewcomerConfig::share_per_block`).
     pub stuck_guidance_share: f64,
-    /// Blocks at one step after which the operator counts itself stuck. Default 3.
+    /// Blocks at one step after which the operator counts itself stuck. Default 3 (the
+    /// newcomer's share grows with each block instead).
     pub stuck_after_blocks: u32,
-    /// Guidance force felt at full share, N. Default 1.0.
+    /// Guidance force felt at full share, N. Default 1.0, newcomer 0.3 (below the 0.1–0.8 N
+    /// of the planner's guidance before a solution, far below its lead's 2 N).
     pub guidance_full_n: f64,
-    /// Guidance torque felt at full share, N·m. Default 0.05.
+    /// Guidance torque felt at full share, N·m. Default 0.05, newcomer 0.015 (the lead
+    /// saturates at 0.1).
     pub guidance_full_nm: f64,
     /// Grip: translational stiffness between the hand and the handle, N/m. Default 300.
     pub hand_stiffness_n_per_m: f64,
@@ -259,7 +269,6 @@ impl OperatorConfig {
             retry_jitter_rad: 0.15,
             guidance_share: 0.5,
             stuck_guidance_share: 0.9,
-            stuck_after_blocks: 4,
             guidance_full_n: 0.3,
             guidance_full_nm: 0.015,
             newcomer: Some(NewcomerConfig::default()),

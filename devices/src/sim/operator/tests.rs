@@ -461,6 +461,26 @@ fn bad_configs_and_routes_are_refused_naming_the_field() {
             },
             "speed_m_per_s",
         ),
+        (
+            OperatorConfig {
+                newcomer: Some(NewcomerConfig {
+                    waypoint_reach_m: f64::NAN,
+                    ..NewcomerConfig::default()
+                }),
+                ..calm()
+            },
+            "newcomer.waypoint_reach_m",
+        ),
+        (
+            OperatorConfig {
+                newcomer: Some(NewcomerConfig {
+                    trial_rad: 4.0,
+                    ..NewcomerConfig::default()
+                }),
+                ..calm()
+            },
+            "trial_rad",
+        ),
     ];
     for (c, field) in bad {
         let e = Operator::new(c, route.clone()).unwrap_err().to_string();
