@@ -40,7 +40,8 @@
 //! goal's as it perceives it (with `goal_orientation_error_rad`) along the way. It checks
 //! waypoints off by position (`waypoint_reach_m`). Blocked, it backs off and tries the next
 //! turn of a seeded order (none, ±`trial_rad` about each axis), wiggled; but when the
-//! guidance it feels is at full share it keeps the orientation the guidance gave instead.
+//! guidance it feels is at full share it keeps the orientation the guidance gave instead;
+//! near the goal it drops these and turns to the goal's orientation as it perceives it.
 //! Its share grows by `share_per_block` with every block at a waypoint up to
 //! `stuck_guidance_share`, where it follows the whole felt force; it never holds its
 //! guessed orientation against a felt torque.
@@ -469,6 +470,12 @@ impl Operator {
             self.next_step(t);
             return self.toward(seen, true);
         }
+        if self.near_goal_with_changes(seen) {
+            // At the goal it looks at the goal's orientation again: the turns it tried and
+            // the orientation a guidance gave were for the way there.
+            self.jitter = Isometry3::identity();
+            self.begin_attempt(t);
+        }
         let (e_p, e_r) = self.errors(seen);
         if e_p.norm() <= c.position_tolerance_m && e_r.norm() <= c.angle_tolerance_rad {
             if self.turn != Vector3::zeros() {
@@ -765,6 +772,22 @@ impl Operator {
         (self.step..self.route.len() - 1)
             .rev()
             .find(|&k| (self.route[k].pose.translation.vector - p).norm() <= reach)
+    }
+
+    /// For a newcomer heading for its last waypoint (the goal) with a changed target (a
+    /// turn tried, an orientation kept from guidance): true once the object is seen within
+    /// `waypoint_reach_m` of the goal or of that changed target.
+    fn near_goal_with_changes(&self, seen: &Perception) -> bool {
+        let Some(n) = self.config.newcomer else {
+            return false;
+        };
+        if self.step + 1 != self.route.len() || self.jitter == Isometry3::identity() {
+            return false;
+        }
+        let p = seen.pose.translation.vector;
+        let goal = self.route[self.step].pose.translation.vector;
+        (goal - p).norm() <= n.waypoint_reach_m
+            || (self.target().translation.vector - p).norm() <= n.waypoint_reach_m
     }
 
     /// Moves to the next step and draws its errors.

@@ -697,3 +697,33 @@ fn blocked_and_not_led_the_newcomer_tries_turns_in_a_seeded_order() {
     assert_eq!(trials(5).0, turns);
     assert_ne!(trials(6).0[..7], turns[..7]);
 }
+
+#[test]
+fn led_when_blocked_the_newcomer_keeps_the_guided_orientation_until_the_goal() {
+    let config = calm_newcomer();
+    let goal = Isometry3::translation(0.05, 0.0, 0.0);
+    let mut op = Operator::newcomer(config, Isometry3::identity(), goal, &[]).unwrap();
+    // Seen still, turned 0.5 rad about z by a guidance it feels (0.5 N sideways, above
+    // its 0.3 N of full share): a stall, and it keeps that orientation.
+    let turned = UnitQuaternion::from_scaled_axis(Vector3::new(0.0, 0.0, 0.5));
+    let pose = |x: f64| Isometry3::from_parts(Translation3::new(x, 0.0, 0.0), turned);
+    let pull = Some(Wrench::from_force(Vector3::new(0.0, 0.5, 0.0)));
+    let mut k = 0;
+    while op.stats().blocks == 0 {
+        op.decide(&seen(k as f64 * MS, pose(0.0), pull));
+        k += 1;
+        assert!(k < 5000, "never blocked: {:?}", op.stats());
+    }
+    assert_eq!(
+        op.stats().retries,
+        0,
+        "led, it does not back off and try turns"
+    );
+    assert!(op.target().rotation.angle_to(&turned) < 1e-9);
+    // 5 mm from the goal (within waypoint_reach_m): the goal's orientation again.
+    for j in 0..300 {
+        op.decide(&seen((k + j) as f64 * MS, pose(0.045), pull));
+    }
+    assert!(op.target().rotation.angle_to(&goal.rotation) < 1e-9);
+    assert!((op.target().translation.vector - goal.translation.vector).norm() < 1e-12);
+}
