@@ -267,7 +267,7 @@ pub fn simulated_device(setup: &LoopSetup, input: SimInput) -> Result<SimDevice,
         (SimOperator::Scripted(_), SimInput::SpaceMouse) => Err(Error::Device {
             device: "the simulated SpaceMouse".into(),
             error: devices::DeviceError::InvalidConfig("operator"),
-            hint: "the scripted operator only holds the arm: choose --operator expert or novice",
+            hint: "the scripted operator only holds the arm: choose --operator expert, novice or newcomer",
         }),
         (SimOperator::Reacting(config), SimInput::Arm) => {
             let hand = OperatorHand::new(reacting_operator(setup, config)?);
