@@ -24,11 +24,11 @@
 pub mod shell;
 
 pub use planner_core::{
-    Algorithm, CollisionChecker, Combine, ConfigSpace, Contact, EdgeCheck, Extend, ExtendA,
-    HumanMode, IterReport, MachineSampler, PlanarSpace, Planner, PlannerError, PlannerParams,
-    Sampling, SamplingError, Scene, SceneError, Se3, Se3Space, Source, Space, Stats, UserInput,
-    Weights,
+    AdaptiveAuthority, Algorithm, Authority, AuthorityState, CollisionChecker, Combine,
+    ConfigSpace, Contact, EdgeCheck, Extend, ExtendA, HumanMode, IterReport, MachineSampler,
+    PlanarSpace, Planner, PlannerError, PlannerParams, Sampling, SamplingError, Scene, SceneError,
+    Se3, Se3Space, Source, Space, Stats, UserInput, Weights,
 };
 pub use planner_core::{
-    aligned, collision, guidance, params, path, retraction, rrt, sampling, space, tree,
+    aligned, authority, collision, guidance, params, path, retraction, rrt, sampling, space, tree,
 };

@@ -18,7 +18,7 @@ mod user;
 
 pub use arm::SimulatedArm;
 pub use config::SimulatedArmConfig;
-pub use operator::{Operator, OperatorConfig, OperatorHand, RouteStep};
+pub use operator::{NewcomerConfig, Operator, OperatorConfig, OperatorHand, RouteStep};
 pub use path::Waypoint;
 pub use spacemouse::SimulatedSpaceMouse;
 pub use user::{ScriptedUser, ScriptedUserConfig};

@@ -13,7 +13,8 @@
 //!   being blocked only by seeing no progress.
 //!
 //! # The model, per decision (every 1 ms of the operator's clock)
-//! 0. **Take hold**: still for `start_hold_s` after the first decision.
+//! 0. **Take hold**: still for `start_hold_s` after the first decision; the route's
+//!    first step (the start) then counts as reached wherever the object is.
 //! 1. **Perceive** the object's pose and felt wrench now; act on the perception of
 //!    `reaction_delay_s` ago ([`perception`]).
 //! 2. **Target**: the current route step's pose, moved sideways by a wrong turn and turned
@@ -33,6 +34,18 @@
 //!    orientation.
 //! 6. **Hesitate** now and then (a Poisson process), standing still.
 //!
+//! # The newcomer ([`Operator::newcomer`], `config.newcomer` set)
+//! An operator who does not know the way: its route is its own coarse way (positions a
+//! person would pick from what they see), its orientations turn from the start's toward the
+//! goal's as it perceives it (with `goal_orientation_error_rad`) along the way. It checks
+//! waypoints off by position (`waypoint_reach_m`). Blocked, it backs off and tries the next
+//! turn of a seeded order (none, ±`trial_rad` about each axis), wiggled; but when the
+//! guidance it feels is at full share it keeps the orientation the guidance gave instead;
+//! near the goal it drops these and turns to the goal's orientation as it perceives it.
+//! Its share grows by `share_per_block` with every block at a waypoint up to
+//! `stuck_guidance_share`, where it follows the whole felt force; it never holds its
+//! guessed orientation against a felt torque.
+//!
 //! Deterministic for a given config (its `seed`), route and sequence of perceptions; no
 //! allocation after construction.
 
@@ -40,7 +53,7 @@ mod config;
 mod hand;
 mod perception;
 
-pub use config::OperatorConfig;
+pub use config::{NewcomerConfig, OperatorConfig};
 pub use hand::OperatorHand;
 pub use perception::Perception;
 
@@ -56,6 +69,18 @@ use perception::DelayLine;
 
 /// How often the operator decides, s.
 pub const DECISION_PERIOD_S: f64 = 1e-3;
+
+/// The turns a newcomer tries when blocked: none (a wiggle only), then plus and minus
+/// `NewcomerConfig::trial_rad` about each base axis (as a unit axis times ±1).
+const TRIALS: [[f64; 3]; 7] = [
+    [0.0, 0.0, 0.0],
+    [1.0, 0.0, 0.0],
+    [-1.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0],
+    [0.0, -1.0, 0.0],
+    [0.0, 0.0, 1.0],
+    [0.0, 0.0, -1.0],
+];
 
 /// One step of an operator's route, device base frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -201,6 +226,12 @@ pub struct Operator {
     blocks_here: u32,
     /// Pressing on this step now.
     pressing: bool,
+    /// The newcomer's turns to try when blocked (indices into [`TRIALS`]), in the order
+    /// drawn from the seed, and the next one.
+    trial_order: [usize; TRIALS.len()],
+    trial_next: usize,
+    /// At the last decision it felt guidance at full share (force or torque).
+    led: bool,
     /// Time the felt resistance has lasted, s.
     resisted_s: f64,
     /// Best progress measure this attempt and when it was reached, s.
@@ -247,6 +278,9 @@ impl Operator {
             jitter: Isometry3::identity(),
             blocks_here: 0,
             pressing: false,
+            trial_order: std::array::from_fn(|i| i),
+            trial_next: TRIALS.len(),
+            led: false,
             resisted_s: 0.0,
             best: f64::INFINITY,
             best_at: 0.0,
@@ -256,6 +290,59 @@ impl Operator {
             stats: OperatorStats::default(),
             shared: Arc::new(SharedStats::default()),
         })
+    }
+
+    /// An operator who does not know the way (`config.newcomer` must be set): it goes from
+    /// `start` through the positions of its own coarse `way` (device base frame, m; the
+    /// start's and goal's positions may be left out) to `goal`, turning the object from
+    /// the start's orientation toward the goal's as perceived (off by
+    /// `goal_orientation_error_rad` about an axis drawn from the seed) in proportion to the
+    /// way's length covered. Allocates; fails on an invalid config or a non-finite pose.
+    pub fn newcomer(
+        config: OperatorConfig,
+        start: Isometry3<f64>,
+        goal: Isometry3<f64>,
+        way: &[Vector3<f64>],
+    ) -> Result<Self, DeviceError> {
+        let Some(n) = config.newcomer else {
+            return Err(DeviceError::InvalidConfig(
+                "newcomer (an operator without a route needs the newcomer's parameters)",
+            ));
+        };
+        config.validate()?;
+        let mut rng = ChaCha8Rng::seed_from_u64(config.seed);
+        let axis: Vector3<f64> = Vector3::from_fn(|_, _| rng.sample(StandardNormal));
+        let error = axis
+            .try_normalize(1e-9)
+            .map_or_else(UnitQuaternion::identity, |a| {
+                UnitQuaternion::from_scaled_axis(a * n.goal_orientation_error_rad)
+            });
+        let seen_goal = error * goal.rotation;
+        let mut points = vec![start.translation.vector];
+        points.extend(way.iter().copied());
+        points.push(goal.translation.vector);
+        points.dedup_by(|a, b| (*a - *b).norm() < 1e-9);
+        let total: f64 = points.windows(2).map(|w| (w[1] - w[0]).norm()).sum();
+        let mut covered = 0.0;
+        let mut route = Vec::with_capacity(points.len() + 1);
+        route.push(RouteStep::to(start));
+        for w in points.windows(2) {
+            covered += (w[1] - w[0]).norm();
+            let share = if total > 0.0 { covered / total } else { 1.0 };
+            let q = start
+                .rotation
+                .try_slerp(&seen_goal, share, 1e-9)
+                .unwrap_or(seen_goal);
+            route.push(RouteStep::to(Isometry3::from_parts(
+                Translation3::from(w[1]),
+                q,
+            )));
+        }
+        let mut op = Operator::new(config, route)?;
+        // The trials' order, then the rest of its choices, from the same seed.
+        op.rng = rng;
+        op.shuffle_trials();
+        Ok(op)
     }
 
     /// Its counts as another thread can read them while it acts.
@@ -329,6 +416,13 @@ impl Operator {
             self.intent = Intent::STILL;
             return self.intent;
         }
+        if self.step == 0 && self.route.len() > 1 {
+            // The first step is the start, where it took hold: reached however far a
+            // guidance pull moved the object during the hold (heading back to it, it would
+            // read the pull as resistance and fight the planner's lead from the start).
+            self.stats.steps_reached += 1;
+            self.next_step(t);
+        }
         self.update_pressing(&seen);
         if self.best.is_infinite() {
             self.begin_attempt(t);
@@ -368,6 +462,20 @@ impl Operator {
 
     fn moving(&mut self, seen: &Perception, t: f64, dt: f64) -> Intent {
         let c = self.config;
+        if let Some(k) = self.passed_waypoint(seen) {
+            // A newcomer checks its waypoints off by position, skipping those it is past.
+            self.stats.steps_reached += (k + 1 - self.step) as u32;
+            self.step = k;
+            self.turn = Vector3::zeros();
+            self.next_step(t);
+            return self.toward(seen, true);
+        }
+        if self.near_goal_with_changes(seen) {
+            // At the goal it looks at the goal's orientation again: the turns it tried and
+            // the orientation a guidance gave were for the way there.
+            self.jitter = Isometry3::identity();
+            self.begin_attempt(t);
+        }
         let (e_p, e_r) = self.errors(seen);
         if e_p.norm() <= c.position_tolerance_m && e_r.norm() <= c.angle_tolerance_rad {
             if self.turn != Vector3::zeros() {
@@ -407,6 +515,10 @@ impl Operator {
         }
         let resistance = self.resistance(seen, &e_p);
         let press = self.press_now();
+        self.led = seen.felt.is_some_and(|felt| {
+            let (pull, twist) = self.pull_and_twist(&felt, &e_p, &e_r, &press);
+            pull.norm() >= c.guidance_full_n || twist.norm() >= c.guidance_full_nm
+        });
         if resistance > c.blocked_force_n {
             self.resisted_s += dt;
         } else if resistance < 0.5 * c.blocked_force_n {
@@ -414,7 +526,7 @@ impl Operator {
         }
         let felt_block = seen.felt.is_some() && self.resisted_s >= c.blocked_time_s;
         if felt_block || t - self.best_at >= c.stall_time_s {
-            self.blocked(t, &e_p);
+            self.blocked(t, &e_p, seen);
             return Intent {
                 press_n: press,
                 ..Intent::STILL
@@ -500,24 +612,8 @@ impl Operator {
         let Some(felt) = seen.felt.filter(|_| yielding) else {
             return intent;
         };
-        let share = if self.blocks_here >= c.stuck_after_blocks {
-            // Stuck: it lets the guidance lead more.
-            c.stuck_guidance_share
-        } else {
-            c.guidance_share
-        };
-        // What does not push back against the motion, nor along the press, is a pull.
-        let mut pull = felt.force;
-        if let Some(d) = e_p.try_normalize(1e-9) {
-            pull -= d * pull.dot(&d).min(0.0);
-        }
-        if let Some(n) = intent.press_n.try_normalize(1e-9) {
-            pull -= n * pull.dot(&n);
-        }
-        let mut twist = felt.torque;
-        if let Some(d) = e_r.try_normalize(1e-9) {
-            twist -= d * twist.dot(&d).min(0.0);
-        }
+        let (pull, twist) = self.pull_and_twist(&felt, &e_p, &e_r, &intent.press_n);
+        let share = self.guidance_share();
         let wf = share * (pull.norm() / c.guidance_full_n).min(1.0);
         let wt = share * (twist.norm() / c.guidance_full_nm).min(1.0);
         if let Some(u) = pull.try_normalize(1e-9) {
@@ -529,11 +625,56 @@ impl Operator {
         intent
     }
 
-    fn blocked(&mut self, t: f64, e_p: &Vector3<f64>) {
+    /// The share of its intent that guidance felt at full strength takes now.
+    fn guidance_share(&self) -> f64 {
+        let c = &self.config;
+        match c.newcomer {
+            // Grows with every block at this waypoint.
+            Some(n) => (c.guidance_share + n.share_per_block * f64::from(self.blocks_here))
+                .min(c.stuck_guidance_share.max(c.guidance_share)),
+            // Stuck: it lets the guidance lead more.
+            None if self.blocks_here >= c.stuck_after_blocks => c.stuck_guidance_share,
+            None => c.guidance_share,
+        }
+    }
+
+    /// The felt force and torque it reads as guidance: what does not push back against its
+    /// motion (nor lie along its press). A newcomer takes the whole torque (its orientations
+    /// are guesses it does not hold against a felt turn), and once its share has grown to
+    /// the stuck share the whole force too: it stops insisting on its own way.
+    fn pull_and_twist(
+        &self,
+        felt: &crate::Wrench,
+        e_p: &Vector3<f64>,
+        e_r: &Vector3<f64>,
+        press_n: &Vector3<f64>,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let c = &self.config;
+        let newcomer = c.newcomer.is_some();
+        let whole = newcomer && self.guidance_share() >= c.stuck_guidance_share;
+        let mut pull = felt.force;
+        let mut twist = felt.torque;
+        if !whole && let Some(d) = e_p.try_normalize(1e-9) {
+            pull -= d * pull.dot(&d).min(0.0);
+        }
+        if !newcomer && let Some(d) = e_r.try_normalize(1e-9) {
+            twist -= d * twist.dot(&d).min(0.0);
+        }
+        if let Some(n) = press_n.try_normalize(1e-9) {
+            pull -= n * pull.dot(&n);
+        }
+        (pull, twist)
+    }
+
+    fn blocked(&mut self, t: f64, e_p: &Vector3<f64>, seen: &Perception) {
         let c = self.config;
         self.stats.blocks += 1;
         self.blocks_here += 1;
         self.resisted_s = 0.0;
+        if let Some(n) = c.newcomer {
+            self.newcomer_blocked(t, e_p, seen, &n);
+            return;
+        }
         if self.turn != Vector3::zeros() {
             self.turn = Vector3::zeros();
             self.stats.corrections += 1;
@@ -573,6 +714,80 @@ impl Operator {
             Translation3::from(sideways),
             UnitQuaternion::from_scaled_axis(turn),
         );
+    }
+
+    /// A newcomer's answer to a block. Led by guidance it felt at full share, it keeps the
+    /// orientation the guidance gave the object (its target turns to the seen orientation)
+    /// and goes on, its share grown; otherwise it backs off and tries the next turn of its
+    /// seeded order, wiggled.
+    fn newcomer_blocked(
+        &mut self,
+        t: f64,
+        e_p: &Vector3<f64>,
+        seen: &Perception,
+        n: &NewcomerConfig,
+    ) {
+        let c = self.config;
+        let planned = self.orientation_error * self.route[self.step].pose.rotation;
+        if self.led {
+            self.jitter.rotation = seen.pose.rotation * planned.inverse();
+            self.begin_attempt(t);
+            return;
+        }
+        self.stats.retries += 1;
+        let back = e_p.try_normalize(1e-9).map_or_else(Vector3::zeros, |d| -d);
+        self.mode = Mode::BackingOff {
+            until: t + c.retry_back_s,
+            direction: back,
+        };
+        if self.trial_next >= TRIALS.len() {
+            self.shuffle_trials();
+        }
+        let axis = Vector3::from(TRIALS[self.trial_order[self.trial_next]]);
+        self.trial_next += 1;
+        let sideways = self.gaussian3() * c.retry_jitter_m;
+        let sideways = match e_p.try_normalize(1e-9) {
+            Some(d) => sideways - d * sideways.dot(&d),
+            None => sideways,
+        };
+        let wiggle = UnitQuaternion::from_scaled_axis(self.gaussian3() * c.retry_jitter_rad);
+        let trial = UnitQuaternion::from_scaled_axis(axis * n.trial_rad);
+        self.jitter = Isometry3::from_parts(Translation3::from(sideways), wiggle * trial);
+    }
+
+    /// Draws a new order of the newcomer's trials (Fisher–Yates on the fixed array).
+    fn shuffle_trials(&mut self) {
+        for i in (1..TRIALS.len()).rev() {
+            let j = self.rng.random_range(0..=i);
+            self.trial_order.swap(i, j);
+        }
+        self.trial_next = 0;
+    }
+
+    /// For a newcomer before its last waypoint: the farthest waypoint from the current one
+    /// on (not the last) that the object is seen within `waypoint_reach_m` of.
+    fn passed_waypoint(&self, seen: &Perception) -> Option<usize> {
+        let reach = self.config.newcomer?.waypoint_reach_m;
+        let p = seen.pose.translation.vector;
+        (self.step..self.route.len() - 1)
+            .rev()
+            .find(|&k| (self.route[k].pose.translation.vector - p).norm() <= reach)
+    }
+
+    /// For a newcomer heading for its last waypoint (the goal) with a changed target (a
+    /// turn tried, an orientation kept from guidance): true once the object is seen within
+    /// `waypoint_reach_m` of the goal or of that changed target.
+    fn near_goal_with_changes(&self, seen: &Perception) -> bool {
+        let Some(n) = self.config.newcomer else {
+            return false;
+        };
+        if self.step + 1 != self.route.len() || self.jitter == Isometry3::identity() {
+            return false;
+        }
+        let p = seen.pose.translation.vector;
+        let goal = self.route[self.step].pose.translation.vector;
+        (goal - p).norm() <= n.waypoint_reach_m
+            || (self.target().translation.vector - p).norm() <= n.waypoint_reach_m
     }
 
     /// Moves to the next step and draws its errors.

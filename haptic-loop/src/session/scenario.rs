@@ -20,13 +20,17 @@ use std::sync::Arc;
 use super::LoopSetup;
 
 /// Who holds the simulated device.
+// One per session, copied at set-up only: the size of the reacting operator's config
+// (with the newcomer's) costs nothing worth a box.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum SimOperator {
     /// The scripted operator of the wall-hole demo ([`demo_route`]): a timed path that
     /// does not react to anything it feels.
     Scripted(ScriptedUserConfig),
     /// The reacting operator (`devices::sim::operator`) on the scene's route
-    /// ([`Scene::operator_route`]).
+    /// ([`Scene::operator_route`]), or, when its config has the newcomer's parameters, on
+    /// its own coarse way ([`newcomer_way`]), never reading the route.
     Reacting(OperatorConfig),
 }
 
@@ -159,6 +163,96 @@ pub fn device_route(setup: &LoopSetup) -> Vec<RouteStep> {
         .collect()
 }
 
+/// The newcomer's way, device frame: the scene's coarse way ([`Scene::coarse_way`]) for
+/// the reference point, mapped through `mapping` with the start's orientation, without its
+/// first and last points (the start and goal). Logs how it was found and how long that
+/// took; warns when the way leaves a workspace of radius `workspace_radius_m` (m; the
+/// loop's workspace wall then pushes back).
+pub fn newcomer_way(
+    scene: &Scene,
+    mapping: &MappingConfig,
+    workspace_radius_m: f64,
+) -> Vec<nalgebra::Vector3<f64>> {
+    let began = std::time::Instant::now();
+    let way = scene.coarse_way();
+    let took_ms = began.elapsed().as_secs_f64() * 1e3;
+    tracing::info!(
+        "newcomer: its own coarse way on '{}' (not the scene's route): {} in {took_ms:.0} ms, \
+         {} waypoints for a ball of {:.1} mm radius (the object's thinnest part), grid {}×{}×{} \
+         of {:.1} mm, {} nodes blocked",
+        scene.name,
+        if way.found {
+            "found"
+        } else {
+            "none through the grid, the straight line"
+        },
+        way.points_m.len().saturating_sub(2),
+        way.body_radius_m * 1e3,
+        way.nodes[0],
+        way.nodes[1],
+        way.nodes[2],
+        way.cell_m * 1e3,
+        way.blocked_nodes,
+    );
+    let mapping = Mapping::new(mapping);
+    let to_device = |p: &nalgebra::Vector3<f64>| {
+        mapping
+            .to_device(&Isometry3::from_parts(
+                Translation3::from(*p),
+                scene.start.rot,
+            ))
+            .translation
+            .vector
+    };
+    let reach = way
+        .points_m
+        .iter()
+        .map(|p| to_device(p).norm())
+        .fold(0.0, f64::max);
+    if reach > workspace_radius_m {
+        tracing::warn!(
+            "newcomer: its way reaches {reach:.3} m from the device centre, beyond the arm's \
+             {workspace_radius_m:.3} m workspace (a larger --scale brings it in)"
+        );
+    }
+    let inner = way.points_m.len().saturating_sub(1);
+    way.points_m
+        .get(1..inner)
+        .unwrap_or_default()
+        .iter()
+        .map(to_device)
+        .collect()
+}
+
+/// The newcomer (`config.newcomer` set) on `scene` through `mapping`: its start and goal
+/// mapped to the device, its own way from [`newcomer_way`]. Never reads the scene's route.
+pub fn newcomer_operator(
+    scene: &Scene,
+    mapping: &MappingConfig,
+    workspace_radius_m: f64,
+    config: OperatorConfig,
+) -> Result<Operator, Error> {
+    let m = Mapping::new(mapping);
+    let start = m.to_device(&scene.start.to_isometry());
+    let goal = m.to_device(&scene.goal.to_isometry());
+    let way = newcomer_way(scene, mapping, workspace_radius_m);
+    Operator::newcomer(config, start, goal, &way).map_err(sim_error("the simulated operator"))
+}
+
+/// The reacting operator of `config`: on the scene's route, or the newcomer on its own way.
+fn reacting_operator(setup: &LoopSetup, config: OperatorConfig) -> Result<Operator, Error> {
+    if config.newcomer.is_none() {
+        return Operator::new(config, device_route(setup))
+            .map_err(sim_error("the simulated operator"));
+    }
+    newcomer_operator(
+        &setup.scene,
+        &setup.tick.mapping,
+        setup.arm.workspace_radius_m,
+        config,
+    )
+}
+
 /// A simulated device and, when a reacting operator holds it, the operator's counts.
 pub type SimDevice = (Box<dyn HapticDevice>, Option<Arc<SharedStats>>);
 
@@ -173,11 +267,10 @@ pub fn simulated_device(setup: &LoopSetup, input: SimInput) -> Result<SimDevice,
         (SimOperator::Scripted(_), SimInput::SpaceMouse) => Err(Error::Device {
             device: "the simulated SpaceMouse".into(),
             error: devices::DeviceError::InvalidConfig("operator"),
-            hint: "the scripted operator only holds the arm: choose --operator expert or novice",
+            hint: "the scripted operator only holds the arm: choose --operator expert, novice or newcomer",
         }),
         (SimOperator::Reacting(config), SimInput::Arm) => {
-            let hand = OperatorHand::with_route(config, device_route(setup))
-                .map_err(sim_error("the simulated arm"))?;
+            let hand = OperatorHand::new(reacting_operator(setup, config)?);
             let stats = hand.operator().shared_stats();
             Ok((
                 Box::new(
@@ -188,8 +281,7 @@ pub fn simulated_device(setup: &LoopSetup, input: SimInput) -> Result<SimDevice,
             ))
         }
         (SimOperator::Reacting(config), SimInput::SpaceMouse) => {
-            let operator = Operator::new(config, device_route(setup))
-                .map_err(sim_error("the simulated SpaceMouse"))?;
+            let operator = reacting_operator(setup, config)?;
             let stats = operator.shared_stats();
             Ok((
                 Box::new(

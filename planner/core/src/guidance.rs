@@ -1,5 +1,7 @@
-//! The attractive pseudo-force F_a of I-RRT (Compute_Barycenter / Compute_FAlgo), and the
-//! path-following guidance used once a solution exists.
+//! The attractive pseudo-force F_a of I-RRT (Compute_Barycenter / Compute_FAlgo) before a
+//! solution exists, and the guidance that leads the operator along the solution path once
+//! one does ([`PathGuide::force`]: a spring towards a carrot ahead on the path, force and
+//! torque, saturating at [`Lead`]'s caps).
 //!
 //! F_a is a 6-vector `(Δp (m), Δr (rad))` in the scene frame, as produced by
 //! [`ConfigSpace::delta`]: `Δr` is a rotation vector. The haptic side scales it
@@ -15,7 +17,7 @@
 
 use crate::space::ConfigSpace;
 use crate::tree::{NodeId, Tree};
-use nalgebra::Vector6;
+use nalgebra::{Vector3, Vector6};
 use scene::pose::Se3;
 
 /// Whether the object can move in a straight line from the first configuration to the
@@ -95,33 +97,16 @@ impl PathGuide {
         self.arc.last().copied().unwrap_or(0.0)
     }
 
-    /// F_a along the path: towards `L`, the path point `lookahead` weighted m further
-    /// along the path than the anchor (clamped at the goal, and drawn back towards the
-    /// anchor while `L` itself cannot be reached), with a length of at most `lookahead`:
-    /// `delta(q_user, L)`, scaled down when longer. Zero for an empty path, and zero when
-    /// no candidate anchor can be reached: guidance never pulls through a wall.
-    ///
-    /// The anchor is the furthest-along path point, among the candidates, that
-    /// `reach(q_user, point)` says can be reached in a straight line. The candidates are
-    /// the local minima of the distance along the path within [`GUIDANCE_RADIUS`] (each
-    /// stretch that passes by the operator offers its nearest point) and the goal, tried
-    /// furthest along first, at most [`MAX_ANCHOR_TRIES`] of them.
-    ///
-    /// Why (our choice; the papers only say the force follows the path): the point nearest
-    /// in configuration space can lie beyond an obstacle (the path goes round a wall the
-    /// operator is pressed against), and a pull towards it holds a yielding operator
-    /// against the wall; and an operator who has left the path for a free shortcut (it
-    /// found its own way round) must not be pulled back to where the path was. The bounded
-    /// length keeps guidance a hint of one step whatever the distance. A stretch whose
-    /// nearest point is occluded is passed over even if some other point of it could be
-    /// reached: conservative, never through a wall.
-    pub fn force(
+    /// The path point the guidance leads to from `q_user` (its index), or `None` when
+    /// the operator is farther than [`GUIDANCE_RADIUS`] from the path or can reach none
+    /// of it in a straight line. See [`PathGuide::force`].
+    pub fn carrot(
         &self,
         space: &dyn ConfigSpace,
         q_user: &Se3,
         lookahead: f64,
         reach: &Reach<'_>,
-    ) -> Vector6<f64> {
+    ) -> Option<usize> {
         let lookahead = lookahead.max(0.0);
         let d: Vec<f64> = self
             .points
@@ -142,12 +127,20 @@ impl PathGuide {
         }
         // Furthest along first (the points are in path order).
         let anchor = candidates
-            .into_iter()
+            .iter()
             .rev()
             .take(MAX_ANCHOR_TRIES)
+            .copied()
             .find(|&i| reach(q_user, &self.points[i]));
         let Some(i) = anchor else {
-            return Vector6::zeros();
+            // Nothing near can be reached straight (pressed against a wall, the path's
+            // nearest stretch beyond it or at an orientation that cannot turn there): back
+            // along the path from its nearest point to where the operator can go.
+            let nearest = candidates
+                .iter()
+                .copied()
+                .min_by(|&a, &b| d[a].total_cmp(&d[b]))?;
+            return self.back_off(q_user, nearest, reach);
         };
         let target = self.arc[i] + lookahead;
         let mut j = self
@@ -155,28 +148,144 @@ impl PathGuide {
             // 1 nm of slack: arc lengths summed in floating point land just short.
             .partition_point(|&a| a < target - 1e-9)
             .min(n - 1);
-        // Back towards the anchor (reachable) by halves until the target is reachable too.
+        // Back towards the anchor (reachable) by halves until the carrot is reachable too.
         while j > i && !reach(q_user, &self.points[j]) {
             j = i + (j - i) / 2;
         }
-        let delta = space.delta(q_user, &self.points[j]);
-        let length = space.distance(q_user, &self.points[j]);
-        if length > lookahead {
-            delta * (lookahead / length)
-        } else {
-            delta
+        Some(j)
+    }
+
+    /// The furthest reachable path point before `nearest` (unreachable): points
+    /// [`BACK_OFF_FIRST`] · 2^k weighted m back along the path (k < [`BACK_OFF_TRIES`]),
+    /// then [`BACK_OFF_REFINE`] halvings between the first reachable one and `nearest`.
+    fn back_off(&self, q_user: &Se3, nearest: usize, reach: &Reach<'_>) -> Option<usize> {
+        let index_at = |s: f64| self.arc.partition_point(|&a| a < s - 1e-9);
+        let mut hi = nearest;
+        let mut lo = None;
+        for k in 0..BACK_OFF_TRIES {
+            let s = self.arc[nearest] - BACK_OFF_FIRST * f64::from(1u32 << k);
+            let j = index_at(s.max(0.0)).min(hi);
+            if j < hi && reach(q_user, &self.points[j]) {
+                lo = Some(j);
+                break;
+            }
+            hi = j;
+            if s <= 0.0 {
+                break;
+            }
         }
+        let mut lo = lo?;
+        let mut hi = hi.max(lo);
+        for _ in 0..BACK_OFF_REFINE {
+            let mid = lo + (hi - lo) / 2;
+            if mid == lo {
+                break;
+            }
+            if reach(q_user, &self.points[mid]) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        Some(lo)
+    }
+
+    /// F_a after a solution: the guidance that leads the operator along the path.
+    ///
+    /// - **Carrot** ([`PathGuide::carrot`]): the anchor is the furthest-along path point,
+    ///   among the candidates, that `reach(q_user, point)` says can be reached in a
+    ///   straight line; the candidates are the local minima of the (weighted) distance
+    ///   along the path within [`GUIDANCE_RADIUS`] (each stretch that passes by the
+    ///   operator offers its nearest point) and the goal, tried furthest along first, at
+    ///   most [`MAX_ANCHOR_TRIES`] of them. The carrot is `lead.lookahead` weighted m
+    ///   further along the path than the anchor (clamped at the goal), drawn back towards
+    ///   the anchor by halves while it cannot be reached. When no candidate can be
+    ///   reached (the operator pressed against a wall, the path going on beyond it or at
+    ///   an orientation that cannot turn where the operator is), the carrot is the
+    ///   furthest reachable path point *before* the nearest candidate: the way back to
+    ///   where the path can be followed. As the operator follows, its nearest point moves
+    ///   along the path and the carrot with it.
+    /// - **Pull** (force part, m): towards the carrot's position, `Δp` of
+    ///   `delta(q_user, carrot)`, its length capped at `lead.saturation_m`.
+    /// - **Turn** (torque part, rad): the rotation vector from the operator's orientation to
+    ///   the carrot's (scene frame), its angle capped at `lead.saturation_rad`.
+    ///
+    /// The haptic loop renders `k·F_a`; the planner publishes the path's guidance with
+    /// gains that make the caps a stated force and torque (`planner serve --lead-force-n`,
+    /// `--lead-torque-nm`), so the guidance is a spring towards the carrot that
+    /// saturates there. Zero for an empty path, far from it, or when nothing of it can be
+    /// reached: guidance never pulls through a wall.
+    ///
+    /// Why (our choice; the papers only say the force follows the path): the path point
+    /// nearest in configuration space can lie beyond an obstacle (the path goes round a
+    /// wall the operator is pressed against), and a pull towards it holds a yielding
+    /// operator against the wall; an operator who has left the path for a free shortcut
+    /// must not be pulled back to where the path was; and a stuck operator must feel
+    /// enough to be led (the earlier guidance was capped at one lookahead of the weighted
+    /// metric: at most 1 N at k = 20 N/m, less when part of it was rotation, and
+    /// 0.05 N·m/rad·θ of torque).
+    pub fn force(
+        &self,
+        space: &dyn ConfigSpace,
+        q_user: &Se3,
+        lead: &Lead,
+        reach: &Reach<'_>,
+    ) -> Vector6<f64> {
+        let Some(j) = self.carrot(space, q_user, lead.lookahead, reach) else {
+            return Vector6::zeros();
+        };
+        let delta = space.delta(q_user, &self.points[j]);
+        let cap = |v: Vector3<f64>, max: f64| {
+            let n = v.norm();
+            if n > max && n > 0.0 { v * (max / n) } else { v }
+        };
+        let p = cap(delta.fixed_rows::<3>(0).into(), lead.saturation_m.max(0.0));
+        let r = cap(
+            delta.fixed_rows::<3>(3).into(),
+            lead.saturation_rad.max(0.0),
+        );
+        Vector6::new(p.x, p.y, p.z, r.x, r.y, r.z)
+    }
+
+    /// The resampled path points (start → goal).
+    pub fn points(&self) -> &[Se3] {
+        &self.points
+    }
+
+    /// Arc length of each point from the start (weighted m).
+    pub fn arc(&self) -> &[f64] {
+        &self.arc
     }
 }
 
-/// Candidate anchors (stretches of the path) [`PathGuide::force`] checks for reachability
-/// before it gives up.
+/// How the path's guidance leads ([`PathGuide::force`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lead {
+    /// How far along the path the carrot runs ahead of the operator's anchor, weighted m.
+    pub lookahead: f64,
+    /// Length of the pull's displacement at which it saturates, m.
+    pub saturation_m: f64,
+    /// Angle of the turn at which it saturates, rad.
+    pub saturation_rad: f64,
+}
+
+/// Candidate anchors (stretches of the path) [`PathGuide::carrot`] checks for
+/// reachability before it backs off along the path.
 pub const MAX_ANCHOR_TRIES: usize = 8;
 
+/// Backing off from an unreachable path: the first step back along the path, weighted m.
+pub const BACK_OFF_FIRST: f64 = 0.01;
+
+/// Backing off: steps back tried, each twice the one before (0.01 to 0.32 weighted m).
+pub const BACK_OFF_TRIES: u32 = 6;
+
+/// Backing off: halvings towards the unreachable point once a reachable one is found.
+pub const BACK_OFF_REFINE: u32 = 3;
+
 /// Path guidance looks for the path within this distance of the operator (weighted m: 25 cm
-/// or 2.5 rad; five default lookaheads). Farther away it gives no pull: whether a far
-/// point can be reached costs a check per edge resolution of the way, and pulling towards
-/// a path that far is no longer a hint about the next step.
+/// or 2.5 rad). Farther away it gives no pull: whether a far point can be reached costs a
+/// check per edge resolution of the way, and pulling towards a path that far is no longer
+/// a hint about the next step.
 pub const GUIDANCE_RADIUS: f64 = 0.25;
 
 /// How far from the operator's pose (weighted m) the reachability check of path guidance
@@ -274,57 +383,115 @@ mod tests {
         assert!((f - Vector6::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.2)).norm() < 1e-12);
     }
 
-    #[test]
-    fn path_guide_leads_forward() {
-        let s = space();
+    const LEAD: Lead = Lead {
+        lookahead: 0.1,
+        saturation_m: 0.05,
+        saturation_rad: 0.5,
+    };
+
+    fn rot_z(x: f64, y: f64, angle: f64) -> Se3 {
+        Se3::new(
+            Vector3::new(x, y, 0.0),
+            UnitQuaternion::from_euler_angles(0.0, 0.0, angle),
+        )
+    }
+
+    /// Along x, a turn of 1 rad about z in place, then along y.
+    fn turning_path(s: &Se3Space) -> PathGuide {
         let path = [
-            Se3::from_xyz(-0.4, 0.0, 0.0),
-            Se3::from_xyz(0.0, 0.0, 0.0),
-            Se3::from_xyz(0.0, 0.4, 0.0),
+            rot_z(-0.4, 0.0, 0.0),
+            rot_z(0.0, 0.0, 0.0),
+            rot_z(0.0, 0.0, 1.0),
+            rot_z(0.0, 0.4, 1.0),
         ];
-        let g = PathGuide::new(&s, &path, 0.01);
-        let free = |_: &Se3, _: &Se3| true;
-        assert!((g.length() - 0.8).abs() < 1e-12);
-        // On the path at x = −0.3, the corner and the goal out of reach: pulled 0.05
-        // forward along +x.
-        let f = g.force(&s, &Se3::from_xyz(-0.3, 0.0, 0.0), 0.05, &free);
+        PathGuide::new(s, &path, 0.001)
+    }
+
+    fn free(_: &Se3, _: &Se3) -> bool {
+        true
+    }
+
+    fn close(a: Vector6<f64>, b: Vector6<f64>, tol: f64) -> bool {
+        (a - b).norm() < tol
+    }
+
+    #[test]
+    fn the_lead_pulls_to_a_carrot_ahead_and_saturates() {
+        let s = space();
+        let g = turning_path(&s);
+        assert!((g.length() - 0.9).abs() < 1e-12);
+        // On the first leg at x = −0.3: the carrot is 0.1 further, at x = −0.2; the pull
+        // (0.1 m) saturates at 5 cm, no turn.
+        let f = g.force(&s, &rot_z(-0.3, 0.0, 0.0), &LEAD, &free);
         assert!(
-            (f - Vector6::new(0.05, 0.0, 0.0, 0.0, 0.0, 0.0)).norm() < 1e-9,
+            close(f, Vector6::new(0.05, 0.0, 0.0, 0.0, 0.0, 0.0), 1e-9),
             "{f}"
         );
-        // Beside the path: pulled back towards it and forward, one lookahead long.
-        let f = g.force(&s, &Se3::from_xyz(-0.3, 0.0, 0.03), 0.05, &free);
+        // Beside the path, 3 cm off in z: towards the carrot (forward and back onto the
+        // path), saturated.
+        let f = g.force(&s, &Se3::from_xyz(-0.3, 0.0, 0.03), &LEAD, &free);
+        let towards = Vector3::new(0.1, 0.0, -0.03).normalize() * 0.05;
+        assert!((f.fixed_rows::<3>(0) - towards).norm() < 1e-6, "{f}");
+        // Near the goal the carrot is the goal: linear below the saturation, zero there.
+        let f = g.force(&s, &rot_z(0.0, 0.37, 1.0), &LEAD, &free);
         assert!(
-            f.x > 0.0 && f.z < 0.0 && (f.norm() - 0.05).abs() < 1e-9,
+            close(f, Vector6::new(0.0, 0.03, 0.0, 0.0, 0.0, 0.0), 1e-9),
             "{f}"
         );
-        // Near the corner the lookahead turns the corner.
-        let f = g.force(&s, &Se3::from_xyz(0.0, 0.0, 0.0), 0.05, &free);
-        assert!((f.y - 0.05).abs() < 1e-9 && f.x.abs() < 1e-9);
-        // In free space the way to the second leg is a shortcut across the corner: from
-        // (−0.1, 0.05, 0) the second leg's nearest point (0, 0.05) is 0.1 away, the goal
-        // 0.36 away is beyond the radius; the pull aims a lookahead past (0, 0.05).
-        let f = g.force(&s, &Se3::from_xyz(-0.1, 0.05, 0.0), 0.05, &free);
-        assert!(
-            f.x > 0.0 && f.y > 0.0 && (f.norm() - 0.05).abs() < 1e-9,
-            "{f}"
-        );
-        // At the goal: stays at the goal; near it, pulled onto it by the distance left.
-        assert!(g.force(&s, &path[2], 0.05, &free).norm() < 1e-12);
-        let f = g.force(&s, &Se3::from_xyz(0.0, 0.39, 0.0), 0.05, &free);
-        assert!(
-            (f - Vector6::new(0.0, 0.01, 0.0, 0.0, 0.0, 0.0)).norm() < 1e-9,
-            "{f}"
-        );
+        assert!(g.force(&s, &rot_z(0.0, 0.4, 1.0), &LEAD, &free).norm() < 1e-12);
         // Far from the path (beyond GUIDANCE_RADIUS): no pull.
         assert_eq!(
-            g.force(&s, &Se3::from_xyz(-0.3, 0.0, 0.3), 0.05, &free),
+            g.force(&s, &Se3::from_xyz(-0.3, 0.0, 0.3), &LEAD, &free),
             Vector6::zeros()
         );
     }
 
     #[test]
-    fn path_guide_never_pulls_through_a_wall() {
+    fn the_lead_turns_towards_the_paths_orientation() {
+        let s = space();
+        let g = turning_path(&s);
+        // 5 cm before the turn: the carrot is half-way through it (0.5 rad): pull 5 cm
+        // forward and turn 0.5 rad about +z, both at their saturation.
+        let f = g.force(&s, &rot_z(-0.05, 0.0, 0.0), &LEAD, &free);
+        assert!(
+            close(f, Vector6::new(0.05, 0.0, 0.0, 0.0, 0.0, 0.5), 1e-6),
+            "{f}"
+        );
+        // Turned 0.2 rad at the corner: the carrot is 0.02 m up the last leg at 1 rad; the
+        // pull (2 cm) is below its saturation, the turn (0.8 rad) saturates at 0.5 rad.
+        let f = g.force(&s, &rot_z(0.0, 0.0, 0.2), &LEAD, &free);
+        assert!(
+            close(f, Vector6::new(0.0, 0.02, 0.0, 0.0, 0.0, 0.5), 1e-6),
+            "{f}"
+        );
+        // Turned the wrong way (−0.3 rad): the turn still points to +z, the path's way.
+        let f = g.force(&s, &rot_z(-0.05, 0.0, -0.3), &LEAD, &free);
+        assert!(f[5] > 0.49 && f[3].abs() < 1e-9 && f[4].abs() < 1e-9, "{f}");
+    }
+
+    #[test]
+    fn the_carrot_advances_with_the_operator() {
+        let s = space();
+        let g = turning_path(&s);
+        let mut last = 0;
+        for k in 0..7 {
+            let x = -0.38 + 0.04 * f64::from(k);
+            let j = g
+                .carrot(&s, &rot_z(x, 0.0, 0.0), LEAD.lookahead, &free)
+                .expect("j");
+            // One lookahead ahead of the operator's own arc length (x + 0.4).
+            assert!(
+                (g.arc()[j] - (x + 0.4) - 0.1).abs() < 0.0011,
+                "{x}: {}",
+                g.arc()[j]
+            );
+            assert!(j > last, "{x}");
+            last = j;
+        }
+    }
+
+    #[test]
+    fn the_lead_never_pulls_through_a_wall() {
         let s = space();
         // A U round a wall at x ∈ [0, 0.02], y < 0.25: up the left side, over, and down the
         // right side to end at x = 0.1.
@@ -348,21 +515,52 @@ mod tests {
         // at 0.11 m and the goal, is behind the wall. Without reachability the pull goes
         // into the wall.
         let user = Se3::from_xyz(-0.01, 0.0, 0.0);
-        let blind = g.force(&s, &user, 0.05, &|_: &Se3, _: &Se3| true);
-        assert!((blind - Vector6::new(0.05, 0.0, 0.0, 0.0, 0.0, 0.0)).norm() < 1e-9);
-        // With it: the anchor is the left leg's nearest point (−0.2, 0), the target one
-        // lookahead up it: away from the wall and along the path.
-        let f = g.force(&s, &user, 0.05, &wall);
-        let towards = Vector6::new(-0.19, 0.05, 0.0, 0.0, 0.0, 0.0);
+        let blind = g.force(&s, &user, &LEAD, &free);
+        assert!(close(
+            blind,
+            Vector6::new(0.05, 0.0, 0.0, 0.0, 0.0, 0.0),
+            1e-9
+        ));
+        // With it: the anchor is the left leg's nearest point (−0.2, 0), the carrot 0.1 up
+        // it: away from the wall and along the path, saturated.
+        let f = g.force(&s, &user, &LEAD, &wall);
+        let towards = Vector6::new(-0.19, 0.1, 0.0, 0.0, 0.0, 0.0);
         assert!((unit(f) - unit(towards)).norm() < 0.01, "{f}");
         assert!((f.norm() - 0.05).abs() < 1e-9);
-        // Above the wall the right leg is reachable: the pull cuts the corner onto it (to
-        // the point a lookahead past its nearest (0.1, 0.28), within a resampling step).
-        let f = g.force(&s, &Se3::from_xyz(0.06, 0.28, 0.0), 0.05, &wall);
-        let towards = Vector6::new(0.04, -0.05, 0.0, 0.0, 0.0, 0.0);
+        // Above the wall the right leg is reachable: the pull cuts the corner onto it, to
+        // the point 0.1 past its nearest (0.1, 0.28), within a resampling step.
+        let f = g.force(&s, &Se3::from_xyz(0.06, 0.28, 0.0), &LEAD, &wall);
+        let towards = Vector6::new(0.04, -0.1, 0.0, 0.0, 0.0, 0.0);
         assert!((unit(f) - unit(towards)).norm() < 0.03, "{f}");
         // Nothing reachable: no pull at all.
-        let f = g.force(&s, &user, 0.05, &|_: &Se3, _: &Se3| false);
-        assert_eq!(f, Vector6::zeros());
+        let none = |_: &Se3, _: &Se3| false;
+        assert_eq!(g.force(&s, &user, &LEAD, &none), Vector6::zeros());
+    }
+
+    #[test]
+    fn an_operator_who_cannot_reach_the_path_ahead_is_led_back_along_it() {
+        let s = space();
+        let g = PathGuide::new(
+            &s,
+            &[Se3::from_xyz(-0.4, 0.0, 0.0), Se3::from_xyz(0.4, 0.0, 0.0)],
+            0.001,
+        );
+        // Only path points at x ≤ −0.15 can be reached from the operator at x = −0.05 (its
+        // nearest path point and everything ahead cannot; the goal is beyond the radius).
+        let behind = |_: &Se3, b: &Se3| b.pos.x <= -0.15;
+        let user = Se3::from_xyz(-0.05, 0.0, 0.0);
+        let j = g
+            .carrot(&s, &user, LEAD.lookahead, &behind)
+            .expect("a way back");
+        let x = g.points()[j].pos.x;
+        assert!((-0.17..=-0.15).contains(&x), "{x}");
+        let f = g.force(&s, &user, &LEAD, &behind);
+        assert!(
+            close(f, Vector6::new(-0.05, 0.0, 0.0, 0.0, 0.0, 0.0), 1e-9),
+            "{f}"
+        );
+        // Farther back than the probes reach (0.32 weighted m): nothing.
+        let far_behind = |_: &Se3, b: &Se3| b.pos.x <= -0.38;
+        assert!(g.carrot(&s, &user, LEAD.lookahead, &far_behind).is_none());
     }
 }

@@ -15,15 +15,18 @@
 //! - [`tree`]: tree arena, node labels, a k-d tree for nearest / k-nearest, paths.
 //! - [`aligned`]: obstacle-aligned orientations for machine samples (narrow slots).
 //! - [`sampling`]: CS, POS, PATH, +CS, H-RRT-C authority sharing and HapticSampling.
+//! - [`authority`]: H-RRT-C's fixed α, and the authority that adapts to a stuck operator.
 //! - [`rrt`]: RRT, RRT-Connect with I-RRT Extend and local trees, the `Planner` API.
 //! - [`retraction`]: small-step retraction (plan a thinned object, carry the path back).
 //! - [`path`]: shortcut smoothing, CSV / JSON export.
-//! - [`guidance`]: F_a (label-weighted barycenter) and solution-path following.
+//! - [`guidance`]: F_a (label-weighted barycenter) and, once solved, the lead along the
+//!   path (a saturating spring towards a carrot ahead, force and torque).
 //! - [`params`]: `PlannerParams` and `PlannerError`.
 #![warn(missing_docs)]
 #![deny(unsafe_code)]
 
 pub mod aligned;
+pub mod authority;
 pub mod collision;
 pub mod guidance;
 pub mod params;
@@ -34,6 +37,7 @@ pub mod sampling;
 pub mod space;
 pub mod tree;
 
+pub use authority::{AdaptiveAuthority, Authority, AuthorityState};
 pub use collision::{CollisionChecker, EdgeCheck};
 pub use params::{Algorithm, ExtendA, HumanMode, MachineSampler, PlannerError, PlannerParams};
 pub use rrt::{Extend, IterReport, Planner, Source, Stats};

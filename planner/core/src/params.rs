@@ -1,5 +1,6 @@
 //! Planner parameters and errors.
 
+use crate::authority::Authority;
 use crate::sampling::{ContactParams, Sampling};
 use crate::space::Weights;
 use scene::SceneError;
@@ -89,9 +90,17 @@ pub struct PlannerParams {
     pub neighbours: usize,
     /// `ε` of the barycenter weight `1/(ε + distance label)` (weighted m, default 0.05).
     pub label_epsilon: f64,
-    /// How far ahead of the user's nearest path point F_a pulls once solved (weighted m,
-    /// default 0.05, one step).
+    /// Once solved, how far along the path the guidance's carrot runs ahead of the
+    /// operator's nearest path point (weighted m, default 0.1: two steps;
+    /// [`crate::guidance::PathGuide::force`]).
     pub lookahead: f64,
+    /// Once solved, the length of the guidance's pull towards the carrot at which it
+    /// saturates (m, > 0, default 0.05). `planner serve` renders this as `--lead-force-n`.
+    pub lead_saturation_m: f64,
+    /// Once solved, the angle of the guidance's turn towards the carrot's orientation at
+    /// which it saturates (rad, > 0, default 0.5). `planner serve` renders this as
+    /// `--lead-torque-nm`.
+    pub lead_saturation_rad: f64,
     /// Tree algorithm (default RRT-Connect).
     pub algorithm: Algorithm,
     /// RRT-Connect: how tree A grows towards the sample (default greedy, as in I-RRT).
@@ -123,6 +132,9 @@ pub struct PlannerParams {
     pub contact: ContactParams,
     /// What H-RRT-C's human mode samples (default [`HumanMode::Fresh`]).
     pub human_mode: HumanMode,
+    /// H-RRT-C's authority sharing: the paper's fixed α (the default here) or adaptive
+    /// ([`crate::authority`]).
+    pub authority: Authority,
     /// Random shortcut attempts on a new solution (default 100; 0 keeps the raw path).
     pub shortcut_attempts: u32,
 }
@@ -136,7 +148,9 @@ impl Default for PlannerParams {
             edge_check: crate::collision::EdgeCheck::default(),
             neighbours: 5,
             label_epsilon: 0.05,
-            lookahead: 0.05,
+            lookahead: 0.1,
+            lead_saturation_m: 0.05,
+            lead_saturation_rad: 0.5,
             algorithm: Algorithm::RrtConnect,
             extend_a: ExtendA::Greedy,
             sampling: Sampling::Uniform,
@@ -144,6 +158,7 @@ impl Default for PlannerParams {
             aligned_share: 0.0,
             aligned_jitter_rad: 0.02,
             human_mode: HumanMode::Fresh,
+            authority: Authority::Fixed,
             user_sigma: 0.03,
             fr_alpha: 0.5,
             local_trees: false,
@@ -200,6 +215,13 @@ impl PlannerParams {
                 name: "lookahead",
                 reason: format!("must be finite and >= 0, got {}", self.lookahead),
             });
+        }
+        pos("lead_saturation_m", self.lead_saturation_m)?;
+        pos("lead_saturation_rad", self.lead_saturation_rad)?;
+        if let Authority::Adaptive(rule) = &self.authority
+            && let Some((name, reason)) = rule.invalid()
+        {
+            return Err(PlannerError::InvalidParam { name, reason });
         }
         for (name, v) in [("fr_alpha", self.fr_alpha), ("goal_bias", self.goal_bias)] {
             if !(0.0..=1.0).contains(&v) {
@@ -279,5 +301,20 @@ mod tests {
             ..Default::default()
         };
         assert!(p.validate().unwrap_err().to_string().contains("fr_alpha"));
+        let p = PlannerParams {
+            authority: Authority::Adaptive(crate::authority::AdaptiveAuthority {
+                patience_s: -1.0,
+                ..Default::default()
+            }),
+            ..Default::default()
+        };
+        let e = p.validate().unwrap_err().to_string();
+        assert!(e.contains("authority.patience_s"), "{e}");
+        let p = PlannerParams {
+            lead_saturation_rad: 0.0,
+            ..Default::default()
+        };
+        let e = p.validate().unwrap_err().to_string();
+        assert!(e.contains("lead_saturation_rad"), "{e}");
     }
 }

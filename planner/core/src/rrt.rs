@@ -22,8 +22,9 @@
 //! no threads.
 
 use crate::aligned::AlignedOrientations;
+use crate::authority::{Authority, AuthorityState, TrustTracker};
 use crate::collision::CollisionChecker;
-use crate::guidance::{PathGuide, barycenter_force};
+use crate::guidance::{Lead, PathGuide, barycenter_force};
 use crate::params::{Algorithm, ExtendA, HumanMode, MachineSampler, PlannerError, PlannerParams};
 use crate::sampling::{Sampling, UserInput, apply_delta, contact_sample};
 use crate::space::{ConfigSpace, Space};
@@ -90,6 +91,9 @@ pub struct IterReport {
     pub nodes_added: u32,
     /// Local trees merged into a main tree this iteration.
     pub merged: u32,
+    /// The sample was new ground for the roadmap and tree A reached it: its nearest node
+    /// was more than one `step` away (RRT: the tree took its step towards such a sample).
+    pub novel: bool,
     /// True when the problem is solved (now or before).
     pub solved: bool,
 }
@@ -140,6 +144,8 @@ pub struct Planner {
     prev_user: Option<Se3>,
     /// The last q_device H-RRT-C's human mode sampled.
     last_human: Option<Se3>,
+    /// The adaptive authority's memory of the operator's progress.
+    trust: TrustTracker,
     /// The operator's travelled path (PATH sampling), one entry per `step / 4` moved.
     user_path: Vec<Se3>,
     raw_solution: Option<Vec<Se3>>,
@@ -185,6 +191,7 @@ impl Planner {
             local_cursor: 0,
             prev_user: None,
             last_human: None,
+            trust: TrustTracker::default(),
             user_path: Vec::new(),
             raw_solution: None,
             solution: None,
@@ -214,6 +221,7 @@ impl Planner {
             connect: None,
             nodes_added: 0,
             merged: 0,
+            novel: false,
             solved: self.solved(),
         };
         if report.solved {
@@ -221,12 +229,16 @@ impl Planner {
         }
         let input = input.filter(|u| u.q_user.is_finite()).map(|u| UserInput {
             q_user: self.space.project(&u.q_user),
-            contact: u.contact,
+            ..*u
         });
         if let Some(u) = &input {
             self.track_user(&u.q_user);
+            if let Some(rule) = self.adaptive() {
+                self.trust
+                    .observe(&rule, &self.space, &u.q_user, &self.goal, u.time_s);
+            }
         }
-        let (q_rand, source) = self.sample(input.as_ref());
+        let (q_rand, source, present) = self.sample(input.as_ref());
         report.sample = Some(q_rand);
         report.source = source;
         report.from_user = matches!(source, Source::User | Source::Contact);
@@ -234,10 +246,38 @@ impl Planner {
             Algorithm::Rrt => self.rrt_step(&q_rand, &mut report),
             Algorithm::RrtConnect => self.connect_step(&q_rand, source, &mut report),
         }
+        if let Some(rule) = self.adaptive()
+            && present
+            && (report.novel || report.merged > 0 || report.solved)
+        {
+            self.trust.fruit(&rule);
+        }
         if let Some(u) = &input {
             self.prev_user = Some(u.q_user);
         }
         report
+    }
+
+    /// The adaptive authority's rule, when H-RRT-C runs with it.
+    fn adaptive(&self) -> Option<crate::authority::AdaptiveAuthority> {
+        match (self.params.sampling, self.params.authority) {
+            (Sampling::Hrrtc { .. }, Authority::Adaptive(rule)) => Some(rule),
+            _ => None,
+        }
+    }
+
+    /// H-RRT-C's authority now: the operator's trust and the machine shares in free space
+    /// and in contact ([`crate::authority`]). With another sampling method: trust 1 and
+    /// the method's own machine share.
+    pub fn authority(&self) -> AuthorityState {
+        let shared = self.params.contact.shared_authority;
+        match self.params.sampling {
+            Sampling::Hrrtc { alpha } => self.trust.state(&self.params.authority, alpha, shared),
+            other => {
+                let m = 1.0 - other.user_share();
+                self.trust.state(&Authority::Fixed, m, true)
+            }
+        }
     }
 
     fn track_user(&mut self, q: &Se3) {
@@ -250,34 +290,49 @@ impl Planner {
         }
     }
 
-    /// `q_rand` and its source. See [`crate::sampling`].
-    fn sample(&mut self, input: Option<&UserInput>) -> (Se3, Source) {
+    /// `q_rand`, its source, and whether it is the operator's present input (a contact
+    /// sample or q_device itself, not a stand-in near its travelled path). See
+    /// [`crate::sampling`] and [`crate::authority`].
+    fn sample(&mut self, input: Option<&UserInput>) -> (Se3, Source, bool) {
         let sampling = self.params.sampling;
         if self.params.algorithm == Algorithm::Rrt
             && self.rng.random::<f64>() < self.params.goal_bias
         {
-            return (self.goal, Source::Uniform);
+            return (self.goal, Source::Uniform, false);
         }
-        let Some(u) = input else {
-            return self.machine_sample();
+        let machine = |p: &mut Self| {
+            let (q, s) = p.machine_sample();
+            (q, s, false)
         };
-        if let (Sampling::Hrrtc { alpha }, Some(c)) = (sampling, &u.contact) {
-            // Contact mode (Algorithm 2, line 3): HapticSampling; with shared authority a
-            // share α of machine samples as in free space.
-            if self.params.contact.shared_authority && self.rng.random::<f64>() < alpha {
-                return self.machine_sample();
+        let Some(u) = input else {
+            return machine(self);
+        };
+        let authority = self.authority();
+        if let (Sampling::Hrrtc { .. }, Some(c)) = (sampling, &u.contact) {
+            // Contact mode (Algorithm 2, line 3): HapticSampling; a machine share with
+            // shared authority (α) or adaptive authority (growing while the operator is
+            // stuck). No draw without either, as Algorithm 2.
+            let m = authority.machine_share_contact;
+            let shared = self.params.contact.shared_authority;
+            if (shared || m > 0.0) && self.rng.random::<f64>() < m {
+                return machine(self);
             }
             if let Some(q) = contact_sample(&self.space, c, &self.params.contact, &mut self.rng) {
-                return (q, Source::Contact);
+                return (q, Source::Contact, true);
             }
         }
-        if self.rng.random::<f64>() >= sampling.user_share() {
-            return self.machine_sample();
+        let user_share = match sampling {
+            Sampling::Hrrtc { .. } => 1.0 - authority.machine_share_free,
+            other => other.user_share(),
+        };
+        if self.rng.random::<f64>() >= user_share {
+            return machine(self);
         }
         let sigma = self.params.user_sigma;
+        let mut present = false;
         let q = match sampling {
             // Its user share is 0: the draw above always returns a machine sample.
-            Sampling::Uniform => return self.machine_sample(),
+            Sampling::Uniform => return machine(self),
             Sampling::Pos { .. } => {
                 let prev = self.prev_user.unwrap_or(u.q_user);
                 let fr = self.resulting_force(&prev, &u.q_user);
@@ -294,12 +349,13 @@ impl Planner {
                     HumanMode::Fresh if !fresh => self.near_user_path(&u.q_user, sigma),
                     _ => {
                         self.last_human = Some(u.q_user);
+                        present = true;
                         u.q_user
                     }
                 }
             }
         };
-        (q, Source::User)
+        (q, Source::User, present)
     }
 
     /// I-RRT PATH: a Gaussian (σ `sigma`) around a uniformly chosen point of the operator's
@@ -364,6 +420,7 @@ impl Planner {
         let to_goal = self.space.distance(&next, &self.goal);
         let id = self.trees[START].add(near, next, to_goal);
         report.nodes_added = 1;
+        report.novel = d > self.params.step;
         report.extend = Some(if next == *q_rand {
             Extend::Success
         } else {
@@ -384,9 +441,10 @@ impl Planner {
             ExtendA::Greedy => u32::MAX,
             ExtendA::Step => 1,
         };
-        let (ext, last_a, added_a) = self.extend_at_most(a, q_rand, max_a);
+        let (ext, last_a, added_a, gap) = self.extend_at_most(a, q_rand, max_a);
         report.extend = Some(ext);
         report.nodes_added = added_a;
+        report.novel = ext == Extend::Success && added_a > 0 && gap > self.params.step;
         let mut offer: Option<NodeId> = None;
         if ext != Extend::Collision {
             let target = self.trees[a].node(last_a).config;
@@ -498,13 +556,20 @@ impl Planner {
     /// reached (the nearest node on Collision) and the number of nodes added. Updates the
     /// nearest node's collision-label counters.
     fn extend(&mut self, t: usize, target: &Se3) -> (Extend, NodeId, u32) {
-        self.extend_at_most(t, target, u32::MAX)
+        let (e, last, added, _) = self.extend_at_most(t, target, u32::MAX);
+        (e, last, added)
     }
 
     /// [`Planner::extend`] adding at most `max_nodes` nodes (≥ 1): stops with
-    /// [`Extend::Advanced`] at the limit.
-    fn extend_at_most(&mut self, t: usize, target: &Se3, max_nodes: u32) -> (Extend, NodeId, u32) {
-        let (near, _) = self.trees[t].nearest(&self.space, target);
+    /// [`Extend::Advanced`] at the limit. Also returns the distance from the tree's nearest
+    /// node to `target` before it grew (weighted m).
+    fn extend_at_most(
+        &mut self,
+        t: usize,
+        target: &Se3,
+        max_nodes: u32,
+    ) -> (Extend, NodeId, u32, f64) {
+        let (near, gap) = self.trees[t].nearest(&self.space, target);
         let (mut cur, mut added, mut covered) = (near, 0u32, 0.0);
         let outcome = loop {
             let from = self.trees[t].node(cur).config;
@@ -540,7 +605,7 @@ impl Planner {
         labels.extension_attempts += 1;
         labels.collisions += u32::from(outcome == Extend::Collision);
         labels.covered_distance += covered;
-        (outcome, cur, added)
+        (outcome, cur, added, gap)
     }
 
     /// Joins the two trees at `la` (tree `a`) and `lb` (tree `b`, same configuration).
@@ -639,7 +704,12 @@ impl Planner {
                 .reachable_from_contact(a, b, crate::guidance::GUIDANCE_CONTACT_SKIP)
         };
         if let Some(guide) = &self.guide {
-            return guide.force(&self.space, &q, self.params.lookahead, &reach);
+            let lead = Lead {
+                lookahead: self.params.lookahead,
+                saturation_m: self.params.lead_saturation_m,
+                saturation_rad: self.params.lead_saturation_rad,
+            };
+            return guide.force(&self.space, &q, &lead, &reach);
         }
         let mut best = (START, f64::INFINITY);
         for (i, t) in self.trees.iter().enumerate() {

@@ -131,15 +131,26 @@ pub struct UserInput {
     pub q_user: Se3,
     /// Contact, when the haptic loop reports it.
     pub contact: Option<Contact>,
+    /// When the operator was at `q_user`, s, on any clock that does not run backwards
+    /// (the planner process: the haptic state's stamp). The core reads no clock: only the
+    /// adaptive authority ([`crate::authority`]) uses it, and an input sequence whose
+    /// times never advance (0, as [`UserInput::free`] gives) never looks stuck to it.
+    pub time_s: f64,
 }
 
 impl UserInput {
-    /// Free-space input at `q`.
+    /// Free-space input at `q`, at time 0.
     pub fn free(q: Se3) -> Self {
         UserInput {
             q_user: q,
             contact: None,
+            time_s: 0.0,
         }
+    }
+
+    /// The same input at `time_s` (s).
+    pub fn at(self, time_s: f64) -> Self {
+        UserInput { time_s, ..self }
     }
 }
 

@@ -45,6 +45,14 @@ pub enum LabError {
         names = crate::live::METHOD_NAMES.join(", ")
     )]
     UnknownMethod(String),
+    /// A scene given by name or file could not be loaded.
+    #[error("scene `{scene}`")]
+    Scene {
+        /// The name or file as given.
+        scene: String,
+        /// Why.
+        source: scene::SceneError,
+    },
     /// A live run's summary (the demo's `--summary-json`) could not be read.
     #[error("{origin}: not a haptic-loop summary: {reason}")]
     Summary {

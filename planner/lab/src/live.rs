@@ -11,7 +11,9 @@ mod report;
 pub use report::{LiveSummary, plot, summarize, to_csv, to_markdown};
 
 use crate::LabError;
+use scene::Scene;
 use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
 
 /// The device the simulated operator holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -28,10 +30,14 @@ pub enum Input {
 pub struct LiveMethod {
     /// Name in reports (e.g. `hrrtc α=0.1`).
     pub name: String,
+    /// A planner runs (false: the operator alone, `haptic-loop demo --no-planner`).
+    pub planner: bool,
     /// `planner serve --sampling`.
     pub sampling: String,
     /// H-RRT-C's α, if the method has one.
     pub alpha: Option<f64>,
+    /// H-RRT-C's `planner serve --authority` (`fixed` or `adaptive`), if the method sets it.
+    pub authority: Option<String>,
     /// What the operator holds.
     pub input: Input,
     /// Guidance rendered (false: `--no-guidance`).
@@ -43,8 +49,11 @@ pub struct LiveMethod {
 }
 
 /// The method names [`LiveMethod::parse`] accepts.
-pub const METHOD_NAMES: [&str; 11] = [
+pub const METHOD_NAMES: [&str; 14] = [
+    "operator-alone",
     "rrt-connect",
+    "hrrtc-fixed",
+    "hrrtc-adaptive",
     "pos+cs",
     "path",
     "irrtc-mouse",
@@ -57,26 +66,40 @@ pub const METHOD_NAMES: [&str; 11] = [
     "hrrtc-shared",
 ];
 
+/// The operator preset of the methods that do not name their own.
+pub const DEFAULT_OPERATOR: &str = "expert";
+
 impl LiveMethod {
     fn new(name: String, sampling: &str, alpha: Option<f64>, input: Input) -> Self {
         LiveMethod {
             name,
+            planner: true,
             sampling: sampling.to_owned(),
             alpha,
+            authority: Some("fixed".to_owned()),
             input,
             guidance: true,
-            operator: "expert".to_owned(),
+            operator: DEFAULT_OPERATOR.to_owned(),
             planner_args: None,
         }
     }
 
-    /// The methods a name stands for:
+    /// The methods a name stands for, held by `operator` (a `haptic-loop demo
+    /// --operator` preset, which the demo checks) unless the method names its own:
+    /// - `operator-alone`: no planner at all (`haptic-loop demo --no-planner`): the
+    ///   operator's own time to the goal;
     /// - `rrt-connect`: automatic (`--sampling cs`; the operator moves, the planner ignores
-    ///   it);
+    ///   it; once solved, its path's guidance leads the operator);
+    /// - `hrrtc-fixed`: H-RRT-C with the paper's fixed α (`--authority fixed`), one method
+    ///   per α of `alphas`;
+    /// - `hrrtc-adaptive`: H-RRT-C with the authority that adapts to a stuck operator
+    ///   (`--authority adaptive`, α while it progresses), one method per α;
     /// - `pos+cs`, `path`: I-RRT's samplers with the operator on the arm;
     /// - `irrtc-mouse`: I-RRT-C, contact sampling with authority α = 0 (H-RRT-C Table II),
     ///   the operator on the SpaceMouse;
-    /// - `hrrtc`: H-RRT-C with the operator on the arm, one method per α of `alphas`;
+    /// - `hrrtc`: H-RRT-C with the operator on the arm, one method per α of `alphas`, with
+    ///   the fixed α (as `hrrtc-fixed`, under the name of the sweeps of 3 Dec; all the
+    ///   `hrrtc-…` methods below also run with the fixed α);
     /// - `hrrtc-paper`: the same with Algorithm 2's human mode as the paper writes it
     ///   (`planner serve --human-mode every`: q_device sampled even when it repeats), one
     ///   method per α;
@@ -86,18 +109,39 @@ impl LiveMethod {
     /// - `hrrtc-shared`: H-RRT-C at `guide_alpha` keeping the authority share in contact
     ///   (`planner serve --contact-authority shared`), with the novice, who is blocked
     ///   and stays in contact most.
-    pub fn parse(name: &str, alphas: &[f64], guide_alpha: f64) -> Result<Vec<Self>, LabError> {
+    pub fn parse(
+        name: &str,
+        alphas: &[f64],
+        guide_alpha: f64,
+        operator: &str,
+    ) -> Result<Vec<Self>, LabError> {
         let hrrtc = |tag: &str, a: f64, input| {
             LiveMethod::new(format!("{tag} α={a}"), "hrrtc", Some(a), input)
         };
-        Ok(match name {
-            "rrt-connect" => vec![LiveMethod::new(name.into(), "cs", None, Input::Arm)],
-            "pos+cs" | "path" => vec![LiveMethod::new(
-                format!("irrt-{name}"),
-                name,
-                None,
-                Input::Arm,
-            )],
+        let mut methods = match name {
+            "operator-alone" => vec![LiveMethod {
+                planner: false,
+                sampling: "none".into(),
+                authority: None,
+                guidance: false,
+                ..LiveMethod::new(name.into(), "none", None, Input::Arm)
+            }],
+            "rrt-connect" => vec![LiveMethod {
+                authority: None,
+                ..LiveMethod::new(name.into(), "cs", None, Input::Arm)
+            }],
+            "hrrtc-fixed" => alphas.iter().map(|&a| hrrtc(name, a, Input::Arm)).collect(),
+            "hrrtc-adaptive" => alphas
+                .iter()
+                .map(|&a| LiveMethod {
+                    authority: Some("adaptive".into()),
+                    ..hrrtc(name, a, Input::Arm)
+                })
+                .collect(),
+            "pos+cs" | "path" => vec![LiveMethod {
+                authority: None,
+                ..LiveMethod::new(format!("irrt-{name}"), name, None, Input::Arm)
+            }],
             "irrtc-mouse" => vec![LiveMethod::new(
                 name.into(),
                 "hrrtc",
@@ -135,33 +179,49 @@ impl LiveMethod {
                 ..hrrtc(name, guide_alpha, Input::Arm)
             }],
             _ => return Err(LabError::UnknownMethod(name.to_owned())),
-        })
+        };
+        for m in &mut methods {
+            if m.operator == DEFAULT_OPERATOR {
+                m.operator = operator.to_owned();
+            }
+        }
+        Ok(methods)
     }
 
     /// The `haptic-loop demo` options of this method (scene, seed and limits aside).
     pub fn demo_args(&self) -> Vec<String> {
-        let mut a = vec![
-            "--sampling".to_owned(),
-            self.sampling.clone(),
+        let device = match self.input {
+            Input::Arm => "sim",
+            Input::Mouse => "sim-spacemouse",
+        };
+        let mut a: Vec<String> = Vec::new();
+        if self.planner {
+            a.extend(["--sampling".to_owned(), self.sampling.clone()]);
+        } else {
+            a.push("--no-planner".into());
+        }
+        a.extend([
             "--device".to_owned(),
-            match self.input {
-                Input::Arm => "sim",
-                Input::Mouse => "sim-spacemouse",
-            }
-            .to_owned(),
+            device.to_owned(),
             "--operator".to_owned(),
             self.operator.clone(),
-        ];
+        ]);
         if let Some(alpha) = self.alpha {
             a.push("--alpha".into());
             a.push(alpha.to_string());
         }
-        if !self.guidance {
+        if !self.guidance && self.planner {
             a.push("--no-guidance".into());
         }
-        if let Some(extra) = &self.planner_args {
+        let planner_args: Vec<String> = self
+            .authority
+            .iter()
+            .map(|x| format!("--authority {x}"))
+            .chain(self.planner_args.clone())
+            .collect();
+        if !planner_args.is_empty() {
             a.push("--planner-args".into());
-            a.push(extra.clone());
+            a.push(planner_args.join(" "));
         }
         a
     }
@@ -172,8 +232,12 @@ impl LiveMethod {
 pub struct LiveRun {
     /// Scene.
     pub scene: String,
+    /// The scene's `[[route]]` was kept (false: the session ran on a copy without it).
+    pub route: bool,
     /// Method name.
     pub method: String,
+    /// A planner ran (false: `operator-alone`).
+    pub planner: bool,
     /// α, NaN when the method has none.
     pub alpha: f64,
     /// `arm` or `mouse`.
@@ -206,6 +270,8 @@ pub struct LiveRun {
     pub ticks: u64,
     /// Deadline misses.
     pub deadline_misses: u64,
+    /// 99.9th percentile of the loop's compute time per tick, µs.
+    pub compute_p999_us: f64,
     /// Session length, s.
     pub run_s: f64,
     /// Times the operator was blocked (0 without a reacting operator).
@@ -230,6 +296,17 @@ struct DemoSummary {
     run_s: f64,
     contact: Option<DemoContact>,
     operator: Option<DemoOperator>,
+    loop_report: DemoLoop,
+}
+
+#[derive(Deserialize)]
+struct DemoLoop {
+    compute_us: DemoPercentiles,
+}
+
+#[derive(Deserialize)]
+struct DemoPercentiles {
+    p999: f64,
 }
 
 #[derive(Deserialize)]
@@ -247,10 +324,11 @@ struct DemoContact {
 }
 
 impl LiveRun {
-    /// The run of `method` on `scene` with `seed` from the demo's summary JSON `text`
-    /// (`origin` names it in errors).
+    /// The run of `method` on `scene` (`route`: with its `[[route]]`) with `seed` from the
+    /// demo's summary JSON `text` (`origin` names it in errors).
     pub fn from_summary(
         scene: &str,
+        route: bool,
         method: &LiveMethod,
         seed: u64,
         text: &str,
@@ -265,7 +343,9 @@ impl LiveRun {
         });
         Ok(LiveRun {
             scene: scene.to_owned(),
+            route,
             method: method.name.clone(),
+            planner: method.planner,
             alpha: method.alpha.unwrap_or(f64::NAN),
             input: method.input,
             guidance: method.guidance,
@@ -282,12 +362,31 @@ impl LiveRun {
             max_force_step_n: s.max_force_step_n,
             ticks: s.ticks,
             deadline_misses: s.deadline_misses,
+            compute_p999_us: s.loop_report.compute_us.p999,
             run_s: s.run_s,
             blocks: s.operator.as_ref().map_or(0, |o| o.blocks),
             corrections: s.operator.as_ref().map_or(0, |o| o.corrections),
             retries: s.operator.as_ref().map_or(0, |o| o.retries),
         })
     }
+}
+
+/// A copy of `scene` (a built-in name or a scene file) without its `[[route]]`, written
+/// into `dir/<scene, file-name safe>/` (`<name>.toml` and its meshes); returns the file.
+/// A session on it is a session on a user's own scene: the simulated operator has no
+/// route to follow.
+pub fn write_without_route(scene: &str, dir: &Path) -> Result<PathBuf, LabError> {
+    let mut s = Scene::by_name_or_path(scene).map_err(|source| LabError::Scene {
+        scene: scene.to_owned(),
+        source,
+    })?;
+    s.route.clear();
+    let safe: String = scene
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
+    let sub = dir.join(safe);
+    s.write_to_dir(&sub).map_err(LabError::write(&sub))
 }
 
 #[cfg(test)]

@@ -26,6 +26,7 @@
 #![deny(unsafe_code)]
 
 mod builtin;
+pub mod coarse;
 mod export;
 mod file;
 mod mesh;

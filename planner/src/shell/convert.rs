@@ -9,7 +9,8 @@ use ipc_types::{HapticState, Header, PATH_CAPACITY, Path, Pose};
 /// operator holds and sees it (the loop keeps it out of obstacles when it renders contact;
 /// without contact it is the hand's mapped pose, `user_pose`, which is also the fallback),
 /// and contact (H-RRT-C contact mode) while the loop reports `ContactCode::CONTACT` with a
-/// unit normal. `None` when no pose is valid.
+/// unit normal, at the state's stamp (the tick's `CLOCK_MONOTONIC` wake-up, in s: the
+/// adaptive authority's clock). `None` when no pose is valid.
 pub fn user_input(s: &HapticState) -> Option<UserInput> {
     let q_user = operator_pose(s)?;
     let v = |a: [f64; 3]| nalgebra::Vector3::new(a[0], a[1], a[2]);
@@ -36,7 +37,11 @@ pub fn user_input(s: &HapticState) -> Option<UserInput> {
             })
         })
         .flatten();
-    Some(UserInput { q_user, contact })
+    Some(UserInput {
+        q_user,
+        contact,
+        time_s: s.header.timestamp_ns as f64 * 1e-9,
+    })
 }
 
 /// The held object's configuration in a haptic state: the proxy, else the hand's mapped
@@ -90,7 +95,9 @@ mod tests {
         let q = Se3::from_xyz(0.1, 0.0, 0.0);
         s.user_pose = pose(&q);
         s.proxy_pose = pose(&Se3::from_xyz(0.09, 0.0, 0.0));
+        s.header.timestamp_ns = 2_500_000_000;
         let free = user_input(&s).expect("valid");
+        assert_eq!(free.time_s, 2.5);
         // q_device is the object as held (the proxy), not the hand inside the wall.
         assert!(free.contact.is_none() && (free.q_user.pos.x - 0.09).abs() < 1e-12);
         let mut no_proxy = s;

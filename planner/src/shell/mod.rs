@@ -53,10 +53,16 @@ pub struct ShellConfig {
     pub seed: u64,
     /// Guidance publish rate, Hz.
     pub guidance_rate_hz: f64,
-    /// k for the translational part of F_s, N/m.
+    /// k for the translational part of F_s, N/m (before a solution).
     pub gain_n_per_m: f64,
-    /// k for the rotational part of F_s, N·m/rad.
+    /// k for the rotational part of F_s, N·m/rad (before a solution).
     pub gain_nm_per_rad: f64,
+    /// Once solved, the force the path's guidance saturates at, N: its samples carry
+    /// `k = lead_force_n / params.lead_saturation_m` ([`make_guidance`]).
+    pub lead_force_n: f64,
+    /// Once solved, the torque the path's guidance saturates at, N·m: `k =
+    /// lead_torque_nm / params.lead_saturation_rad`.
+    pub lead_torque_nm: f64,
     /// Time-to-live written into each guidance sample, s.
     pub ttl_s: f64,
     /// How often the receiver thread polls the haptic state before it has locked onto the
@@ -122,6 +128,13 @@ pub struct ShellReport {
     pub roadmap_published: u64,
     /// Roadmap increments skipped because no sample could be loaned.
     pub roadmap_skipped: u64,
+    /// H-RRT-C's authority (`fixed` or `adaptive`).
+    pub authority: String,
+    /// Times the adaptive authority took every sample from a stuck operator (its trust
+    /// fell to 0).
+    pub authority_takeovers: u64,
+    /// Times it gave the operator its share back after it had started taking it.
+    pub authority_restores: u64,
     /// Mean time the main thread spent on one roadmap increment (loan, fill, send), µs.
     pub roadmap_publish_mean_us: f64,
     /// Longest time the main thread spent on one roadmap increment, µs.
@@ -203,6 +216,8 @@ pub fn run_with_guidance_out(
     report.planner_id = planner_id;
     let mut last_connection_update = Instant::now();
     let mut announced_operator = false;
+    let mut authority_log = AuthorityLog::default();
+    report.authority = config.params.authority.name().to_owned();
 
     while !stop.load(Ordering::Acquire) {
         if config
@@ -235,6 +250,7 @@ pub fn run_with_guidance_out(
         } else if !planner.solved() {
             let input = op.state.filter(|_| fresh).and_then(|s| user_input(&s));
             planner.iterate_input(input.as_ref());
+            authority_log.update(&planner.authority());
             if planner.solved() {
                 let t = started.elapsed().as_secs_f64();
                 report.time_to_solve_s = Some(t);
@@ -331,6 +347,8 @@ pub fn run_with_guidance_out(
         report.roadmap_publish_mean_us = roadmap_publish_total_us / attempts as f64;
     }
     report.solved = planner.solved();
+    report.authority_takeovers = authority_log.takeovers;
+    report.authority_restores = planner.authority().restores;
     report.iterations = s.iterations;
     report.nodes = s.nodes as u64;
     report.collision_checks = s.collision_checks;
@@ -358,6 +376,41 @@ fn new_planner_id() -> u32 {
     ((v >> 32) as u32 ^ v as u32).max(1)
 }
 
+/// Logs the adaptive authority's turns: when it has taken every sample from a stuck
+/// operator, and when the operator's share comes back.
+#[derive(Default)]
+struct AuthorityLog {
+    taken: bool,
+    takeovers: u64,
+}
+
+impl AuthorityLog {
+    fn update(&mut self, a: &crate::AuthorityState) {
+        if !self.taken && a.trust == 0.0 {
+            self.taken = true;
+            self.takeovers += 1;
+            tracing::info!(
+                "authority: no progress for {:.1} s: machine share {:.2} in contact, {:.2} in free space",
+                a.stagnant_s,
+                a.machine_share_contact,
+                a.machine_share_free
+            );
+        } else if self.taken && a.trust == 1.0 {
+            self.taken = false;
+            tracing::info!(
+                "authority: the operator progresses: machine share back to {:.2} in contact, {:.2} in free space",
+                a.machine_share_contact,
+                a.machine_share_free
+            );
+        }
+    }
+}
+
+/// The guidance sample of this moment. Before a solution F_a is I-RRT's barycenter with
+/// the gains `gain_n_per_m` and `gain_nm_per_rad`; after it, the lead along the path
+/// ([`crate::guidance::PathGuide::force`]), whose pull and turn saturate at the core's
+/// `lead_saturation_m` and `lead_saturation_rad`, with the gains that render those as
+/// `lead_force_n` and `lead_torque_nm`.
 fn make_guidance(
     config: &ShellConfig,
     planner: &Planner,
@@ -380,6 +433,11 @@ fn make_guidance(
         }
         None => ([0.0; 6], GuidanceMode::NONE),
     };
+    let (gain_n_per_m, gain_nm_per_rad) = if planner.solved() {
+        lead_gains(config)
+    } else {
+        (config.gain_n_per_m, config.gain_nm_per_rad)
+    };
     Guidance {
         header: Header {
             sequence: seq,
@@ -388,8 +446,8 @@ fn make_guidance(
             reserved: 0,
         },
         attractive,
-        gain_n_per_m: config.gain_n_per_m,
-        gain_nm_per_rad: config.gain_nm_per_rad,
+        gain_n_per_m,
+        gain_nm_per_rad,
         time_to_live_ns: (config.ttl_s * 1e9) as u64,
         state_sequence: op.state.map_or(0, |s| s.header.sequence),
         mode,
@@ -401,6 +459,16 @@ fn make_guidance(
         distance_to_goal: s.best_distance_to_goal,
         collision_checks: s.collision_checks,
     }
+}
+
+/// The gains of the path's guidance: N/m and N·m/rad that render the core's saturated
+/// pull and turn as `lead_force_n` and `lead_torque_nm`.
+pub fn lead_gains(config: &ShellConfig) -> (f64, f64) {
+    let p = &config.params;
+    (
+        config.lead_force_n / p.lead_saturation_m,
+        config.lead_torque_nm / p.lead_saturation_rad,
+    )
 }
 
 /// Fills a loaned sample in place and sends it; false (and a debug log) when no sample
@@ -448,5 +516,73 @@ fn publish_guidance(publisher: &Publisher<Guidance>, event: &GuidanceNotifier, g
     // Without the wake-up the relay still polls: a failed notification only costs latency.
     if let Err(e) = event.notify() {
         tracing::debug!("cannot notify the guidance event: {e:?}");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn config(scene: Scene) -> ShellConfig {
+        ShellConfig {
+            namespace: "test".into(),
+            scene,
+            params: PlannerParams::default(),
+            seed: 1,
+            guidance_rate_hz: 100.0,
+            gain_n_per_m: 20.0,
+            gain_nm_per_rad: 0.05,
+            lead_force_n: 2.0,
+            lead_torque_nm: 0.1,
+            ttl_s: 0.1,
+            state_poll_hz: 2000.0,
+            state_spin_us: 0.0,
+            state_priority: 0,
+            state_timeout_s: 0.5,
+            plan_without_operator: false,
+            duration_s: None,
+            roadmap_rate_hz: 0.0,
+        }
+    }
+
+    /// The force and torque the loop renders from `g` (before its device bound), N, N·m.
+    fn rendered(g: &Guidance) -> (f64, f64) {
+        let a = &g.attractive;
+        let f = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt() * g.gain_n_per_m;
+        let t = (a[3] * a[3] + a[4] * a[4] + a[5] * a[5]).sqrt() * g.gain_nm_per_rad;
+        (f, t)
+    }
+
+    #[test]
+    fn the_paths_guidance_saturates_at_the_lead_force_and_torque() {
+        let c = config(Scene::wall_with_square_hole(0.3));
+        let mut planner = Planner::new(&c.scene, c.params.clone(), c.seed).expect("planner");
+        let op = Operator::default();
+        let start = c.scene.start;
+        let g = make_guidance(&c, &planner, Some(&start), &op, 1, 1, 7);
+        assert_eq!((g.gain_n_per_m, g.gain_nm_per_rad), (20.0, 0.05));
+        assert_eq!(g.mode, GuidanceMode::ROADMAP);
+        for _ in 0..5000 {
+            if planner.iterate(None).solved {
+                break;
+            }
+        }
+        assert!(planner.solved());
+        let g = make_guidance(&c, &planner, Some(&start), &op, 2, 1, 7);
+        assert_eq!(g.mode, GuidanceMode::PATH);
+        assert_eq!((g.gain_n_per_m, g.gain_nm_per_rad), (40.0, 0.2));
+        assert_eq!(lead_gains(&c), (40.0, 0.2));
+        // At the start the carrot is 0.1 weighted m ahead: the pull is at its saturation
+        // unless the path turns there, and neither part ever exceeds its lead level.
+        let (f, t) = rendered(&g);
+        assert!(
+            f > 0.0 && f <= 2.0 + 1e-9 && t <= 0.1 + 1e-9,
+            "{f} N, {t} N·m"
+        );
+        // 4 cm behind the start on the line to the goal, the pull saturates at 2 N.
+        let behind = Se3::from_xyz(start.pos.x - 0.04, start.pos.y, start.pos.z);
+        let g = make_guidance(&c, &planner, Some(&behind), &op, 3, 1, 7);
+        let (f, _) = rendered(&g);
+        assert!((f - 2.0).abs() < 1e-9, "{f} N");
     }
 }

@@ -159,3 +159,124 @@ fn issue_17_live_sweep_writes_well_formed_csv() {
     assert!(Path::new(&out.join("summaries")).is_dir());
     let _ = std::fs::remove_dir_all(out);
 }
+
+/// Issue 32's rows: the operator alone (no planner) and H-RRT-C with adaptive authority,
+/// on a copy of the scene without its route; an operator the demo does not know stops the
+/// sweep with the demo's own error naming `--operator`.
+#[test]
+fn issue_32_live_sweep_runs_the_operator_alone_and_adaptive_authority_without_a_route() {
+    let _serial = one_loop_at_a_time();
+    let out = std::env::temp_dir().join(unique_namespace("livesweep32"));
+    let sweep = |methods: &str, operator: &str| {
+        std::process::Command::new(bin("planner"))
+            .args(["experiment", "live", "--scenes", "free", "--no-route"])
+            .args(["--live-methods", methods, "--alphas", "0.5", "--seeds", "1"])
+            .args(["--time-limit", "30", "--quiet", "--operator", operator])
+            .arg("--out")
+            .arg(&out)
+            .arg("--haptic-loop-exe")
+            .arg(bin("haptic-loop"))
+            .output()
+            .expect("planner experiment live")
+    };
+    let o = sweep("operator-alone,hrrtc-adaptive", "expert");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(out.join("runs.csv")).expect("runs.csv");
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 3, "{csv}");
+    let header: Vec<&str> = lines[0].split(',').collect();
+    let col = |row: &str, name: &str| -> String {
+        let i = header.iter().position(|c| *c == name).expect(name);
+        row.split(',').nth(i).unwrap().to_owned()
+    };
+    for row in &lines[1..] {
+        assert_eq!(col(row, "route"), "false", "{row}");
+        let goal: f64 = col(row, "time_to_goal_s").parse().expect("at the goal");
+        assert!(goal > 0.0 && goal < 30.0, "{row}");
+        let p999: f64 = col(row, "compute_p999_us").parse().expect("p99.9");
+        assert!(p999 > 0.0, "{row}");
+    }
+    assert_eq!(col(lines[1], "method"), "operator-alone");
+    assert_eq!(
+        (col(lines[1], "planner"), col(lines[1], "solved")),
+        ("false".into(), "false".into())
+    );
+    assert_eq!(col(lines[2], "method"), "hrrtc-adaptive α=0.5");
+    assert_eq!(col(lines[2], "solved"), "true");
+    let md = std::fs::read_to_string(out.join("summary.md")).expect("summary.md");
+    assert!(
+        md.contains("| free (no route) | operator-alone | no planner (1) |"),
+        "{md}"
+    );
+    assert!(out.join("scenes-no-route/free/free.toml").is_file());
+    let o = sweep("rrt-connect", "nobody");
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("--operator"), "{err}");
+    let _ = std::fs::remove_dir_all(out);
+}
+
+/// Issue 32, items 1 and 6: on a scene without a route (the built-in `free` scene has
+/// none) the demo's operator is the newcomer, which the log says, with its own coarse way;
+/// alone it brings the object to the goal. `planner experiment live --operator newcomer`
+/// runs it.
+#[test]
+fn issue_32_a_scene_without_a_route_gets_the_newcomer() {
+    let _serial = one_loop_at_a_time();
+    let ns = unique_namespace("newcomer");
+    let summary = std::env::temp_dir().join(format!("{ns}.json"));
+    let o = std::process::Command::new(bin("haptic-loop"))
+        .args([
+            "demo",
+            "--scene",
+            "free",
+            "--namespace",
+            &ns,
+            "--no-planner",
+        ])
+        .args(["--until-goal", "--time-limit-s", "30", "--no-mlock"])
+        .args(["--voxel-mm", "2", "--summary-json"])
+        .arg(&summary)
+        .output()
+        .expect("haptic-loop demo");
+    let log = String::from_utf8_lossy(&o.stderr).into_owned() + &String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{log}");
+    assert!(
+        log.contains("has no [[route]]: the simulated operator is the newcomer"),
+        "{log}"
+    );
+    assert!(
+        log.contains("newcomer: its own coarse way on 'free'"),
+        "{log}"
+    );
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&summary).expect("summary")).unwrap();
+    let _ = std::fs::remove_file(&summary);
+    let t = s["time_to_goal_s"].as_f64().expect("at the goal");
+    assert!(t > 0.0 && t < 30.0, "{s}");
+
+    let out = std::env::temp_dir().join(unique_namespace("livesweep32n"));
+    let o = std::process::Command::new(bin("planner"))
+        .args(["experiment", "live", "--scenes", "free", "--no-route"])
+        .args(["--live-methods", "operator-alone", "--seeds", "1"])
+        .args(["--time-limit", "30", "--quiet", "--operator", "newcomer"])
+        .arg("--out")
+        .arg(&out)
+        .arg("--haptic-loop-exe")
+        .arg(bin("haptic-loop"))
+        .output()
+        .expect("planner experiment live");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(out.join("runs.csv")).expect("runs.csv");
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 2, "{csv}");
+    let header: Vec<&str> = lines[0].split(',').collect();
+    let col = |name: &str| -> String {
+        let i = header.iter().position(|c| *c == name).expect(name);
+        lines[1].split(',').nth(i).unwrap().to_owned()
+    };
+    assert_eq!(col("operator"), "newcomer", "{csv}");
+    let goal: f64 = col("time_to_goal_s").parse().expect("at the goal");
+    assert!(goal > 0.0 && goal < 30.0, "{csv}");
+    let _ = std::fs::remove_dir_all(out);
+}

@@ -13,16 +13,17 @@ use crate::sim::grip::Grip;
 #[serde(default, deny_unknown_fields)]
 pub struct OperatorConfig {
     /// Time between what the operator perceives (pose, felt force) and its reaction to it,
-    /// s (people: about 0.1–0.25). Expert 0.12, novice 0.22.
+    /// s (people: about 0.1–0.25). Expert 0.12, novice 0.22, newcomer 0.2.
     pub reaction_delay_s: f64,
     /// How long it holds the handle still before it starts, s: a person takes hold of the
     /// arm and waits until it comes alive (the loop keeps forces off until the device has
     /// been still, then ramps them in over 0.5 s; an operator who starts at once may meet the
     /// first obstacle with no force felt). Default 0.6.
     pub start_hold_s: f64,
-    /// Hand speed toward the next route step in free motion, m/s. Expert 0.08, novice 0.05.
+    /// Hand speed toward the next route step in free motion, m/s. Expert 0.08, novice and newcomer 0.05.
     pub speed_m_per_s: f64,
-    /// Turning rate toward the next step's orientation, rad/s. Expert 1.0, novice 0.6.
+    /// Turning rate toward the next step's orientation, rad/s. Expert 1.0, novice and
+    /// newcomer 0.6.
     pub angular_speed_rad_per_s: f64,
     /// Slowing near a target: the speed is at most distance / this, s. Default 0.25.
     pub approach_time_s: f64,
@@ -39,57 +40,66 @@ pub struct OperatorConfig {
     /// Default 0.003.
     pub press_slack_m: f64,
     /// Hesitations start at this rate while moving, 1/s (a Poisson process). Expert 0.05,
-    /// novice 0.2.
+    /// novice 0.2, newcomer 0.1.
     pub hesitation_rate_per_s: f64,
-    /// Shortest hesitation, s (its length is uniform between the two). Expert 0.2, novice 0.4.
+    /// Shortest hesitation, s (its length is uniform between the two). Expert 0.2, novice 0.4,
+    /// newcomer 0.3.
     pub hesitation_min_s: f64,
-    /// Longest hesitation, s. Expert 0.6, novice 1.5.
+    /// Longest hesitation, s. Expert 0.6, novice 1.5, newcomer 1.0.
     pub hesitation_max_s: f64,
     /// Probability, per route step after the first, of heading first to a wrong place
-    /// (the step's position moved sideways by `wrong_turn_m`). Expert 0.05, novice 0.25.
+    /// (the step's position moved sideways by `wrong_turn_m`). Expert 0.05, novice 0.25,
+    /// newcomer 0.1 (per waypoint of its own way).
     pub wrong_turn_probability: f64,
-    /// How far sideways a wrong turn aims, m. Expert 0.015, novice 0.025.
+    /// How far sideways a wrong turn aims, m. Expert 0.015, novice 0.025, newcomer 0.01.
     pub wrong_turn_m: f64,
     /// Probability, per route step after the first, of holding the object at a wrong
     /// orientation (off by `wrong_orientation_rad` × U(0.5, 1.5) about a random axis).
-    /// Expert 0.15, novice 0.5.
+    /// Expert 0.15, novice 0.5, newcomer 0 (its orientations are guesses already: see
+    /// `NewcomerConfig::goal_orientation_error_rad`).
     pub wrong_orientation_probability: f64,
     /// Typical size of a wrong orientation, rad. Expert 0.12, novice 0.3.
     pub wrong_orientation_rad: f64,
     /// Felt force against the intended motion that the operator reads as "blocked", N.
-    /// Expert 1.5, novice 2.5. (Only with force feedback.)
+    /// Expert 1.5, novice and newcomer 2.5. (Only with force feedback.)
     pub blocked_force_n: f64,
-    /// ... once felt for this long, s. Expert 0.2, novice 0.4.
+    /// ... once felt for this long, s. Expert 0.2, novice 0.4, newcomer 0.3.
     pub blocked_time_s: f64,
     /// Seen progress toward the step smaller than `stall_progress_m` for this long reads as
     /// "blocked" too, s (what a SpaceMouse user, who feels nothing, goes by). Expert 0.6,
-    /// novice 1.2.
+    /// novice 1.2, newcomer 1.0.
     pub stall_time_s: f64,
     /// Progress that counts, m (angles weighed by `rotation_length_m`). Default 0.001.
     pub stall_progress_m: f64,
     /// Share of a wrong orientation removed at each correction, 0–1. Expert 0.8, novice 0.5.
     pub correction_share: f64,
     /// After a block with nothing to correct: back off for this long, s, then retry with a
-    /// small random change. Default 0.3.
+    /// small random change. Default 0.3, newcomer 0.4.
     pub retry_back_s: f64,
     /// Sideways change of a first retry at a step, m (σ per axis; halved at each further
-    /// block there). Expert 0.002, novice 0.004.
+    /// block there; the newcomer's wiggle, not halved). Expert 0.002, novice 0.004, newcomer
+    /// 0.003.
     pub retry_jitter_m: f64,
-    /// Orientation change of a first retry, rad (σ per axis; halved likewise). Expert 0.03,
-    /// novice 0.06.
+    /// Orientation change of a first retry, rad (σ per axis; halved likewise, but not the
+    /// newcomer's). Expert 0.03, novice 0.06, newcomer 0.15 (a person's turn by hand is off
+    /// by about that).
     pub retry_jitter_rad: f64,
     /// Share of the operator's intent that comes from a guidance force it feels at
     /// `guidance_full_n` or more (0–1; weaker forces give a proportionally smaller share).
-    /// Expert 0.3, novice 0.5.
+    /// Expert 0.3, novice and newcomer 0.5.
     pub guidance_share: f64,
     /// The same share once blocked `stuck_after_blocks` times at one step: stuck, it lets
-    /// the guidance lead more. Expert 0.5, novice 0.7.
+    /// the guidance lead more. Expert 0.5, novice 0.7, newcomer 0.9 (reached by
+    /// `NewcomerConfig::share_per_block`).
     pub stuck_guidance_share: f64,
-    /// Blocks at one step after which the operator counts itself stuck. Default 3.
+    /// Blocks at one step after which the operator counts itself stuck. Default 3 (the
+    /// newcomer's share grows with each block instead).
     pub stuck_after_blocks: u32,
-    /// Guidance force felt at full share, N. Default 1.0.
+    /// Guidance force felt at full share, N. Default 1.0, newcomer 0.3 (below the 0.1–0.8 N
+    /// of the planner's guidance before a solution, far below its lead's 2 N).
     pub guidance_full_n: f64,
-    /// Guidance torque felt at full share, N·m. Default 0.05.
+    /// Guidance torque felt at full share, N·m. Default 0.05, newcomer 0.015 (the lead
+    /// saturates at 0.1).
     pub guidance_full_nm: f64,
     /// Grip: translational stiffness between the hand and the handle, N/m. Default 300.
     pub hand_stiffness_n_per_m: f64,
@@ -105,6 +115,45 @@ pub struct OperatorConfig {
     pub max_torque_nm: f64,
     /// Seed of every random choice (ChaCha8). Default 1.
     pub seed: u64,
+    /// How an operator who does not know the way behaves (the `newcomer` preset); `None`
+    /// for one that follows a route it was given (expert, novice).
+    pub newcomer: Option<NewcomerConfig>,
+}
+
+/// What makes the newcomer: it has no route, only its own coarse way (positions, from what
+/// it sees of the scene), it guesses the goal's orientation, turns the object the way a
+/// person would try when blocked, and lets felt guidance lead more the longer it is stuck.
+/// Lengths at the device (device base frame).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct NewcomerConfig {
+    /// Error of its perception of the goal's orientation, rad: the orientation it turns the
+    /// object toward along its way is the goal's turned by this angle about an axis drawn
+    /// from the seed. Newcomer 0.06 (the goal zone accepts 0.1).
+    pub goal_orientation_error_rad: f64,
+    /// A waypoint of its way before the last counts as passed once the object is seen within
+    /// this distance of it or of any later waypoint, m; the orientation does not count there
+    /// (a person checks off "past the opening" by position). Newcomer 0.008.
+    pub waypoint_reach_m: f64,
+    /// Size of the turns it tries when blocked and not led, rad: plus and minus this about
+    /// each base axis, and no turn, in an order drawn from the seed; each try is wiggled by
+    /// `retry_jitter_m` / `retry_jitter_rad` (σ, not halved). Newcomer π/2 (quarter turns).
+    pub trial_rad: f64,
+    /// Guidance share added at each block at one waypoint, from `guidance_share` up to
+    /// `stuck_guidance_share` (the share grows while it is stuck). Once there, it follows the
+    /// whole felt wrench, even where it pushes against its own way. Newcomer 0.1.
+    pub share_per_block: f64,
+}
+
+impl Default for NewcomerConfig {
+    fn default() -> Self {
+        NewcomerConfig {
+            goal_orientation_error_rad: 0.06,
+            waypoint_reach_m: 0.008,
+            trial_rad: std::f64::consts::FRAC_PI_2,
+            share_per_block: 0.1,
+        }
+    }
 }
 
 impl Default for OperatorConfig {
@@ -166,6 +215,7 @@ impl OperatorConfig {
             max_force_n: 6.0,
             max_torque_nm: 0.4,
             seed: 1,
+            newcomer: None,
         }
     }
 
@@ -195,11 +245,43 @@ impl OperatorConfig {
         }
     }
 
-    /// The preset named `name` (`expert` or `novice`).
+    /// An operator who does not know the way (see [`NewcomerConfig`]): a novice's pace and
+    /// reactions, no route, and guidance felt at full share from 0.3 N and 0.015 N·m (the
+    /// planner's guidance before a solution is about 0.1–0.8 N, its lead at most 2 N and
+    /// 0.1 N·m), a share growing from 50 % to 90 % while stuck. It makes no wrong
+    /// orientations of its own on top of its guess of the goal's orientation.
+    pub fn newcomer() -> Self {
+        OperatorConfig {
+            reaction_delay_s: 0.2,
+            speed_m_per_s: 0.05,
+            angular_speed_rad_per_s: 0.6,
+            hesitation_rate_per_s: 0.1,
+            hesitation_min_s: 0.3,
+            hesitation_max_s: 1.0,
+            wrong_turn_probability: 0.1,
+            wrong_turn_m: 0.01,
+            wrong_orientation_probability: 0.0,
+            blocked_force_n: 2.5,
+            blocked_time_s: 0.3,
+            stall_time_s: 1.0,
+            retry_back_s: 0.4,
+            retry_jitter_m: 0.003,
+            retry_jitter_rad: 0.15,
+            guidance_share: 0.5,
+            stuck_guidance_share: 0.9,
+            guidance_full_n: 0.3,
+            guidance_full_nm: 0.015,
+            newcomer: Some(NewcomerConfig::default()),
+            ..OperatorConfig::expert()
+        }
+    }
+
+    /// The preset named `name` (`expert`, `novice` or `newcomer`).
     pub fn preset(name: &str) -> Option<Self> {
         match name {
             "expert" => Some(OperatorConfig::expert()),
             "novice" => Some(OperatorConfig::novice()),
+            "newcomer" => Some(OperatorConfig::newcomer()),
             _ => None,
         }
     }
@@ -275,6 +357,29 @@ impl OperatorConfig {
             && (0.0..=Self::MAX_REACTION_DELAY_S).contains(&self.reaction_delay_s))
         {
             return Err(DeviceError::InvalidConfig("reaction_delay_s (0–1 s)"));
+        }
+        if let Some(n) = &self.newcomer {
+            let fields = [
+                (
+                    n.goal_orientation_error_rad,
+                    "newcomer.goal_orientation_error_rad",
+                ),
+                (n.waypoint_reach_m, "newcomer.waypoint_reach_m"),
+                (n.trial_rad, "newcomer.trial_rad"),
+                (n.share_per_block, "newcomer.share_per_block"),
+            ];
+            for (v, name) in fields {
+                if !(v.is_finite() && v >= 0.0) {
+                    return Err(DeviceError::InvalidConfig(name));
+                }
+            }
+            if n.goal_orientation_error_rad > std::f64::consts::PI
+                || n.trial_rad > std::f64::consts::PI
+            {
+                return Err(DeviceError::InvalidConfig(
+                    "newcomer.goal_orientation_error_rad / trial_rad (at most π)",
+                ));
+            }
         }
         if !(self.hesitation_max_s.is_finite() && self.hesitation_max_s >= self.hesitation_min_s) {
             return Err(DeviceError::InvalidConfig(

@@ -83,6 +83,33 @@ fn it_holds_still_for_the_start_hold_then_moves() {
     assert!((moved - 0.6).abs() <= 1.5 * MS, "set off after {moved} s");
 }
 
+/// The planner's lead may pull the object off the start while the operator still takes
+/// hold: it then sets off from where the object is, with the pull, instead of fighting it
+/// back to the start (each 2 N pull against the way to the start would read as a block).
+#[test]
+fn a_pull_during_the_start_hold_is_followed_not_fought() {
+    let config = OperatorConfig {
+        start_hold_s: 0.6,
+        ..calm()
+    };
+    let route = vec![
+        RouteStep::to(at(0.0, 0.0, 0.0)),
+        RouteStep::to(at(0.1, 0.0, 0.0)),
+    ];
+    let mut op = Operator::new(config, route).unwrap();
+    // Pulled 7 mm toward the goal by a 2 N lead, held there for 0.5 s after the hold
+    // (heading back, the pull would read as a block after reaction delay + blocked_time_s
+    // = 0.32 s; seen still, a stall only after stall_time_s = 0.6 s).
+    let pull = Some(Wrench::from_force(Vector3::new(2.0, 0.0, 0.0)));
+    let mut last = Intent::STILL;
+    for k in 0..1100 {
+        last = op.decide(&seen(k as f64 * MS, at(0.007, 0.0, 0.0), pull));
+    }
+    assert_eq!(op.step_index(), 1);
+    assert_eq!(op.stats().blocks, 0, "{:?}", op.stats());
+    assert!(last.linear_velocity.x > 0.0, "{last:?}");
+}
+
 #[test]
 fn a_felt_pull_takes_the_stated_share_of_its_intent() {
     let config = OperatorConfig {
@@ -434,6 +461,26 @@ fn bad_configs_and_routes_are_refused_naming_the_field() {
             },
             "speed_m_per_s",
         ),
+        (
+            OperatorConfig {
+                newcomer: Some(NewcomerConfig {
+                    waypoint_reach_m: f64::NAN,
+                    ..NewcomerConfig::default()
+                }),
+                ..calm()
+            },
+            "newcomer.waypoint_reach_m",
+        ),
+        (
+            OperatorConfig {
+                newcomer: Some(NewcomerConfig {
+                    trial_rad: 4.0,
+                    ..NewcomerConfig::default()
+                }),
+                ..calm()
+            },
+            "trial_rad",
+        ),
     ];
     for (c, field) in bad {
         let e = Operator::new(c, route.clone()).unwrap_err().to_string();
@@ -481,4 +528,202 @@ fn on_a_simulated_spacemouse_the_operator_drives_the_avatar_to_the_end() {
         .unwrap();
     let after = mouse.read(5001 * 1_000_000).unwrap();
     assert!(after.pose.translation.vector.z > before.z);
+}
+
+/// The newcomer without mistakes, hesitations, start hold or goal-orientation error.
+fn calm_newcomer() -> OperatorConfig {
+    OperatorConfig {
+        hesitation_rate_per_s: 0.0,
+        wrong_turn_probability: 0.0,
+        start_hold_s: 0.0,
+        newcomer: Some(NewcomerConfig {
+            goal_orientation_error_rad: 0.0,
+            ..NewcomerConfig::default()
+        }),
+        ..OperatorConfig::newcomer()
+    }
+}
+
+#[test]
+fn the_newcomer_turns_toward_the_goal_as_perceived_along_its_way() {
+    let goal = Isometry3::from_parts(
+        Translation3::new(0.1, 0.0, 0.0),
+        UnitQuaternion::from_scaled_axis(Vector3::new(0.0, 0.0, 1.0)),
+    );
+    let way = [Vector3::new(0.05, 0.05, 0.0)];
+    let config = OperatorConfig::newcomer();
+    let op = Operator::newcomer(config, Isometry3::identity(), goal, &way).unwrap();
+    let route = op.route();
+    assert_eq!(route.len(), 3);
+    assert_eq!(route[1].pose.translation.vector, way[0]);
+    // Halfway along the way (two legs of equal length): half the turn, near enough.
+    let half = route[1].pose.rotation.angle();
+    assert!((half - 0.5).abs() < 0.06 + 1e-9, "{half}");
+    // At the goal: the goal's orientation off by exactly the stated error.
+    let error = route[2].pose.rotation.angle_to(&goal.rotation);
+    let stated = config.newcomer.unwrap().goal_orientation_error_rad;
+    assert!((error - stated).abs() < 1e-9, "{error}");
+    // Another seed, another axis of the error; the same seed, the same route.
+    let again = Operator::newcomer(config, Isometry3::identity(), goal, &way).unwrap();
+    assert_eq!(again.route(), route);
+    let other = OperatorConfig { seed: 2, ..config };
+    let other = Operator::newcomer(other, Isometry3::identity(), goal, &way).unwrap();
+    assert_ne!(other.route()[2].pose.rotation, route[2].pose.rotation);
+    // Without the newcomer's parameters there is no newcomer.
+    let e = Operator::newcomer(calm(), Isometry3::identity(), goal, &way).unwrap_err();
+    assert!(e.to_string().contains("newcomer"), "{e}");
+}
+
+#[test]
+fn the_newcomer_takes_a_faint_pull_and_twist_below_the_experts_full_share() {
+    let config = calm_newcomer();
+    let goal = Isometry3::translation(0.1, 0.0, 0.0);
+    let mut op = Operator::newcomer(config, Isometry3::identity(), goal, &[]).unwrap();
+    let v = config.speed_m_per_s;
+    let w = config.angular_speed_rad_per_s;
+    // 0.15 N and 0.0075 N·m: half of its full-share force and torque (the expert takes
+    // a tenth of its share from 0.15 N: it is at full share only from 1 N).
+    let faint = Wrench {
+        force: Vector3::new(0.0, 0.15, 0.0),
+        torque: Vector3::new(0.0, 0.0, 0.0075),
+    };
+    let mut last = Intent::STILL;
+    for k in 0..500 {
+        last = op.decide(&seen(k as f64 * MS, at(0.0, 0.0, 0.0), Some(faint)));
+    }
+    let s = 0.5 * config.guidance_share;
+    assert!((last.linear_velocity.y - s * v).abs() < 1e-12, "{last:?}");
+    assert!(
+        (last.linear_velocity.x - (1.0 - s) * v).abs() < 1e-12,
+        "{last:?}"
+    );
+    assert!((last.angular_velocity.z - s * w).abs() < 1e-12, "{last:?}");
+    assert_eq!(op.stats().blocks, 0);
+}
+
+/// The arm held by a calm newcomer heading 10 cm along +x, the device pushing the hand with
+/// `felt` for `seconds`; returns the end effector's final pose.
+fn newcomer_under(felt: Wrench, seconds: f64) -> Isometry3<f64> {
+    let goal = Isometry3::translation(0.1, 0.0, 0.0);
+    let op = Operator::newcomer(calm_newcomer(), Isometry3::identity(), goal, &[]).unwrap();
+    let mut arm =
+        SimulatedArm::with_operator(SimulatedArmConfig::default(), OperatorHand::new(op)).unwrap();
+    arm.open().unwrap();
+    let mut state = arm.read(0).unwrap();
+    for k in 1..=(seconds * 1000.0) as u64 {
+        let damp = -state.linear_velocity * 2.0;
+        arm.write(&Wrench {
+            force: felt.force + damp,
+            torque: felt.torque,
+        })
+        .unwrap();
+        state = arm.read(k * 1_000_000).unwrap();
+    }
+    arm.true_pose()
+}
+
+#[test]
+fn held_by_the_newcomer_the_arm_follows_a_known_guidance_force_and_torque() {
+    // 0.3 N along +y and 0.015 N·m about +z: its full share, far below the 2 N and 0.1 N·m
+    // the planner's lead saturates at.
+    let guided = Wrench {
+        force: Vector3::new(0.0, 0.3, 0.0),
+        torque: Vector3::new(0.0, 0.0, 0.015),
+    };
+    let free = newcomer_under(Wrench::ZERO, 1.5);
+    let led = newcomer_under(guided, 1.5);
+    // Unguided: along x, no turn.
+    assert!(free.translation.y.abs() < 1e-3, "{free:?}");
+    assert!(free.rotation.angle() < 0.01, "{free:?}");
+    // Guided: a grip of 300 N/m and 0.5 N·m/rad alone would give 1 mm and 0.03 rad; the
+    // hand goes along instead (half its intent at full share: 25 mm/s and 0.3 rad/s).
+    let dy = led.translation.y - free.translation.y;
+    let turn = led.rotation.scaled_axis();
+    assert!(dy > 0.012, "moved {dy} m along the force");
+    assert!(turn.z > 0.2, "turned {turn:?} rad");
+    assert!(turn.x.abs() < 0.02 && turn.y.abs() < 0.02, "{turn:?}");
+    // Still on its way: it kept most of its own motion along x.
+    assert!(
+        led.translation.x > 0.5 * free.translation.x,
+        "{led:?} {free:?}"
+    );
+}
+
+#[test]
+fn blocked_and_not_led_the_newcomer_tries_turns_in_a_seeded_order() {
+    let config = OperatorConfig {
+        stall_time_s: 0.3,
+        ..calm_newcomer()
+    };
+    let goal = Isometry3::translation(0.1, 0.0, 0.0);
+    let trials = |seed: u64| {
+        let config = OperatorConfig { seed, ..config };
+        let mut op = Operator::newcomer(config, Isometry3::identity(), goal, &[]).unwrap();
+        let mut turns = Vec::new();
+        let mut blocks = 0;
+        // Seen stuck at the start (a wall in front), nothing felt: stalls.
+        for k in 0..20_000 {
+            op.decide(&seen(k as f64 * MS, at(0.0, 0.0, 0.0), Some(Wrench::ZERO)));
+            if op.stats().blocks > blocks {
+                blocks = op.stats().blocks;
+                turns.push(op.target().rotation.scaled_axis());
+            }
+        }
+        (turns, op.stats())
+    };
+    let (turns, stats) = trials(5);
+    assert!(turns.len() >= 7, "{stats:?}");
+    assert_eq!(stats.retries, stats.blocks);
+    // The first seven: each quarter turn about each axis once and one without a turn,
+    // every one wiggled by about retry_jitter_rad (σ per axis).
+    let quarter = std::f64::consts::FRAC_PI_2;
+    let mut seen_axes = [false; 7];
+    for t in &turns[..7] {
+        let big = t.iamax();
+        let k = if t[big].abs() < 0.5 * quarter {
+            0
+        } else {
+            1 + 2 * big + usize::from(t[big] < 0.0)
+        };
+        assert!(!seen_axes[k], "{k} twice: {turns:?}");
+        seen_axes[k] = true;
+        let expected = if k == 0 { 0.0 } else { quarter };
+        assert!(
+            (t.norm() - expected).abs() < 5.0 * config.retry_jitter_rad,
+            "{t:?}"
+        );
+    }
+    // Same seed, same order; another seed, another one.
+    assert_eq!(trials(5).0, turns);
+    assert_ne!(trials(6).0[..7], turns[..7]);
+}
+
+#[test]
+fn led_when_blocked_the_newcomer_keeps_the_guided_orientation_until_the_goal() {
+    let config = calm_newcomer();
+    let goal = Isometry3::translation(0.05, 0.0, 0.0);
+    let mut op = Operator::newcomer(config, Isometry3::identity(), goal, &[]).unwrap();
+    // Seen still, turned 0.5 rad about z by a guidance it feels (0.5 N sideways, above
+    // its 0.3 N of full share): a stall, and it keeps that orientation.
+    let turned = UnitQuaternion::from_scaled_axis(Vector3::new(0.0, 0.0, 0.5));
+    let pose = |x: f64| Isometry3::from_parts(Translation3::new(x, 0.0, 0.0), turned);
+    let pull = Some(Wrench::from_force(Vector3::new(0.0, 0.5, 0.0)));
+    let mut k = 0;
+    while op.stats().blocks == 0 {
+        op.decide(&seen(k as f64 * MS, pose(0.0), pull));
+        k += 1;
+        assert!(k < 5000, "never blocked: {:?}", op.stats());
+    }
+    assert_eq!(
+        op.stats().retries,
+        0,
+        "led, it does not back off and try turns"
+    );
+    assert!(op.target().rotation.angle_to(&turned) < 1e-9);
+    // 5 mm from the goal (within waypoint_reach_m): the goal's orientation again.
+    for j in 0..300 {
+        op.decide(&seen((k + j) as f64 * MS, pose(0.045), pull));
+    }
+    assert!(op.target().rotation.angle_to(&goal.rotation) < 1e-9);
+    assert!((op.target().translation.vector - goal.translation.vector).norm() < 1e-12);
 }

@@ -64,10 +64,12 @@ pub struct LoopArgs {
     #[arg(long)]
     pub no_guidance: bool,
     /// Who holds a simulated device: `expert` or `novice` (an operator that follows the
-    /// scene's route and reacts to what it feels: see README "The simulated operator"), or
-    /// `scripted` (the wall-hole demo's timed path, which reacts to nothing) [default:
-    /// expert for demo, scripted for run].
-    #[arg(long, value_parser = ["expert", "novice", "scripted"])]
+    /// scene's route and reacts to what it feels: see README "The simulated operator"),
+    /// `newcomer` (one who does not know the way: it never reads the route, plans its own
+    /// coarse way and follows felt guidance), or `scripted` (the wall-hole demo's timed
+    /// path, which reacts to nothing) [default: demo: expert, newcomer on a scene without a
+    /// route; run: scripted].
+    #[arg(long, value_parser = ["expert", "novice", "newcomer", "scripted"])]
     pub operator: Option<String>,
     /// Seed of the simulated operator's random choices [default: demo's --seed, else 1].
     #[arg(long)]
@@ -193,6 +195,11 @@ pub struct DemoArgs {
     /// The planner executable [default: `planner` beside this executable].
     #[arg(long)]
     pub planner_exe: Option<PathBuf>,
+    /// Start no planner: the simulated operator alone, with no guidance and nothing to
+    /// solve. The session runs to --time-limit-s, or with --until-goal until the object
+    /// reaches the goal; the exit code is then 0 when it did, 1 when not.
+    #[arg(long, conflicts_with_all = ["alpha", "planner_args", "planner_exe"])]
+    pub no_planner: bool,
 }
 
 /// Options of `haptic-loop devices`.
@@ -315,6 +322,28 @@ impl LoopArgs {
                 scene.name
             );
         }
+        let operator = match self.operator.as_deref().unwrap_or_else(|| {
+            if operator == "scripted" || !scene.route.is_empty() {
+                return operator;
+            }
+            tracing::info!(
+                "scene '{}' has no [[route]]: the simulated operator is the newcomer, who \
+                 does not know the way (--operator expert heads straight for the goal)",
+                scene.name
+            );
+            "newcomer"
+        }) {
+            "scripted" => SimOperator::Scripted(ScriptedUserConfig {
+                linear_speed_m_per_s: self.user_speed,
+                tremor_amplitude_m: self.tremor_m,
+                ..ScriptedUserConfig::default()
+            }),
+            name => SimOperator::Reacting(OperatorConfig {
+                seed: self.operator_seed.unwrap_or(operator_seed),
+                ..OperatorConfig::preset(name)
+                    .with_context(|| format!("--operator: unknown preset {name:?}"))?
+            }),
+        };
         Ok(LoopSetup {
             namespace: self.namespace.clone(),
             scene_arg: self.scene.clone(),
@@ -349,18 +378,7 @@ impl LoopArgs {
                 (Some(dir), false) => Some(dir.clone()),
                 (None, false) => haptic_loop::contact::voxmap_cache::default_dir(),
             },
-            operator: match self.operator.as_deref().unwrap_or(operator) {
-                "scripted" => SimOperator::Scripted(ScriptedUserConfig {
-                    linear_speed_m_per_s: self.user_speed,
-                    tremor_amplitude_m: self.tremor_m,
-                    ..ScriptedUserConfig::default()
-                }),
-                name => SimOperator::Reacting(OperatorConfig {
-                    seed: self.operator_seed.unwrap_or(operator_seed),
-                    ..OperatorConfig::preset(name)
-                        .with_context(|| format!("--operator: unknown preset {name:?}"))?
-                }),
-            },
+            operator,
             contact,
         })
     }

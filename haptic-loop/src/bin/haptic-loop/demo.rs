@@ -1,7 +1,9 @@
 //! `haptic-loop demo`: the loop on the simulated arm (or SpaceMouse) held by a simulated
-//! operator following the scene's route, the planner as a child process (the `planner`
+//! operator following the scene's route (or, on a scene without one, the newcomer on its
+//! own coarse way), the planner as a child process (the `planner`
 //! executable, H-RRT-C by default), progress each second and a summary. Exit code 0 when
-//! solved within the time limit, 1 when not, 130 when interrupted unsolved.
+//! solved within the time limit, 1 when not, 130 when interrupted unsolved. With
+//! `--no-planner` the operator is alone: 0 when the object reached the goal, 1 when not.
 
 use crate::args::{self, DemoArgs};
 use anyhow::Context;
@@ -59,7 +61,10 @@ pub fn run(args: &DemoArgs, stop: &Arc<AtomicBool>) -> anyhow::Result<i32> {
     let limit = args::seconds("time-limit-s", args.time_limit_s)?;
     let after = args::seconds_or_zero("after-solve-s", args.after_solve_s)?;
     let min_run = args::seconds_or_zero("min-run-s", args.min_run_s)?;
-    let exe = planner_exe(args.planner_exe.as_ref())?;
+    let exe = match args.no_planner {
+        true => None,
+        false => Some(planner_exe(args.planner_exe.as_ref())?),
+    };
     let choice: DeviceChoice = args.device.parse()?;
     let input = match choice {
         DeviceChoice::SimSpaceMouse => scenario::SimInput::SpaceMouse,
@@ -73,7 +78,75 @@ pub fn run(args: &DemoArgs, stop: &Arc<AtomicBool>) -> anyhow::Result<i32> {
         return Ok(130);
     };
 
-    let mut command = Command::new(&exe);
+    let mut child = match &exe {
+        Some(exe) => Some(start_planner(exe, args, &setup)?),
+        None => None,
+    };
+    let planner = match &child {
+        Some(c) => format!("planner pid {} ({})", c.id(), args.sampling),
+        None => "no planner (the operator alone)".to_owned(),
+    };
+    tracing::info!(
+        "demo: haptic loop at {} Hz on {}, {planner}, scene '{}', time limit {} s",
+        setup.runner.rate_hz,
+        choice.name(),
+        setup.scene.name,
+        args.time_limit_s
+    );
+
+    let mut planner_exited = child.is_none();
+    let end = session::run(
+        &setup,
+        device,
+        |e| choice.open_error(e),
+        contact,
+        stop,
+        |watch, elapsed| {
+            if !planner_exited
+                && let Some(child) = child.as_mut()
+                && let Ok(Some(status)) = child.try_wait()
+            {
+                tracing::warn!(
+                    "demo: planner process exited ({status}); the loop goes on without guidance"
+                );
+                planner_exited = true;
+            }
+            let reached = match (args.until_goal, watch.solved_at()) {
+                _ if args.no_planner => watch.at_goal_at().filter(|_| args.until_goal),
+                (false, Some(t)) => Some(t),
+                (true, Some(t)) => watch.at_goal_at().map(|g| g.max(t)),
+                (_, None) => None,
+            };
+            match reached {
+                Some(t) => elapsed >= (t + after).max(min_run),
+                None => elapsed >= limit,
+            }
+        },
+    );
+    if let Some(child) = child.as_mut() {
+        stop_planner(child);
+    }
+    let mut summary = end?.summary();
+    summary.operator = operator.as_deref().map(session::OperatorSummary::of);
+    crate::finish(&summary, args.common.summary_json.as_deref())?;
+    let done = match args.no_planner {
+        true => summary.time_to_goal_s.is_some(),
+        false => summary.solved,
+    };
+    if stop.load(Ordering::Acquire) && !done {
+        return Ok(130);
+    }
+    Ok(if done { 0 } else { 1 })
+}
+
+/// Starts `planner serve` on the session's namespace and scene with the demo's planner
+/// options.
+fn start_planner(
+    exe: &std::path::Path,
+    args: &DemoArgs,
+    setup: &session::LoopSetup,
+) -> anyhow::Result<Child> {
+    let mut command = Command::new(exe);
     command
         .args(["serve", "--namespace", &setup.namespace])
         .args(["--scene", &setup.scene_arg])
@@ -87,52 +160,7 @@ pub fn run(args: &DemoArgs, stop: &Arc<AtomicBool>) -> anyhow::Result<i32> {
     }
     // A signal now stops the session in order (and the planner with it).
     ipc_types::startup::hold_resources();
-    let mut child = command
+    command
         .spawn()
-        .with_context(|| format!("cannot start the planner process ({})", exe.display()))?;
-    tracing::info!(
-        "demo: haptic loop at {} Hz on {}, planner pid {} ({}), scene '{}', time limit {} s",
-        setup.runner.rate_hz,
-        choice.name(),
-        child.id(),
-        args.sampling,
-        setup.scene.name,
-        args.time_limit_s
-    );
-
-    let mut planner_exited = false;
-    let end = session::run(
-        &setup,
-        device,
-        |e| choice.open_error(e),
-        contact,
-        stop,
-        |watch, elapsed| {
-            if !planner_exited && let Ok(Some(status)) = child.try_wait() {
-                tracing::warn!(
-                    "demo: planner process exited ({status}); the loop goes on without guidance"
-                );
-                planner_exited = true;
-            }
-            let reached = match (args.until_goal, watch.solved_at()) {
-                (false, Some(t)) => Some(t),
-                (true, Some(t)) => watch.at_goal_at().map(|g| g.max(t)),
-                (_, None) => None,
-            };
-            match reached {
-                Some(t) => elapsed >= (t + after).max(min_run),
-                None => elapsed >= limit,
-            }
-        },
-    );
-    if !planner_exited {
-        stop_planner(&mut child);
-    }
-    let mut summary = end?.summary();
-    summary.operator = operator.as_deref().map(session::OperatorSummary::of);
-    crate::finish(&summary, args.common.summary_json.as_deref())?;
-    if stop.load(Ordering::Acquire) && !summary.solved {
-        return Ok(130);
-    }
-    Ok(if summary.solved { 0 } else { 1 })
+        .with_context(|| format!("cannot start the planner process ({})", exe.display()))
 }

@@ -142,7 +142,7 @@ fn extend_step_grows_tree_a_by_one_node_and_solves() {
     let s = scene.start.pos;
     let far = Se3::from_xyz(s.x, s.y + 0.175, s.z);
     assert!(p.checker().edge_free(&scene.start, &far));
-    let (e, last, added) = p.extend_at_most(START, &far, 1);
+    let (e, last, added, _) = p.extend_at_most(START, &far, 1);
     assert_eq!((e, added), (Extend::Advanced, 1));
     let d = p
         .space()
@@ -193,18 +193,20 @@ fn attractive_force_before_and_after_solution() {
         Vector6::zeros()
     );
     run(&mut p, 2_000, None).expect("solved");
-    // On the (smoothed) path: F_a leads forward along it, with the lookahead length.
+    // On the (smoothed) path: F_a leads forward along it, the pull at most
+    // `lead_saturation_m` long and the turn at most `lead_saturation_rad`.
     let path = p.solution().expect("path").to_vec();
     let mid = p.space().interpolate(&path[0], &path[1], 0.5);
     let f = p.attractive_force(&mid);
     let next = path[1];
     let towards = p.space().delta(&mid, &next);
     assert!(f.dot(&towards) > 0.0, "{f} vs {towards}");
-    let w = p.params().weights;
-    let len = (w.translation * f.fixed_rows::<3>(0).norm_squared()
-        + w.rotation * f.fixed_rows::<3>(3).norm_squared())
-    .sqrt();
-    assert!(len > 0.0 && len <= p.params().lookahead + 0.011, "{len}");
+    let (pull, turn) = (f.fixed_rows::<3>(0).norm(), f.fixed_rows::<3>(3).norm());
+    assert!(
+        pull > 0.0 && pull <= p.params().lead_saturation_m + 1e-12,
+        "{pull}"
+    );
+    assert!(turn <= p.params().lead_saturation_rad + 1e-12, "{turn}");
     assert!(p.attractive_force(&scene.goal).norm() < 1e-12);
 }
 
@@ -340,8 +342,8 @@ fn hrrtc_authority_and_contact_mode() {
         proxy,
     };
     let input = UserInput {
-        q_user: Se3::from_xyz(-0.05, 0.0, 0.0),
         contact: Some(contact),
+        ..UserInput::free(Se3::from_xyz(-0.05, 0.0, 0.0))
     };
     let mut p = Planner::new(&scene, with(crate::Sampling::Hrrtc { alpha: 1.0 }), 4).expect("p");
     for _ in 0..50 {
@@ -653,4 +655,191 @@ fn aligned_parameters_are_checked() {
             other => panic!("{share} {jitter}: {other:?}"),
         }
     }
+}
+
+/// The proxy of the S pressed on the wall-hole's wall beside the hole, wiggling by up to
+/// 1 mm: an operator who does not advance. One haptic state per millisecond.
+fn pressed_on_the_wall(t_s: f64) -> crate::UserInput {
+    use nalgebra::Vector3;
+    let wiggle = 0.001 * (t_s * 7.0).sin();
+    let proxy = Se3::from_xyz(-0.0605, 0.12 + wiggle, 0.0);
+    crate::UserInput {
+        contact: Some(crate::Contact {
+            point_m: Vector3::new(-0.01, 0.12 + wiggle, 0.0),
+            normal: -Vector3::x(),
+            force_n: Vector3::new(4.0, 0.0, 0.5),
+            displacement_m: Vector3::new(0.0, 0.0002, 0.0),
+            proxy,
+        }),
+        ..crate::UserInput::free(proxy)
+    }
+    .at(t_s)
+}
+
+fn adaptive(alpha: f64) -> PlannerParams {
+    PlannerParams {
+        authority: crate::Authority::Adaptive(crate::AdaptiveAuthority::default()),
+        ..with(crate::Sampling::Hrrtc { alpha })
+    }
+}
+
+/// Iterates with `input(t)` for `ms` milliseconds from `from_s`, `per_ms` iterations per
+/// haptic state; returns the sources of the samples.
+fn feed(
+    p: &mut Planner,
+    from_s: f64,
+    ms: u32,
+    per_ms: u32,
+    input: impl Fn(f64) -> crate::UserInput,
+) -> Vec<Source> {
+    let mut sources = Vec::new();
+    for k in 0..ms {
+        let u = input(from_s + f64::from(k) * 1e-3);
+        for _ in 0..per_ms {
+            sources.push(p.iterate_input(Some(&u)).source);
+        }
+    }
+    sources
+}
+
+#[test]
+fn adaptive_authority_takes_over_from_an_operator_pressed_on_a_wall() {
+    let scene = Scene::wall_with_hole();
+    // The paper's fixed α: contact samples only, for as long as the contact lasts.
+    let mut fixed =
+        Planner::new(&scene, with(crate::Sampling::Hrrtc { alpha: 0.5 }), 3).expect("p");
+    let sources = feed(&mut fixed, 0.0, 4000, 1, pressed_on_the_wall);
+    assert!(sources.iter().all(|s| *s == Source::Contact));
+    assert!(!fixed.solved());
+    assert_eq!(fixed.authority().machine_share_contact, 0.0);
+    // Adaptive: full trust for the patience (0.5 s) after the last progress or fruit, then
+    // the machine share rises to its cap (1) over the ramp (0.5 s).
+    let rule = crate::AdaptiveAuthority::default();
+    let mut p = Planner::new(&scene, adaptive(0.5), 3).expect("p");
+    let mut last_progress_s = 0.0;
+    let mut capped_at_s = None;
+    for k in 0..4000u32 {
+        let t = f64::from(k) * 1e-3;
+        p.iterate_input(Some(&pressed_on_the_wall(t)));
+        let a = p.authority();
+        if a.stagnant_s == 0.0 {
+            last_progress_s = t;
+        }
+        // The share follows the stated rule, from the contact base 0 to the cap 1.
+        let expected = 1.0 - rule.trust_after(a.stagnant_s);
+        assert!(
+            (a.machine_share_contact - expected).abs() < 1e-12,
+            "{t}: {a:?}"
+        );
+        if a.machine_share_contact == 1.0 && capped_at_s.is_none() {
+            capped_at_s = Some(t);
+        }
+    }
+    // The trees stop finding new ground at the wall early on: the cap comes patience +
+    // ramp (1 s) after the last fruit, within the first 2 s of pressing.
+    let capped = capped_at_s.expect("the machine share reached its cap");
+    assert!(last_progress_s < 1.0, "last fruit at {last_progress_s} s");
+    let full_after_s = rule.patience_s + rule.ramp_s;
+    assert_eq!(full_after_s, 1.0);
+    assert!(
+        (capped - last_progress_s - full_after_s).abs() < 2e-3,
+        "capped at {capped} s, last progress {last_progress_s} s"
+    );
+    // From then on every sample is the machine's.
+    let sources = feed(&mut p, 4.0, 500, 1, pressed_on_the_wall);
+    assert!(sources.iter().all(|s| *s == Source::Uniform), "{sources:?}");
+}
+
+#[test]
+fn adaptive_authority_gives_the_share_back_when_the_operator_progresses() {
+    let scene = Scene::wall_with_hole();
+    let mut p = Planner::new(&scene, adaptive(0.5), 3).expect("p");
+    feed(&mut p, 0.0, 4000, 1, pressed_on_the_wall);
+    assert_eq!(p.authority().machine_share_contact, 1.0);
+    // It slides 8 cm along the wall (new ground): its share is back at once, the contact
+    // samples return.
+    let slid = |t: f64| {
+        let mut u = pressed_on_the_wall(t);
+        let c = u.contact.as_mut().expect("contact");
+        c.proxy.pos.y -= 0.08;
+        c.point_m.y -= 0.08;
+        u.q_user = c.proxy;
+        u
+    };
+    let sources = feed(&mut p, 4.0, 1, 1, slid);
+    let a = p.authority();
+    assert_eq!((a.trust, a.machine_share_contact), (1.0, 0.0), "{a:?}");
+    assert!(a.restores >= 1);
+    assert_eq!(sources, [Source::Contact]);
+    // Free space at full trust: the machine share is α again.
+    let free = |t: f64| crate::UserInput::free(Se3::from_xyz(-0.15, 0.04, 0.0)).at(t);
+    feed(&mut p, 4.001, 1, 1, free);
+    assert_eq!(p.authority().machine_share_free, 0.5);
+}
+
+#[test]
+fn adaptive_authority_is_the_papers_while_the_operator_advances_and_is_deterministic() {
+    // An operator walking towards the hole at 10 cm/s (progress every 0.1 s): the adaptive
+    // planner draws the very samples of the fixed one.
+    let scene = Scene::wall_with_hole();
+    let walking = |t: f64| crate::UserInput::free(Se3::from_xyz(-0.2 + 0.1 * t, 0.0, 0.0)).at(t);
+    let run = |params: PlannerParams| {
+        let mut p = Planner::new(&scene, params, 5).expect("p");
+        let mut reports = Vec::new();
+        for k in 0..1000u32 {
+            let u = walking(f64::from(k) * 1e-3);
+            for _ in 0..3 {
+                reports.push(p.iterate_input(Some(&u)));
+            }
+        }
+        (reports, p.stats().nodes)
+    };
+    let (fixed, fixed_nodes) = run(with(crate::Sampling::Hrrtc { alpha: 0.5 }));
+    let (adapt, adapt_nodes) = run(adaptive(0.5));
+    assert_eq!(fixed_nodes, adapt_nodes);
+    assert!(fixed.iter().zip(&adapt).all(|(f, a)| f.sample == a.sample));
+    // Deterministic per seed and input sequence, stuck or not.
+    let stuck = |seed: u64| {
+        let mut p = Planner::new(&scene, adaptive(0.5), seed).expect("p");
+        let sources = feed(&mut p, 0.0, 2500, 2, pressed_on_the_wall);
+        (sources, p.stats().nodes, p.authority())
+    };
+    assert_eq!(stuck(8), stuck(8));
+    assert_ne!(stuck(8).1, stuck(9).1);
+}
+
+#[test]
+fn an_operator_sample_that_opens_new_ground_restores_the_trust() {
+    // The operator holds still in front of the wall (no progress), then turns the object
+    // 0.6 rad away from the goal's orientation in place: no progress towards the goal, no
+    // new ground, but q_device is now 0.06 weighted m (more than a step) from every node,
+    // and the start tree reaches it: fruit.
+    let scene = Scene::wall_with_hole();
+    let params = PlannerParams {
+        human_mode: crate::HumanMode::Every,
+        ..adaptive(0.0)
+    };
+    let mut p = Planner::new(&scene, params, 2).expect("p");
+    let held = |t: f64| crate::UserInput::free(Se3::from_xyz(-0.15, 0.1, 0.0)).at(t);
+    // Still for the patience and half the ramp: its trust is down to 1/2.
+    let rule = crate::AdaptiveAuthority::default();
+    let still_ms = (1e3 * (rule.patience_s + 0.5 * rule.ramp_s)) as u32;
+    feed(&mut p, 0.0, still_ms, 2, held);
+    let a = p.authority();
+    assert!(a.trust < 1.0 && a.trust > 0.0, "{a:?}");
+    let now = f64::from(still_ms) * 1e-3;
+    let turned = |t: f64| {
+        let rot = nalgebra::UnitQuaternion::from_euler_angles(0.0, 0.0, 0.6);
+        crate::UserInput::free(Se3::new(nalgebra::Vector3::new(-0.15, 0.1, 0.0), rot)).at(t)
+    };
+    // Half the samples are the machine's by now (trust 1/2), and tree A alternates.
+    let mut novel = false;
+    for _ in 0..20 {
+        let r = p.iterate_input(Some(&turned(now)));
+        novel |= r.novel && r.from_user;
+    }
+    assert!(novel, "the start tree reached the turned q_device");
+    let a = p.authority();
+    assert_eq!((a.trust, a.stagnant_s), (1.0, 0.0), "{a:?}");
+    assert_eq!(a.restores, 1);
 }

@@ -155,8 +155,8 @@ impl SimUser {
             self.error = Some(err.slerp(&UnitQuaternion::identity(), CORRECTION_PER_STEP));
         }
         UserInput {
-            q_user: self.proxy,
             contact,
+            ..UserInput::free(self.proxy)
         }
     }
 

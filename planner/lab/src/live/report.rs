@@ -1,6 +1,7 @@
 //! Reports of a live sweep: runs as CSV, a summary per (scene, method) as markdown, and a
 //! plot of every run's time to solve. Medians count an unsolved run at the time limit
-//! (a lower bound then), as the lockstep reports do.
+//! (a lower bound then), as the lockstep reports do; a scene run without its route is
+//! its own scene in the summaries (`tunnels (no route)`).
 
 use super::LiveRun;
 use crate::LabError;
@@ -12,10 +13,12 @@ use std::path::Path;
 /// One (scene, method) of a live sweep.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LiveSummary {
-    /// Scene.
+    /// Scene, with ` (no route)` when its route was removed.
     pub scene: String,
     /// Method.
     pub method: String,
+    /// A planner ran (false: the operator alone).
+    pub planner: bool,
     /// Runs.
     pub runs: usize,
     /// Solved runs.
@@ -43,6 +46,21 @@ pub struct LiveSummary {
     pub max_force_step_n: f64,
     /// Deadline misses over all ticks of the runs.
     pub miss_share: f64,
+    /// Median times the operator was blocked per run.
+    pub median_blocks: f64,
+    /// Median and largest of the runs' compute-time p99.9, µs.
+    pub median_compute_p999_us: f64,
+    /// The largest.
+    pub max_compute_p999_us: f64,
+}
+
+/// The scene of `r` as summaries name it.
+fn scene_label(r: &LiveRun) -> String {
+    if r.route {
+        r.scene.clone()
+    } else {
+        format!("{} (no route)", r.scene)
+    }
 }
 
 /// Groups `runs` by (scene, method) in the order they first appear; `limit_s` stands in
@@ -50,7 +68,7 @@ pub struct LiveSummary {
 pub fn summarize(runs: &[LiveRun], limit_s: f64) -> Vec<LiveSummary> {
     let mut keys: Vec<(String, String)> = Vec::new();
     for r in runs {
-        let k = (r.scene.clone(), r.method.clone());
+        let k = (scene_label(r), r.method.clone());
         if !keys.contains(&k) {
             keys.push(k);
         }
@@ -59,7 +77,7 @@ pub fn summarize(runs: &[LiveRun], limit_s: f64) -> Vec<LiveSummary> {
         .map(|(scene, method)| {
             let g: Vec<&LiveRun> = runs
                 .iter()
-                .filter(|r| r.scene == scene && r.method == method)
+                .filter(|r| scene_label(r) == scene && r.method == method)
                 .collect();
             let or_limit = |v: f64| if v.is_finite() { v } else { limit_s };
             let mut t: Vec<f64> = g
@@ -89,7 +107,13 @@ pub fn summarize(runs: &[LiveRun], limit_s: f64) -> Vec<LiveSummary> {
                 .fold(0.0, f64::max);
             let ticks: u64 = g.iter().map(|r| r.ticks).sum();
             let misses: u64 = g.iter().map(|r| r.deadline_misses).sum();
+            let mut blocks: Vec<f64> = g.iter().map(|r| f64::from(r.blocks)).collect();
+            let mut compute: Vec<f64> = g.iter().map(|r| r.compute_p999_us).collect();
             LiveSummary {
+                planner: g.iter().any(|r| r.planner),
+                median_blocks: median(&mut blocks),
+                median_compute_p999_us: median(&mut compute),
+                max_compute_p999_us: compute.iter().copied().fold(0.0, f64::max),
                 runs: g.len(),
                 solved: g.iter().filter(|r| r.solved).count(),
                 median_time_s: median(&mut t),
@@ -121,16 +145,19 @@ fn num(v: f64, decimals: usize) -> String {
 /// The runs as CSV (header first); missing values are empty fields.
 pub fn to_csv(runs: &[LiveRun]) -> String {
     let mut out = String::from(
-        "scene,method,alpha,input,guidance,operator,seed,solved,time_to_solve_s,nodes,edges,\
-         time_to_goal_s,contact_s,max_penetration_mm,voxel_mm,max_force_step_n,ticks,\
-         deadline_misses,run_s,blocks,corrections,retries\n",
+        "scene,route,method,planner,alpha,input,guidance,operator,seed,solved,time_to_solve_s,\
+         nodes,edges,time_to_goal_s,contact_s,contact_share,max_penetration_mm,voxel_mm,\
+         max_force_step_n,ticks,deadline_misses,compute_p999_us,run_s,blocks,corrections,\
+         retries\n",
     );
     for r in runs {
         let _ = writeln!(
             out,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.scene,
+            r.route,
             r.method,
+            r.planner,
             num(r.alpha, 3),
             match r.input {
                 super::Input::Arm => "arm",
@@ -145,11 +172,13 @@ pub fn to_csv(runs: &[LiveRun]) -> String {
             r.edges,
             num(r.time_to_goal_s, 3),
             num(r.contact_s, 3),
+            num(r.contact_s / r.run_s, 4),
             num(r.max_penetration_mm, 4),
             num(r.voxel_mm, 3),
             num(r.max_force_step_n, 4),
             r.ticks,
             r.deadline_misses,
+            num(r.compute_p999_us, 1),
             num(r.run_s, 2),
             r.blocks,
             r.corrections,
@@ -160,33 +189,53 @@ pub fn to_csv(runs: &[LiveRun]) -> String {
 }
 
 /// The summaries as a markdown table, with each scene's speed-up of every method over
-/// automatic RRT-Connect (ratio of medians) when that was run.
+/// automatic RRT-Connect (ratio of medians of the time to solve) when that was run, and
+/// each method's median time to the goal over the better of `operator-alone` and
+/// `rrt-connect` (the two alone) when both were run.
 pub fn to_markdown(summaries: &[LiveSummary], limit_s: f64) -> String {
     let mut out = format!(
         "Medians over seeds; unsolved runs count at the {limit_s} s limit, an object that \
          never reached the goal at the limit too. Speed-up: automatic RRT-Connect's median \
-         time to solve over the method's, same scene.\n\n\
+         time to solve over the method's, same scene. Goal vs alone: the method's median \
+         time to the goal over the shorter of operator-alone's and rrt-connect's.\n\n\
          | scene | method | solved | median time to solve (s) | speed-up | nodes | edges | \
-         object at goal (s) | goal after solution (s) | in contact | peak penetration \
-         (mm / voxels) | largest force step (N) | deadline misses |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+         object at goal (s) | goal vs alone | goal after solution (s) | in contact | blocks | \
+         peak penetration (mm / voxels) | largest force step (N) | deadline misses | \
+         compute p99.9 (µs, median / max) |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
     );
     for s in summaries {
-        let auto = summaries
-            .iter()
-            .find(|a| a.scene == s.scene && a.method == "rrt-connect");
-        let speedup = auto.map_or(String::new(), |a| {
-            format!("{:.1}×", a.median_time_s / s.median_time_s.max(1e-9))
-        });
+        let median_of = |method: &str| {
+            summaries
+                .iter()
+                .find(|a| a.scene == s.scene && a.method == method)
+        };
+        let speedup = match median_of("rrt-connect") {
+            Some(a) if s.planner => {
+                format!("{:.1}×", a.median_time_s / s.median_time_s.max(1e-9))
+            }
+            _ => String::new(),
+        };
+        let vs_alone = match (median_of("operator-alone"), median_of("rrt-connect")) {
+            (Some(o), Some(r)) => {
+                let best = o.median_goal_s.min(r.median_goal_s);
+                format!("{:.2}", s.median_goal_s / best.max(1e-9))
+            }
+            _ => String::new(),
+        };
+        let (solved, time) = if s.planner {
+            (
+                format!("{}/{}", s.solved, s.runs),
+                format!("{:.2}", s.median_time_s),
+            )
+        } else {
+            (format!("no planner ({})", s.runs), String::new())
+        };
         let _ = writeln!(
             out,
-            "| {} | {} | {}/{} | {:.2} | {} | {:.0} | {:.0} | {:.2} ({}/{}) | {} | {:.0} % | {:.2} / {:.2} | {:.3} | {:.3} % |",
+            "| {} | {} | {solved} | {time} | {speedup} | {:.0} | {:.0} | {:.2} ({}/{}) | {vs_alone} | {} | {:.0} % | {:.0} | {:.2} / {:.2} | {:.3} | {:.3} % | {:.0} / {:.0} |",
             s.scene,
             s.method,
-            s.solved,
-            s.runs,
-            s.median_time_s,
-            speedup,
             s.median_nodes,
             s.median_edges,
             s.median_goal_s,
@@ -194,10 +243,13 @@ pub fn to_markdown(summaries: &[LiveSummary], limit_s: f64) -> String {
             s.runs,
             num(s.median_goal_after_solve_s, 2),
             100.0 * s.median_contact_share,
+            s.median_blocks,
             s.max_penetration_mm,
             s.max_penetration_voxels,
             s.max_force_step_n,
             100.0 * s.miss_share,
+            s.median_compute_p999_us,
+            s.max_compute_p999_us,
         );
     }
     out
@@ -221,9 +273,12 @@ fn draw(runs: &[LiveRun], limit_s: f64, path: &Path) -> PlotResult {
     let summaries = summarize(runs, limit_s);
     let mut scenes: Vec<String> = Vec::new();
     let mut methods: Vec<String> = Vec::new();
+    // The operator alone has no time to solve.
+    let runs: Vec<LiveRun> = runs.iter().filter(|r| r.planner).cloned().collect();
+    let runs = &runs[..];
     for r in runs {
-        if !scenes.contains(&r.scene) {
-            scenes.push(r.scene.clone());
+        if !scenes.contains(&scene_label(r)) {
+            scenes.push(scene_label(r));
         }
         if !methods.contains(&r.method) {
             methods.push(r.method.clone());
@@ -278,7 +333,7 @@ fn draw(runs: &[LiveRun], limit_s: f64, path: &Path) -> PlotResult {
             }
             let pts: Vec<(f64, f64, bool)> = runs
                 .iter()
-                .filter(|r| &r.scene == scene && &r.method == m)
+                .filter(|r| &scene_label(r) == scene && &r.method == m)
                 .enumerate()
                 .map(|(k, r)| {
                     let jitter = ((k % 7) as f64 - 3.0) * 0.04;

@@ -5,6 +5,8 @@ use super::*;
 const SUMMARY: &str = r#"{
   "solved": true, "time_to_solve_s": 4.5, "path_waypoints": 7, "path_length": 0.8,
   "run_s": 6.0, "ticks": 6000, "deadline_misses": 3, "allocations_per_tick": 0.0,
+  "loop_report": {"ticks": 6000, "compute_us": {"p50": 20.0, "p90": 30.0, "p99": 50.0,
+                  "p999": 81.5, "max": 120.0, "count": 6000}},
   "planner_iterations": 1000, "planner_nodes": 250, "planner_trees": 2,
   "planner_id": 1, "planner_switches": 0,
   "contact": {"contact_s": 1.5, "max_penetration_mm": 0.4, "voxel_mm": 1.0, "points": 10,
@@ -16,7 +18,7 @@ const SUMMARY: &str = r#"{
 
 #[test]
 fn method_names_expand_to_demo_options() {
-    let h = LiveMethod::parse("hrrtc", &[0.0, 0.5], 0.5).unwrap();
+    let h = LiveMethod::parse("hrrtc", &[0.0, 0.5], 0.5, "expert").unwrap();
     assert_eq!(h.len(), 2);
     assert_eq!(h[1].name, "hrrtc α=0.5");
     assert_eq!(
@@ -29,43 +31,52 @@ fn method_names_expand_to_demo_options() {
             "--operator",
             "expert",
             "--alpha",
-            "0.5"
+            "0.5",
+            "--planner-args",
+            "--authority fixed"
         ]
     );
-    let m = &LiveMethod::parse("irrtc-mouse", &[], 0.5).unwrap()[0];
+    let m = &LiveMethod::parse("irrtc-mouse", &[], 0.5, "expert").unwrap()[0];
     assert!(
         m.demo_args()
             .windows(2)
             .any(|w| w == ["--device", "sim-spacemouse"])
     );
     assert_eq!(m.alpha, Some(0.0));
-    let g = &LiveMethod::parse("hrrtc-noguide", &[], 0.3).unwrap()[0];
+    let g = &LiveMethod::parse("hrrtc-noguide", &[], 0.3, "expert").unwrap()[0];
     assert!(g.demo_args().contains(&"--no-guidance".to_owned()));
     assert_eq!(g.alpha, Some(0.3));
-    let p = LiveMethod::parse("hrrtc-paper", &[0.1, 0.9], 0.5).unwrap();
+    let p = LiveMethod::parse("hrrtc-paper", &[0.1, 0.9], 0.5, "expert").unwrap();
     assert_eq!(p.len(), 2);
     assert_eq!(p[1].name, "hrrtc-paper α=0.9");
     let args = p[0].demo_args().join(" ");
-    assert!(args.contains("--human-mode every"), "{args}");
-    let a = &LiveMethod::parse("rrt-connect", &[], 0.5).unwrap()[0];
+    assert!(
+        args.contains("--planner-args --authority fixed --human-mode every"),
+        "{args}"
+    );
+    let a = &LiveMethod::parse("rrt-connect", &[], 0.5, "expert").unwrap()[0];
     assert_eq!(a.sampling, "cs");
     for name in METHOD_NAMES {
         assert!(
-            !LiveMethod::parse(name, &[0.1], 0.5).unwrap().is_empty(),
+            !LiveMethod::parse(name, &[0.1], 0.5, "expert")
+                .unwrap()
+                .is_empty(),
             "{name}"
         );
     }
-    let e = LiveMethod::parse("rrt*", &[], 0.5).unwrap_err().to_string();
+    let e = LiveMethod::parse("rrt*", &[], 0.5, "expert")
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("rrt*") && e.contains("hrrtc"), "{e}");
 }
 
 fn run(method: &LiveMethod, seed: u64, text: &str) -> LiveRun {
-    LiveRun::from_summary("tunnels", method, seed, text, "s.json").unwrap()
+    LiveRun::from_summary("tunnels", true, method, seed, text, "s.json").unwrap()
 }
 
 #[test]
 fn a_summary_becomes_a_run_and_bad_ones_are_named() {
-    let m = &LiveMethod::parse("hrrtc", &[0.1], 0.5).unwrap()[0];
+    let m = &LiveMethod::parse("hrrtc", &[0.1], 0.5, "expert").unwrap()[0];
     let r = run(m, 3, SUMMARY);
     assert!(r.solved);
     assert_eq!(r.time_to_solve_s, 4.5);
@@ -74,7 +85,9 @@ fn a_summary_becomes_a_run_and_bad_ones_are_named() {
     assert_eq!(r.max_penetration_mm, 0.4);
     assert_eq!(r.alpha, 0.1);
     assert_eq!((r.blocks, r.corrections, r.retries), (2, 1, 1));
-    let e = LiveRun::from_summary("t", m, 1, "{\"solved\": true}", "bad.json")
+    assert_eq!(r.compute_p999_us, 81.5);
+    assert!(r.route && r.planner);
+    let e = LiveRun::from_summary("t", true, m, 1, "{\"solved\": true}", "bad.json")
         .unwrap_err()
         .to_string();
     assert!(e.contains("bad.json") && e.contains("missing field"), "{e}");
@@ -89,8 +102,8 @@ fn a_summary_becomes_a_run_and_bad_ones_are_named() {
 
 #[test]
 fn summaries_count_unsolved_at_the_limit_and_csv_is_well_formed() {
-    let auto = &LiveMethod::parse("rrt-connect", &[], 0.5).unwrap()[0];
-    let h = &LiveMethod::parse("hrrtc", &[0.1], 0.5).unwrap()[0];
+    let auto = &LiveMethod::parse("rrt-connect", &[], 0.5, "expert").unwrap()[0];
+    let h = &LiveMethod::parse("hrrtc", &[0.1], 0.5, "expert").unwrap()[0];
     let slow = SUMMARY.replace("\"time_to_solve_s\": 4.5", "\"time_to_solve_s\": 20.0");
     let unsolved = SUMMARY
         .replace("\"solved\": true", "\"solved\": false")
@@ -114,6 +127,10 @@ fn summaries_count_unsolved_at_the_limit_and_csv_is_well_formed() {
         md.contains("| tunnels | hrrtc α=0.1 | 2/2 | 4.50 | 4.4× |"),
         "{md}"
     );
+    assert!(
+        md.contains("| 2 | 0.40 / 0.40 | 0.300 | 0.050 % | 82 / 82 |"),
+        "{md}"
+    );
     let csv = to_csv(&runs);
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines.len(), 6);
@@ -131,11 +148,124 @@ fn summaries_count_unsolved_at_the_limit_and_csv_is_well_formed() {
 
 #[test]
 fn an_unknown_method_is_named_with_every_known_one() {
-    let e = LiveMethod::parse("hrrtc-fast", &[0.5], 0.5)
+    let e = LiveMethod::parse("hrrtc-fast", &[0.5], 0.5, "expert")
         .unwrap_err()
         .to_string();
     assert!(e.contains("`hrrtc-fast`"), "{e}");
     for name in METHOD_NAMES {
         assert!(e.contains(name), "{name} missing from: {e}");
     }
+}
+
+#[test]
+fn the_issue_32_methods_and_the_operator_pass_through() {
+    let alone = &LiveMethod::parse("operator-alone", &[0.5], 0.5, "newcomer").unwrap()[0];
+    assert!(!alone.planner && !alone.guidance);
+    assert_eq!(
+        alone.demo_args(),
+        ["--no-planner", "--device", "sim", "--operator", "newcomer"]
+    );
+    let auto = &LiveMethod::parse("rrt-connect", &[0.5], 0.5, "newcomer").unwrap()[0];
+    assert_eq!(
+        auto.demo_args(),
+        [
+            "--sampling",
+            "cs",
+            "--device",
+            "sim",
+            "--operator",
+            "newcomer"
+        ]
+    );
+    let fixed = LiveMethod::parse("hrrtc-fixed", &[0.1, 0.5], 0.5, "novice").unwrap();
+    assert_eq!(fixed.len(), 2);
+    assert_eq!(fixed[0].name, "hrrtc-fixed α=0.1");
+    let args = fixed[1].demo_args().join(" ");
+    assert!(
+        args.ends_with("--operator novice --alpha 0.5 --planner-args --authority fixed"),
+        "{args}"
+    );
+    let adaptive = &LiveMethod::parse("hrrtc-adaptive", &[0.5], 0.5, "expert").unwrap()[0];
+    assert_eq!(adaptive.name, "hrrtc-adaptive α=0.5");
+    let args = adaptive.demo_args().join(" ");
+    assert!(
+        args.ends_with("--planner-args --authority adaptive"),
+        "{args}"
+    );
+    // A method that names its operator keeps it.
+    let novice = &LiveMethod::parse("hrrtc-novice", &[], 0.5, "newcomer").unwrap()[0];
+    assert_eq!(novice.operator, "novice");
+}
+
+#[test]
+fn the_operator_alone_is_its_own_row_and_goal_times_compare_with_both_alone() {
+    let alone = &LiveMethod::parse("operator-alone", &[], 0.5, "expert").unwrap()[0];
+    let auto = &LiveMethod::parse("rrt-connect", &[], 0.5, "expert").unwrap()[0];
+    let h = &LiveMethod::parse("hrrtc-adaptive", &[0.5], 0.5, "expert").unwrap()[0];
+    let unsolved = SUMMARY
+        .replace("\"solved\": true", "\"solved\": false")
+        .replace("\"time_to_solve_s\": 4.5", "\"time_to_solve_s\": null");
+    let at = |t: f64| {
+        unsolved.replace(
+            "\"time_to_goal_s\": 5.25",
+            &format!("\"time_to_goal_s\": {t}"),
+        )
+    };
+    let no_route = |m: &LiveMethod, seed: u64, text: &str| {
+        LiveRun::from_summary("tunnels", false, m, seed, text, "s.json").unwrap()
+    };
+    let runs = vec![
+        no_route(alone, 1, &at(20.0)),
+        no_route(auto, 1, &SUMMARY.replace("5.25", "12.0")),
+        no_route(h, 1, &SUMMARY.replace("5.25", "3.0")),
+    ];
+    assert!(!runs[0].route && !runs[0].planner);
+    let s = summarize(&runs, 60.0);
+    assert_eq!(s[0].scene, "tunnels (no route)");
+    let md = to_markdown(&s, 60.0);
+    assert!(
+        md.contains("| tunnels (no route) | operator-alone | no planner (1) |  |  |"),
+        "{md}"
+    );
+    // 3 s against the better alone, rrt-connect's 12 s.
+    assert!(
+        md.contains("| tunnels (no route) | hrrtc-adaptive α=0.5 | 1/1 | 4.50 | 1.0× | 250 | 248 | 3.00 (1/1) | 0.25 |"),
+        "{md}"
+    );
+    let csv = to_csv(&runs);
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    for col in [
+        "route",
+        "planner",
+        "contact_share",
+        "compute_p999_us",
+        "blocks",
+    ] {
+        assert!(header.contains(&col), "{col}");
+    }
+    let row: Vec<&str> = csv.lines().nth(1).unwrap().split(',').collect();
+    let col = |name: &str| row[header.iter().position(|c| *c == name).unwrap()];
+    assert_eq!((col("route"), col("planner")), ("false", "false"));
+    assert_eq!(col("contact_share"), "0.2500");
+    assert_eq!(col("compute_p999_us"), "81.5");
+}
+
+#[test]
+fn a_scene_without_its_route_is_written_with_its_meshes() {
+    let dir = std::env::temp_dir().join(format!("lab-no-route-{}", std::process::id()));
+    for name in ["tunnels", "bug-trap"] {
+        let with = scene::Scene::builtin(name).unwrap();
+        assert!(!with.route.is_empty(), "{name} has a route");
+        let path = write_without_route(name, &dir).unwrap();
+        let back = scene::Scene::load(&path).unwrap();
+        assert!(back.route.is_empty(), "{name}");
+        assert_eq!(
+            (back.start, back.goal, back.obstacles.len()),
+            (with.start, with.goal, with.obstacles.len()),
+            "{name}"
+        );
+    }
+    let e = write_without_route("no-such-scene", &dir).unwrap_err();
+    assert!(e.to_string().contains("no-such-scene"), "{e}");
+    let _ = std::fs::remove_dir_all(dir);
 }

@@ -122,9 +122,28 @@ pub struct SamplingArgs {
     #[arg(long, default_value = "hrrtc",
           value_parser = ["cs", "pos", "path", "pos+cs", "path+cs", "hrrtc"])]
     pub sampling: String,
-    /// α of H-RRT-C: share of machine (uniform) samples in free space, in [0, 1].
+    /// α of H-RRT-C: share of machine (uniform) samples in free space, in [0, 1] (with
+    /// `--authority adaptive`: while the operator progresses).
     #[arg(long, default_value_t = 0.5)]
     pub alpha: f64,
+    /// H-RRT-C's authority sharing: `fixed` (the paper's α: in contact only contact
+    /// samples, in free space α machine samples, whatever the operator does) or `adaptive`
+    /// (α while the operator progresses; after --authority-patience-s without progress
+    /// the machine share rises over --authority-ramp-s to --authority-max-machine, in
+    /// contact too; back at once when the operator progresses again) [default: fixed].
+    #[arg(long, value_parser = ["fixed", "adaptive"])]
+    pub authority: Option<String>,
+    /// Adaptive authority: seconds without progress (towards the goal, on new ground, or
+    /// samples that open new ground for the trees) before the operator's share falls.
+    #[arg(long, default_value_t = 0.5)]
+    pub authority_patience_s: f64,
+    /// Adaptive authority: seconds over which the machine share then rises to its cap.
+    #[arg(long, default_value_t = 0.5)]
+    pub authority_ramp_s: f64,
+    /// Adaptive authority: the machine share of a stuck operator, in [0, 1] (1: every
+    /// sample is the machine's).
+    #[arg(long, default_value_t = 1.0)]
+    pub authority_max_machine: f64,
     /// β of the +CS methods: one sample in β is uniform (I-RRT uses 3), >= 1.
     #[arg(long, default_value_t = 3.0)]
     pub beta: f64,
@@ -164,10 +183,42 @@ impl SamplingArgs {
             planner::HumanMode::Fresh
         };
         params.local_trees = self.local_trees;
+        params.authority = self.authority(params.sampling)?;
         params.validate()?;
         Ok(())
     }
+
+    /// `--authority` and its parameters, checked; an adaptive authority only for H-RRT-C.
+    fn authority(&self, sampling: planner::Sampling) -> anyhow::Result<planner::Authority> {
+        let hrrtc = matches!(sampling, planner::Sampling::Hrrtc { .. });
+        let name = match self.authority.as_deref() {
+            Some(name) => name,
+            None => DEFAULT_AUTHORITY,
+        };
+        if name == "fixed" || (!hrrtc && self.authority.is_none()) {
+            return Ok(planner::Authority::Fixed);
+        }
+        if !hrrtc {
+            bail!(
+                "--authority {name}: authority sharing is H-RRT-C's (--sampling hrrtc), not --sampling {}",
+                self.sampling
+            );
+        }
+        let max = self.authority_max_machine;
+        if !(0.0..=1.0).contains(&max) {
+            bail!("--authority-max-machine must be in [0, 1], got {max}");
+        }
+        Ok(planner::Authority::Adaptive(planner::AdaptiveAuthority {
+            patience_s: positive("authority-patience-s", self.authority_patience_s)?,
+            ramp_s: positive("authority-ramp-s", self.authority_ramp_s)?,
+            max_machine_share: max,
+            ..planner::AdaptiveAuthority::default()
+        }))
+    }
 }
+
+/// H-RRT-C's authority when `--authority` is not given.
+pub const DEFAULT_AUTHORITY: &str = "fixed";
 
 /// `v` if it is finite and > 0; the error names the flag `--name`.
 pub fn positive(name: &str, v: f64) -> anyhow::Result<f64> {
@@ -210,5 +261,56 @@ pub fn log_mesh_repairs(scene: &Scene) {
         } else {
             tracing::info!("{line}");
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        sampling: SamplingArgs,
+    }
+
+    fn apply(args: &[&str]) -> anyhow::Result<PlannerParams> {
+        let cli = Cli::try_parse_from(std::iter::once("t").chain(args.iter().copied()))?;
+        let mut params = PlannerParams::default();
+        cli.sampling.apply(&mut params)?;
+        Ok(params)
+    }
+
+    #[test]
+    fn authority_flags_become_params_and_bad_ones_are_named() {
+        let p = apply(&["--authority", "adaptive", "--authority-ramp-s", "2"]).unwrap();
+        match p.authority {
+            planner::Authority::Adaptive(a) => {
+                assert_eq!(
+                    (a.patience_s, a.ramp_s, a.max_machine_share),
+                    (0.5, 2.0, 1.0)
+                )
+            }
+            other => panic!("{other:?}"),
+        }
+        let p = apply(&["--authority", "fixed", "--alpha", "0.2"]).unwrap();
+        assert_eq!(p.authority, planner::Authority::Fixed);
+        assert_eq!(p.sampling, planner::Sampling::Hrrtc { alpha: 0.2 });
+        // Automatic planning has no authority to share: fixed, unless asked otherwise.
+        let p = apply(&["--sampling", "cs"]).unwrap();
+        assert_eq!(p.authority, planner::Authority::Fixed);
+        let e = apply(&["--sampling", "cs", "--authority", "adaptive"]).unwrap_err();
+        assert!(e.to_string().contains("--authority adaptive"), "{e}");
+        for (flag, v) in [
+            ("--authority-patience-s", "0"),
+            ("--authority-ramp-s", "nan"),
+            ("--authority-max-machine", "1.5"),
+        ] {
+            let e = apply(&["--authority", "adaptive", flag, v]).unwrap_err();
+            assert!(e.to_string().contains(&flag[2..]), "{flag}: {e}");
+        }
+        let e = apply(&["--authority", "sometimes"]).unwrap_err();
+        assert!(e.to_string().contains("--authority"), "{e}");
     }
 }

@@ -51,11 +51,14 @@ pub struct ExperimentArgs {
     /// hrrtc, live: α values (share of machine samples), comma-separated.
     #[arg(long, default_value = "0,0.1,0.5,0.9", value_delimiter = ',')]
     pub alphas: Vec<f64>,
-    /// live: methods, comma-separated: rrt-connect (automatic), pos+cs, path (I-RRT),
-    /// irrtc-mouse (contact sampling at α = 0 with the SpaceMouse operator), hrrtc (the
-    /// arm, one run per --alphas), hrrtc-paper (the same with the paper's human mode,
-    /// `--human-mode every`), hrrtc-noguide, hrrtc-novice, hrrtc-novice-noguide, hrrtc-mouse,
-    /// hrrtc-shared (the novice, keeping α in contact) (at --guide-alpha).
+    /// live: methods, comma-separated: operator-alone (no planner), rrt-connect
+    /// (automatic; its path's guidance then leads the operator), hrrtc-fixed (the paper's
+    /// fixed α) and hrrtc-adaptive (authority that adapts to a stuck operator), one run
+    /// per --alphas each; pos+cs, path (I-RRT), irrtc-mouse (contact sampling at α = 0 with
+    /// the SpaceMouse operator), hrrtc (fixed α, as hrrtc-fixed, the name of the earlier
+    /// sweeps), hrrtc-paper (the same with the paper's human mode, `--human-mode every`),
+    /// hrrtc-noguide, hrrtc-novice, hrrtc-novice-noguide, hrrtc-mouse, hrrtc-shared (the
+    /// novice, keeping α in contact) (at --guide-alpha).
     #[arg(
         long,
         default_value = "rrt-connect,pos+cs,path,irrtc-mouse,hrrtc,hrrtc-noguide",
@@ -68,6 +71,15 @@ pub struct ExperimentArgs {
     /// live: the haptic-loop executable [default: `haptic-loop` beside this executable].
     #[arg(long)]
     pub haptic_loop_exe: Option<PathBuf>,
+    /// live: the simulated operator of every method that does not name its own (the
+    /// -novice ones), passed on to `haptic-loop demo --operator`, which checks the name
+    /// (expert, novice, ...) [default: expert].
+    #[arg(long, value_name = "NAME")]
+    pub operator: Option<String>,
+    /// live: run each scene without its `[[route]]`, as a user's own scene: copies of the
+    /// scenes without it are written to OUT/scenes-no-route/ and the sessions run on them.
+    #[arg(long)]
+    pub no_route: bool,
     /// hrrtc: operator speed ε_v, weighted m per iteration.
     #[arg(long, default_value_t = 0.001)]
     pub hrrtc_eps: f64,

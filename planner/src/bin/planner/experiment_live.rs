@@ -1,8 +1,10 @@
 //! `planner experiment live`: real sessions of the two processes, one per scene × method ×
 //! seed: `haptic-loop demo` runs the loop at its rate with contact on the simulated arm (or
 //! SpaceMouse) held by the simulated operator, and starts this planner as its own process.
-//! Each session's `--summary-json` becomes a row of OUT/runs.csv (written after every run,
-//! so an interrupted sweep keeps what it did); OUT/summary.md and OUT/live.png at the end.
+//! Sessions run scene by scene, and within a scene seed by seed with every method of a
+//! seed back to back. Each session's `--summary-json` becomes a row of OUT/runs.csv
+//! (written after every run, so an interrupted sweep keeps what it did); OUT/summary.md
+//! and OUT/live.png at the end.
 //! The methods, rows and reports are `lab::live`'s; this file starts and stops processes.
 
 use crate::experiment::ExperimentArgs;
@@ -19,7 +21,13 @@ const GRACE_S: f64 = 60.0;
 
 /// A validated live sweep.
 struct LiveSweep {
+    /// The scenes as given (names in the reports).
     scenes: Vec<String>,
+    /// What the demo is given for each scene: the scene itself, or its copy without a
+    /// route (`--no-route`).
+    scene_args: Vec<String>,
+    /// The scenes keep their routes.
+    route: bool,
     methods: Vec<LiveMethod>,
     seeds: u64,
     time_limit_s: f64,
@@ -41,9 +49,13 @@ fn sweep_of(a: &ExperimentArgs) -> anyhow::Result<LiveSweep> {
     for s in &a.scenes {
         scene::Scene::by_name_or_path(s).with_context(|| format!("--scenes: {s}"))?;
     }
+    let operator = a.operator.as_deref().unwrap_or(live::DEFAULT_OPERATOR);
+    if operator.is_empty() || operator.contains(char::is_whitespace) {
+        bail!("--operator {operator:?}: expected a preset name such as expert or novice");
+    }
     let mut methods = Vec::new();
     for m in &a.live_methods {
-        methods.extend(LiveMethod::parse(m, &a.alphas, a.guide_alpha)?);
+        methods.extend(LiveMethod::parse(m, &a.alphas, a.guide_alpha, operator)?);
     }
     if methods.is_empty() {
         bail!("--live-methods: no method given");
@@ -63,8 +75,23 @@ fn sweep_of(a: &ExperimentArgs) -> anyhow::Result<LiveSweep> {
             exe.display()
         );
     }
+    let scene_args = if a.no_route {
+        let dir = a.out.join("scenes-no-route");
+        a.scenes
+            .iter()
+            .map(|s| {
+                live::write_without_route(s, &dir)
+                    .map(|p| p.display().to_string())
+                    .with_context(|| format!("--no-route: cannot write {s} without its route"))
+            })
+            .collect::<anyhow::Result<Vec<_>>>()?
+    } else {
+        a.scenes.clone()
+    };
     Ok(LiveSweep {
         scenes: a.scenes.clone(),
+        scene_args,
+        route: !a.no_route,
         methods,
         seeds,
         time_limit_s,
@@ -89,6 +116,7 @@ fn stop(child: &mut Child) {
 fn session(
     sweep: &LiveSweep,
     scene: &str,
+    scene_arg: &str,
     method: &LiveMethod,
     seed: u64,
     tag: &str,
@@ -103,7 +131,7 @@ fn session(
     ipc_types::startup::hold_resources();
     let mut cmd = Command::new(&sweep.exe);
     cmd.arg("demo")
-        .args(["--scene", scene])
+        .args(["--scene", scene_arg])
         .args(["--seed", &seed.to_string()])
         .args(["--time-limit-s", &sweep.time_limit_s.to_string()])
         .args(["--until-goal", "--after-solve-s", "0.5"])
@@ -135,16 +163,33 @@ fn session(
                 .with_context(|| format!("{} wrote no summary ({})", tag, log.display()))?;
             let origin = summary.display().to_string();
             Ok(Some(LiveRun::from_summary(
-                scene, method, seed, &text, &origin,
+                scene,
+                sweep.route,
+                method,
+                seed,
+                &text,
+                &origin,
             )?))
         }
         Some(st) => bail!(
-            "haptic-loop demo failed ({st}) for {scene} / {} / seed {seed}: see {}",
+            "haptic-loop demo failed ({st}) for {scene} / {} / seed {seed}: {}(see {})",
             method.name,
+            last_error(&log),
             log.display()
         ),
         None => Ok(None),
     }
+}
+
+/// The demo's own error line from its log (e.g. clap's on an unknown `--operator`), with
+/// a trailing space; empty when there is none.
+fn last_error(log: &Path) -> String {
+    let text = std::fs::read_to_string(log).unwrap_or_default();
+    text.lines()
+        .rev()
+        .find(|l| l.starts_with("error:") || l.contains("haptic-loop: "))
+        .map(|l| format!("{} ", l.trim()))
+        .unwrap_or_default()
 }
 
 fn write(path: &Path, text: &str) -> anyhow::Result<()> {
@@ -183,14 +228,16 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<i32> {
     );
     let csv = sweep.out.join("runs.csv");
     let mut runs: Vec<LiveRun> = Vec::new();
-    'all: for scene in &sweep.scenes {
-        for method in &sweep.methods {
-            for seed in 1..=sweep.seeds {
+    // Every method of a seed back to back: a change of the machine's load (it is shared)
+    // then falls on all methods alike rather than on one.
+    'all: for (scene, scene_arg) in sweep.scenes.iter().zip(&sweep.scene_args) {
+        for seed in 1..=sweep.seeds {
+            for method in &sweep.methods {
                 if cancel.load(std::sync::atomic::Ordering::Acquire) {
                     break 'all;
                 }
                 let t = tag(scene, &method.name, seed);
-                match session(&sweep, scene, method, seed, &t, &cancel)? {
+                match session(&sweep, scene, scene_arg, method, seed, &t, &cancel)? {
                     Some(r) => {
                         bar.set_message(format!(
                             "{scene} {} seed {seed}: {}",

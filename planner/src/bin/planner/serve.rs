@@ -31,6 +31,17 @@ pub struct ServeArgs {
     /// k for the torque part of F_s = k·F_a, N·m per rad.
     #[arg(long, default_value_t = 0.05)]
     pub gain_nm_per_rad: f64,
+    /// Once solved, the guidance leads along the path: a spring towards a carrot ahead on
+    /// it whose pull saturates at this force, N (at 5 cm from the carrot; 40 N/m at the
+    /// default). Keep it within what the loop renders: 0.4 × the device's maximum force
+    /// (3.2 N for the simulated arm).
+    #[arg(long, default_value_t = 2.0)]
+    pub lead_force_n: f64,
+    /// Once solved, the torque towards the path's orientation at the carrot saturates at
+    /// this, N·m (at 0.5 rad; 0.2 N·m/rad at the default). The loop renders up to 0.4 ×
+    /// the device's maximum torque (0.2 N·m for the simulated arm).
+    #[arg(long, default_value_t = 0.1)]
+    pub lead_torque_nm: f64,
     /// Time-to-live of each guidance sample, ms; the loop fades it out after that.
     #[arg(long, default_value_t = 100.0)]
     pub ttl_ms: f64,
@@ -137,6 +148,8 @@ impl ServeArgs {
             guidance_rate_hz: positive("guidance-rate-hz", self.guidance_rate_hz)?,
             gain_n_per_m: non_negative("gain-n-per-m", self.gain_n_per_m)?,
             gain_nm_per_rad: non_negative("gain-nm-per-rad", self.gain_nm_per_rad)?,
+            lead_force_n: non_negative("lead-force-n", self.lead_force_n)?,
+            lead_torque_nm: non_negative("lead-torque-nm", self.lead_torque_nm)?,
             ttl_s: positive("ttl-ms", self.ttl_ms)? / 1000.0,
             state_poll_hz: positive("poll-hz", self.poll_hz)?,
             state_spin_us: {
