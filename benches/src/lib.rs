@@ -1,6 +1,7 @@
 //! Shared fixtures of the benchmarks (criterion benches in `benches/`, harness binaries in
 //! `src/bin/`).
 
+pub mod across;
 pub mod contact_fixture;
 pub mod edges;
 mod error;

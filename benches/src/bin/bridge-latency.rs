@@ -147,30 +147,13 @@ fn main() -> anyhow::Result<()> {
         args.seconds > 0.0 && args.rate_hz > 0.0 && args.guidance_rate_hz > 0.0,
         "--seconds, --rate-hz and --guidance-rate-hz must be positive"
     );
-    let bridge = match &args.bridge {
-        Some(p) => p.clone(),
-        None => std::env::current_exe()?
-            .parent()
-            .context("this executable's folder")?
-            .join("hrrtc-bridge"),
-    };
-    if !bridge.exists() {
-        bail!(
-            "{} not found: build it (`cargo build --release -p hrrtc-bridge`) or give --bridge",
-            bridge.display()
-        );
-    }
-    let _cpu_latency = if args.no_cpu_latency_request {
-        None
-    } else {
-        match haptic_loop::rt::CpuLatencyRequest::open(0) {
-            Ok(r) => Some(r),
-            Err(e) => {
-                eprintln!("no CPU wake-up latency request (/dev/cpu_dma_latency: {e})");
-                None
-            }
-        }
-    };
+    let bridge = benches::across::sibling_exe(
+        args.bridge.as_deref(),
+        "hrrtc-bridge",
+        "hrrtc-bridge",
+        "--bridge",
+    )?;
+    let _cpu_latency = benches::across::cpu_latency_request(args.no_cpu_latency_request);
     let mut rounds = Vec::new();
     for r in 0..args.rounds {
         let (state, guidance) = one_round(&args, &bridge, 17_600 + 4 * r as u16, r)?;
@@ -248,23 +231,6 @@ fn print_round(r: u32, round: &Round) {
         round.state_ratio_one_process_p50,
         round.guidance_ratio_one_process_p50
     );
-}
-
-fn zenoh_session(listen: Option<u16>, connect: Option<u16>) -> anyhow::Result<zenoh::Session> {
-    let mut c = zenoh::Config::default();
-    let list = |p: Option<u16>| p.map_or("[]".to_owned(), |p| format!("[\"tcp/127.0.0.1:{p}\"]"));
-    for (k, v) in [
-        ("mode", "\"peer\"".to_owned()),
-        ("scouting/multicast/enabled", "false".to_owned()),
-        ("listen/endpoints", list(listen)),
-        ("connect/endpoints", list(connect)),
-    ] {
-        c.insert_json5(k, &v)
-            .map_err(|e| anyhow::anyhow!("{k}: {e}"))?;
-    }
-    zenoh::open(c)
-        .wait()
-        .map_err(|e| anyhow::anyhow!("zenoh: {e}"))
 }
 
 fn publisher(
@@ -374,7 +340,7 @@ impl Drop for ChildSubscriber {
 /// The child of [`ChildSubscriber`]: subscribes, says `ready`, and prints its latencies as
 /// JSON once its standard input closes.
 fn bare_rx(port: u16, key: &str) -> anyhow::Result<()> {
-    let session = zenoh_session(None, Some(port))?;
+    let session = benches::across::zenoh_session(None, Some(port))?;
     let (sub, hist) = stamped_subscriber(&session, key)?;
     println!("ready");
     std::io::stdout().flush()?;
@@ -449,9 +415,9 @@ fn one_round(
     let _a = spawn("loop", &ns_a, "--listen")?;
     std::thread::sleep(Duration::from_millis(300));
     let _b = spawn("planner", &ns_b, "--connect")?;
-    let bare_tx = zenoh_session(Some(bare_port), None)?;
-    let bare_rx_session = zenoh_session(None, Some(bare_port))?;
-    let bare2_tx = zenoh_session(Some(bare2_port), None)?;
+    let bare_tx = benches::across::zenoh_session(Some(bare_port), None)?;
+    let bare_rx_session = benches::across::zenoh_session(None, Some(bare_port))?;
+    let bare2_tx = benches::across::zenoh_session(Some(bare2_port), None)?;
     std::thread::sleep(Duration::from_millis(1500));
 
     // State: one path at a time (the bridged path's reader spins on a core).

@@ -23,7 +23,7 @@
 //!
 //! `cargo build --release -p hrrtc-ros2 -p benches && target/release/ros2-latency --seconds 5`
 
-use anyhow::{Context, bail};
+use anyhow::Context;
 use clap::Parser;
 use hrrtc_ros2::clock::Clocks;
 use hrrtc_ros2::msgs::{Message, PoseStamped, TfMessage};
@@ -114,30 +114,13 @@ fn main() -> anyhow::Result<()> {
         args.seconds > 0.0 && args.rate_hz > 0.0 && args.rounds > 0,
         "--seconds, --rate-hz and --rounds must be positive"
     );
-    let gateway = match &args.gateway {
-        Some(p) => p.clone(),
-        None => std::env::current_exe()?
-            .parent()
-            .context("this executable's folder")?
-            .join("hrrtc-ros2"),
-    };
-    if !gateway.exists() {
-        bail!(
-            "{} not found: build it (`cargo build --release -p hrrtc-ros2`) or give --gateway",
-            gateway.display()
-        );
-    }
-    let _cpu_latency = if args.no_cpu_latency_request {
-        None
-    } else {
-        match haptic_loop::rt::CpuLatencyRequest::open(0) {
-            Ok(r) => Some(r),
-            Err(e) => {
-                eprintln!("no CPU wake-up latency request (/dev/cpu_dma_latency: {e})");
-                None
-            }
-        }
-    };
+    let gateway = benches::across::sibling_exe(
+        args.gateway.as_deref(),
+        "hrrtc-ros2",
+        "hrrtc-ros2",
+        "--gateway",
+    )?;
+    let _cpu_latency = benches::across::cpu_latency_request(args.no_cpu_latency_request);
     let mut rounds = Vec::new();
     let mut payload_bytes = 0;
     for r in 0..args.rounds {
@@ -200,26 +183,9 @@ fn print_round(r: u32, round: &Round) {
     );
 }
 
-fn session(listen: Option<u16>, connect: Option<u16>) -> anyhow::Result<zenoh::Session> {
-    let mut c = zenoh::Config::default();
-    let list = |p: Option<u16>| p.map_or("[]".to_owned(), |p| format!("[\"tcp/127.0.0.1:{p}\"]"));
-    for (k, v) in [
-        ("mode", "\"peer\"".to_owned()),
-        ("scouting/multicast/enabled", "false".to_owned()),
-        ("listen/endpoints", list(listen)),
-        ("connect/endpoints", list(connect)),
-    ] {
-        c.insert_json5(k, &v)
-            .map_err(|e| anyhow::anyhow!("{k}: {e}"))?;
-    }
-    zenoh::open(c)
-        .wait()
-        .map_err(|e| anyhow::anyhow!("zenoh: {e}"))
-}
-
 /// The child: puts `bare_count` stamped payloads, each half a period after a write.
 fn bare_pub(args: &Args, port: u16) -> anyhow::Result<()> {
-    let s = session(None, Some(port))?;
+    let s = benches::across::zenoh_session(None, Some(port))?;
     let p = s
         .declare_publisher(args.bare_key.clone())
         .congestion_control(CongestionControl::Drop)
@@ -326,7 +292,7 @@ fn one_round(args: &Args, gateway: &std::path::Path, round: u32) -> anyhow::Resu
             .with_context(|| format!("starting {}", gateway.display()))?,
     );
     std::thread::sleep(Duration::from_millis(500));
-    let z = session(Some(bare_port), Some(ros_port))?;
+    let z = benches::across::zenoh_session(Some(bare_port), Some(ros_port))?;
     let key = |topic: &str, ty| rmw::topic_key(0, topic, &TypeInfo::of(ty, Distro::Jazzy));
     let first = Recorder::new();
     let last = Recorder::new();

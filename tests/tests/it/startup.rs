@@ -47,6 +47,7 @@ fn sphere_scene(tag: &str, triangles: u32, radius_m: f64) -> (PathBuf, PathBuf) 
 struct Watched {
     child: Child,
     err: Arc<Mutex<String>>,
+    reader: std::thread::JoinHandle<()>,
 }
 
 impl Watched {
@@ -60,14 +61,14 @@ impl Watched {
         let err = Arc::new(Mutex::new(String::new()));
         let stderr = child.stderr.take().expect("piped stderr");
         let sink = err.clone();
-        std::thread::spawn(move || {
+        let reader = std::thread::spawn(move || {
             for line in BufReader::new(stderr).lines().map_while(Result::ok) {
                 let mut s = sink.lock().unwrap();
                 s.push_str(&line);
                 s.push('\n');
             }
         });
-        Watched { child, err }
+        Watched { child, err, reader }
     }
 
     fn stderr(&self) -> String {
@@ -91,7 +92,13 @@ impl Watched {
         let status = wait_for("exit", Duration::from_secs(30), || {
             self.child.try_wait().ok().flatten()
         });
-        (status.code(), sent.elapsed())
+        let took = sent.elapsed();
+        // Its last lines may still be in the pipe when it has exited: read to the end (the
+        // pipe closes with the process; nothing it started holds it at this stage).
+        wait_for("the end of its stderr", Duration::from_secs(10), || {
+            self.reader.is_finished().then_some(())
+        });
+        (status.code(), took)
     }
 }
 
