@@ -219,6 +219,44 @@ pub struct Voxmap {
 }
 
 impl Voxmap {
+    /// A voxmap of its stored parts, built or read back, with what follows from them (the
+    /// inverse voxel size, the grid's extent, the report's sizes) derived in one place. The
+    /// report's times and band memory are zero: the caller says how the voxmap came about.
+    fn from_parts(
+        origin: Vector3<f64>,
+        h: f64,
+        blocks: [usize; 3],
+        index: Vec<u32>,
+        block_distance: Vec<u16>,
+        data: Vec<i16>,
+        layers_out: u32,
+    ) -> Self {
+        let cells = blocks.map(|b| b * B);
+        let report = VoxmapReport {
+            voxel_m: h,
+            dims_voxels: cells,
+            stored_blocks: data.len() / BLOCK_NODES,
+            total_blocks: index.len(),
+            memory_bytes: index.len() * 4 + block_distance.len() * 2 + data.len() * 2,
+            dense_bytes: (cells[0] + 1) * (cells[1] + 1) * (cells[2] + 1) * 2,
+            build_time: Duration::ZERO,
+            peak_band_bytes: 0,
+            loaded_in: None,
+        };
+        Self {
+            origin,
+            h,
+            inv_h: 1.0 / h,
+            cells_f: cells.map(|c| c as f64),
+            blocks,
+            index,
+            block_distance,
+            data,
+            layers_out,
+            report,
+        }
+    }
+
     /// Build facts: size, memory, time.
     pub fn report(&self) -> &VoxmapReport {
         &self.report

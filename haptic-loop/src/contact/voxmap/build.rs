@@ -6,7 +6,6 @@
 use super::band::{Band, Grid, Limits, Side};
 use super::{
     B, BLOCK_NODES, FIRST, INSIDE, MAX_BYTES, N, OUTSIDE, Q, Voxmap, VoxmapConfig, VoxmapError,
-    VoxmapReport,
 };
 use crate::contact::mesh::Mesh;
 use nalgebra::Vector3;
@@ -402,30 +401,18 @@ impl Voxmap {
         drop(nodes);
         let block_distance = chebyshev_distance(&index, blocks);
 
-        let memory_bytes = index.len() * 4 + block_distance.len() * 2 + data.len() * 2;
-        let dense_bytes = (cells[0] + 1) * (cells[1] + 1) * (cells[2] + 1) * 2;
-        Ok(Self {
+        let mut voxmap = Self::from_parts(
             origin,
             h,
-            inv_h: 1.0 / h,
-            cells_f: cells.map(|c| c as f64),
             blocks,
             index,
             block_distance,
             data,
-            layers_out: config.layers_out,
-            report: VoxmapReport {
-                voxel_m: h,
-                dims_voxels: cells,
-                stored_blocks: stored,
-                total_blocks,
-                memory_bytes,
-                dense_bytes,
-                build_time: started.elapsed(),
-                peak_band_bytes,
-                loaded_in: None,
-            },
-        })
+            config.layers_out,
+        );
+        voxmap.report.build_time = started.elapsed();
+        voxmap.report.peak_band_bytes = peak_band_bytes;
+        Ok(voxmap)
     }
 }
 

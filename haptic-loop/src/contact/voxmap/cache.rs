@@ -10,12 +10,12 @@
 //! name and renamed, so a build stopped half-way leaves nothing a later start could read.
 
 use super::build::{Obstacle, Surface};
-use super::{Voxmap, VoxmapConfig, VoxmapReport};
+use super::{Voxmap, VoxmapConfig};
 use nalgebra::Vector3;
 use parry3d_f64::math::Pose;
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 /// What comes first in a cache file.
 const MAGIC: &[u8; 8] = b"HRRTCVOX";
@@ -238,30 +238,17 @@ pub fn load(dir: &Path, key: &[u8; 32]) -> Result<Option<Voxmap>, CacheError> {
     if index.iter().any(|&c| c >= super::FIRST + stored) {
         return Err(invalid("a block index out of range".into()));
     }
-    let cells = blocks.map(|b| b * super::B);
-    let memory_bytes = index.len() * 4 + block_distance.len() * 2 + data.len() * 2;
-    Ok(Some(Voxmap {
-        origin: Vector3::new(ox, oy, oz),
+    let mut voxmap = Voxmap::from_parts(
+        Vector3::new(ox, oy, oz),
         h,
-        inv_h: 1.0 / h,
-        cells_f: cells.map(|c| c as f64),
         blocks,
         index,
         block_distance,
         data,
         layers_out,
-        report: VoxmapReport {
-            voxel_m: h,
-            dims_voxels: cells,
-            stored_blocks: stored as usize,
-            total_blocks: lens[0],
-            memory_bytes,
-            dense_bytes: (cells[0] + 1) * (cells[1] + 1) * (cells[2] + 1) * 2,
-            build_time: Duration::ZERO,
-            peak_band_bytes: 0,
-            loaded_in: Some(started.elapsed()),
-        },
-    }))
+    );
+    voxmap.report.loaded_in = Some(started.elapsed());
+    Ok(Some(voxmap))
 }
 
 /// Little-endian fields read in order.
