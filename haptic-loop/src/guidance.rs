@@ -21,6 +21,13 @@ pub struct GuidanceConfig {
     /// several planners is chosen, or a planner restarted), F_s moves from what was
     /// rendered to the new planner's over this time, linearly, s: a switch is never a step.
     pub switch_s: f64,
+    /// Bound on how fast |F_s force| may change, N/s (per component of the change's
+    /// norm). Each planner sample may differ from the last by a step (a new solution, a
+    /// carrot that moves on); the hand feels it as a ramp instead. 20 N/s takes a 2 N
+    /// lead 0.1 s to build up, 0.02 N per 1 ms tick.
+    pub max_force_rate_n_per_s: f64,
+    /// Bound on how fast |F_s torque| may change, N·m/s.
+    pub max_torque_rate_nm_per_s: f64,
 }
 
 impl Default for GuidanceConfig {
@@ -31,6 +38,8 @@ impl Default for GuidanceConfig {
             max_torque_fraction: 0.4,
             max_future_s: 0.1,
             switch_s: 0.2,
+            max_force_rate_n_per_s: 20.0,
+            max_torque_rate_nm_per_s: 1.0,
         }
     }
 }
@@ -83,6 +92,8 @@ pub struct GuidanceFilter {
     last_rejected_sequence: u64,
     /// F_s rendered by the last call (force N, torque N·m).
     last_output: (Vector3<f64>, Vector3<f64>),
+    /// When the last call rendered, ns (`None` before the first).
+    last_render_ns: Option<u64>,
     /// A switch of planner in progress: what was rendered when it began, and when, ns.
     blend_from: Option<(Vector3<f64>, Vector3<f64>, u64)>,
 }
@@ -105,6 +116,7 @@ impl GuidanceFilter {
             rejected: 0,
             last_rejected_sequence: 0,
             last_output: (Vector3::zeros(), Vector3::zeros()),
+            last_render_ns: None,
             blend_from: None,
         }
     }
@@ -135,7 +147,27 @@ impl GuidanceFilter {
             }
             None => r,
         };
+        // Rate-limited towards the target: a step between samples becomes a ramp. The
+        // first call starts from zero, as the loop does.
+        let dt_s = self
+            .last_render_ns
+            .map_or(0.0, |last| now_ns.saturating_sub(last) as f64 * 1e-9);
+        let (last_force, last_torque) = self.last_output;
+        let r = RenderedGuidance {
+            force_n: last_force
+                + clamp_norm(
+                    r.force_n - last_force,
+                    self.config.max_force_rate_n_per_s * dt_s,
+                ),
+            torque_nm: last_torque
+                + clamp_norm(
+                    r.torque_nm - last_torque,
+                    self.config.max_torque_rate_nm_per_s * dt_s,
+                ),
+            ..r
+        };
         self.last_output = (r.force_n, r.torque_nm);
+        self.last_render_ns = Some(now_ns);
         r
     }
 
@@ -221,8 +253,66 @@ mod tests {
         }
     }
 
+    /// A filter whose rate limit does not act within a tick (the tests below are about
+    /// the other stages), having rendered nothing at t = 0 so that the next call has a
+    /// tick length to limit against.
     fn filter() -> GuidanceFilter {
-        GuidanceFilter::new(GuidanceConfig::default(), 8.0, 0.5)
+        let mut f = GuidanceFilter::new(
+            GuidanceConfig {
+                max_force_rate_n_per_s: 1e9,
+                max_torque_rate_nm_per_s: 1e9,
+                ..GuidanceConfig::default()
+            },
+            8.0,
+            0.5,
+        );
+        f.render(&Guidance::default(), 0);
+        f
+    }
+
+    /// A new solution (F_a → the path's lead) or a carrot that moves on changes the
+    /// sample by a step; the rendered F_s follows at the configured rate, 20 N/s and
+    /// 1 N·m/s by default: 0.02 N and 0.001 N·m per 1 ms tick.
+    #[test]
+    fn a_step_between_samples_is_rendered_as_a_ramp() {
+        let mut f = GuidanceFilter::new(GuidanceConfig::default(), 8.0, 0.5);
+        let mut largest = (0.0f64, 0.0f64);
+        let mut prev = (Vector3::zeros(), Vector3::zeros());
+        let mut last = None;
+        for i in 0..400u64 {
+            let t = 1000 * MS + i * MS;
+            let mut g = sample(1 + i, t);
+            if i >= 200 {
+                // The other way, twice as far: a 2 N force step, 0.1 N·m of torque.
+                g.attractive = [-0.05, 0.0, 0.0, 0.0, 0.0, -0.1];
+            }
+            let r = f.render(&g, t);
+            largest.0 = largest.0.max((r.force_n - prev.0).norm());
+            largest.1 = largest.1.max((r.torque_nm - prev.1).norm());
+            prev = (r.force_n, r.torque_nm);
+            if i == 100 || i == 399 {
+                last = Some((i, r));
+            }
+            if i == 100 {
+                assert!((r.force_n.x - 1.0).abs() < 1e-9, "1 N reached in 50 ms");
+                assert!((r.torque_nm.z - 0.05).abs() < 1e-9, "0.05 N·m in 50 ms");
+            }
+            if i == 249 {
+                assert!((r.force_n.x - 0.0).abs() < 1e-9, "half-way after 50 ms");
+            }
+        }
+        assert!(
+            (largest.0 - 0.02).abs() < 1e-9,
+            "largest force step {} N",
+            largest.0
+        );
+        assert!(
+            (largest.1 - 0.001).abs() < 1e-9,
+            "largest torque step {} N·m",
+            largest.1
+        );
+        let (_, r) = last.unwrap();
+        assert!((r.force_n.x + 1.0).abs() < 1e-9 && (r.torque_nm.z + 0.05).abs() < 1e-9);
     }
 
     #[test]
@@ -251,6 +341,7 @@ mod tests {
         assert_eq!(lost.force_n.norm(), 0.0);
         assert_eq!(lost.torque_nm.norm(), 0.0);
         // Monotone non-increasing through the fade.
+        let mut f = filter();
         let mut prev = f64::INFINITY;
         for t in (0..400).map(|i| 1000 * MS + i * MS) {
             let m = f.render(&g, t).force_n.norm();
@@ -262,9 +353,9 @@ mod tests {
     #[test]
     fn guidance_is_bounded_by_device_fraction() {
         let mut f = filter();
-        let mut g = sample(1, 0);
+        let mut g = sample(1, MS);
         g.attractive = [10.0, 0.0, 0.0, 0.0, 0.0, 10.0];
-        let r = f.render(&g, 0);
+        let r = f.render(&g, MS);
         assert!((r.force_n.norm() - 8.0 * 0.4).abs() < 1e-12);
         assert!((r.torque_nm.norm() - 0.5 * 0.4).abs() < 1e-12);
     }
