@@ -9,6 +9,7 @@ pub mod face_contact;
 pub mod harness;
 pub mod ipc;
 pub mod mesh_checks;
+pub mod pressing;
 pub mod scaling;
 
 pub use error::BenchError;

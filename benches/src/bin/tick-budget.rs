@@ -13,15 +13,21 @@
 //! pressed with its largest flat face onto the largest box obstacle face it fits against
 //! and slid along it (`benches::face_contact`): the scene's worst steady contact.
 //!
+//! With `--scene NAME --newcomer` the scene's route is removed and the arm is held by the
+//! newcomer (the operator who does not know the way) as in `haptic-loop demo --operator
+//! newcomer --no-planner` (`benches::pressing`): minutes of pressing on the first walls in
+//! its way, sliding, wiggling and turning, what the live sessions' loop sees.
+//!
 //! The contact stage renders at the default point budget (`Resolution::DEFAULT`, scaled
 //! by the tick period) unless `--level L` fixes a level of detail or `--points-per-ms P`
 //! sets another budget; the report says how many ticks each level rendered.
 //!
-//! `cargo run --release -p benches --bin tick-budget -- --seconds 20 [--voxel-mm 1] [--rate-hz 1000] [--level L | --points-per-ms P] [--cube-points N | --scene NAME] [--json F]`
+//! `cargo run --release -p benches --bin tick-budget -- --seconds 20 [--voxel-mm 1] [--rate-hz 1000] [--level L | --points-per-ms P] [--cube-points N | --scene NAME [--newcomer [--seed S]]] [--json F]`
 
 use anyhow::{Context, bail};
 use benches::face_contact::face_setup;
 use benches::harness::{cube_setup, wall_setup};
+use benches::pressing::newcomer_setup;
 use clap::Parser;
 use haptic_loop::contact::{LEVELS, Resolution};
 use haptic_loop::tick::{NoGuidance, NoSink, PrevTiming, Tick};
@@ -57,11 +63,23 @@ struct Args {
     /// slid (a built-in scene name or a TOML scene file).
     #[arg(long)]
     scene: Option<String>,
+    /// With --scene: the newcomer holds the arm on the scene without its route (no
+    /// planner, no guidance) instead of the flat-face press.
+    #[arg(long, requires = "scene")]
+    newcomer: bool,
+    /// The newcomer's seed.
+    #[arg(long, default_value_t = 1, requires = "newcomer")]
+    seed: u64,
     /// Also time each tick by the thread's CPU time (CLOCK_THREAD_CPUTIME_ID), which leaves
     /// out time the thread was not running: on a shared VM the wall-clock tail is mostly
     /// other work's preemption, and this column shows what the tick itself costs.
     #[arg(long)]
     cpu_time: bool,
+    /// Run each tick at its time on the wall clock, sleeping between ticks as the loop
+    /// does (the run then takes --seconds of wall time): a thread that sleeps finds its
+    /// caches cooled by whatever ran meanwhile, which back-to-back ticks never see.
+    #[arg(long)]
+    paced: bool,
     /// Write the figures as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
@@ -133,6 +151,16 @@ fn main() -> anyhow::Result<()> {
             let what = "full tick: cube pressed onto a plate and slid".to_string();
             (arm, config, stage, what)
         }
+        (None, Some(name)) if args.newcomer => {
+            let scene =
+                scene::Scene::by_name_or_path(name).with_context(|| format!("--scene {name}"))?;
+            let (arm, config, stage) = newcomer_setup(&scene, args.rate_hz, voxel_m, args.seed)?;
+            let what = format!(
+                "full tick: the newcomer (seed {}) on {} without its route, no planner",
+                args.seed, scene.name
+            );
+            (arm, config, stage, what)
+        }
         (None, Some(name)) => {
             let scene =
                 scene::Scene::by_name_or_path(name).with_context(|| format!("--scene {name}"))?;
@@ -162,7 +190,15 @@ fn main() -> anyhow::Result<()> {
         .context("open the simulated arm")?
         .with_contact(stage);
     let mut cpu_hist = hist.clone();
+    let start = Instant::now();
     for i in 1..=ticks {
+        if args.paced {
+            let due = start + std::time::Duration::from_nanos(i * period_ns);
+            let now = Instant::now();
+            if due > now {
+                std::thread::sleep(due - now);
+            }
+        }
         let c0 = if args.cpu_time { thread_cpu_ns() } else { 0 };
         let t0 = Instant::now();
         let s = *tick.step(i * period_ns, PrevTiming::default());
