@@ -45,6 +45,9 @@ pub enum LabError {
         names = crate::live::METHOD_NAMES.join(", ")
     )]
     UnknownMethod(String),
+    /// A live method's `=α` is not a number in [0, 1].
+    #[error("live method `{0}`: the α after `=` must be a number in [0, 1]")]
+    MethodAlpha(String),
     /// A scene given by name or file could not be loaded.
     #[error("scene `{scene}`")]
     Scene {

@@ -109,12 +109,23 @@ impl LiveMethod {
     /// - `hrrtc-shared`: H-RRT-C at `guide_alpha` keeping the authority share in contact
     ///   (`planner serve --contact-authority shared`), with the novice, who is blocked
     ///   and stays in contact most.
+    ///
+    /// `NAME=α` (e.g. `hrrtc-adaptive=0.9`) runs a method that takes an α at this α only,
+    /// instead of `alphas` (or `guide_alpha`).
     pub fn parse(
         name: &str,
         alphas: &[f64],
         guide_alpha: f64,
         operator: &str,
     ) -> Result<Vec<Self>, LabError> {
+        if let Some((base, a)) = name.split_once('=') {
+            let alpha = a
+                .parse::<f64>()
+                .ok()
+                .filter(|a| (0.0..=1.0).contains(a))
+                .ok_or_else(|| LabError::MethodAlpha(name.to_owned()))?;
+            return Self::parse(base, &[alpha], alpha, operator);
+        }
         let hrrtc = |tag: &str, a: f64, input| {
             LiveMethod::new(format!("{tag} α={a}"), "hrrtc", Some(a), input)
         };

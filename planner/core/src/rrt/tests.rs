@@ -725,8 +725,8 @@ fn adaptive_authority_takes_over_from_an_operator_pressed_on_a_wall() {
         if a.stagnant_s == 0.0 {
             last_progress_s = t;
         }
-        // The share follows the stated rule, from the contact base 0 to the cap 1.
-        let expected = 1.0 - rule.trust_after(a.stagnant_s);
+        // The share follows the stated rule, from α (0.5) to the cap 1.
+        let expected = 0.5 + 0.5 * (1.0 - rule.trust_after(a.stagnant_s));
         assert!(
             (a.machine_share_contact - expected).abs() < 1e-12,
             "{t}: {a:?}"
@@ -756,8 +756,8 @@ fn adaptive_authority_gives_the_share_back_when_the_operator_progresses() {
     let mut p = Planner::new(&scene, adaptive(0.5), 3).expect("p");
     feed(&mut p, 0.0, 4000, 1, pressed_on_the_wall);
     assert_eq!(p.authority().machine_share_contact, 1.0);
-    // It slides 8 cm along the wall (new ground): its share is back at once, the contact
-    // samples return.
+    // It slides 8 cm along the wall (new ground): its share (1 − α) is back at once, the
+    // contact samples return.
     let slid = |t: f64| {
         let mut u = pressed_on_the_wall(t);
         let c = u.contact.as_mut().expect("contact");
@@ -768,9 +768,20 @@ fn adaptive_authority_gives_the_share_back_when_the_operator_progresses() {
     };
     let sources = feed(&mut p, 4.0, 1, 1, slid);
     let a = p.authority();
-    assert_eq!((a.trust, a.machine_share_contact), (1.0, 0.0), "{a:?}");
+    assert_eq!((a.trust, a.machine_share_contact), (1.0, 0.5), "{a:?}");
     assert!(a.restores >= 1);
-    assert_eq!(sources, [Source::Contact]);
+    // Within the patience (0.5 s) the trust holds: about half the samples are the
+    // operator's contact samples.
+    let more = feed(&mut p, 4.001, 400, 1, slid);
+    let contact = sources
+        .iter()
+        .chain(&more)
+        .filter(|s| **s == Source::Contact)
+        .count();
+    assert!(
+        (120..=280).contains(&contact),
+        "{contact} of 401 contact samples"
+    );
     // Free space at full trust: the machine share is α again.
     let free = |t: f64| crate::UserInput::free(Se3::from_xyz(-0.15, 0.04, 0.0)).at(t);
     feed(&mut p, 4.001, 1, 1, free);

@@ -17,6 +17,22 @@ const SUMMARY: &str = r#"{
 }"#;
 
 #[test]
+fn a_method_may_name_its_own_alpha() {
+    let m = LiveMethod::parse("hrrtc-adaptive=0.9", &[0.0, 0.5], 0.5, "newcomer").unwrap();
+    assert_eq!(m.len(), 1);
+    assert_eq!(m[0].name, "hrrtc-adaptive α=0.9");
+    assert_eq!(m[0].alpha, Some(0.9));
+    assert_eq!(m[0].authority.as_deref(), Some("adaptive"));
+    let g = LiveMethod::parse("hrrtc-noguide=0.25", &[0.5], 0.5, "expert").unwrap();
+    assert_eq!(g[0].alpha, Some(0.25));
+    for bad in ["hrrtc-fixed=2", "hrrtc-fixed=x", "hrrtc-fixed=NaN"] {
+        let e = LiveMethod::parse(bad, &[0.5], 0.5, "expert").unwrap_err();
+        assert!(e.to_string().contains("[0, 1]"), "{bad}: {e}");
+    }
+    assert!(LiveMethod::parse("nope=0.5", &[0.5], 0.5, "expert").is_err());
+}
+
+#[test]
 fn method_names_expand_to_demo_options() {
     let h = LiveMethod::parse("hrrtc", &[0.0, 0.5], 0.5, "expert").unwrap();
     assert_eq!(h.len(), 2);

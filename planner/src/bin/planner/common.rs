@@ -128,9 +128,10 @@ pub struct SamplingArgs {
     pub alpha: f64,
     /// H-RRT-C's authority sharing: `fixed` (the paper's α: in contact only contact
     /// samples, in free space α machine samples, whatever the operator does) or `adaptive`
-    /// (α while the operator progresses; after --authority-patience-s without progress
-    /// the machine share rises over --authority-ramp-s to --authority-max-machine, in
-    /// contact too; back at once when the operator progresses again) [default: fixed].
+    /// (α machine samples while the operator progresses, in free space and in contact
+    /// alike; after --authority-patience-s without progress the machine share rises over
+    /// --authority-ramp-s to --authority-max-machine; back at once when the operator
+    /// progresses again) [default: fixed].
     #[arg(long, value_parser = ["fixed", "adaptive"])]
     pub authority: Option<String>,
     /// Adaptive authority: seconds without progress (towards the goal, on new ground, or

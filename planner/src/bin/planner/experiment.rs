@@ -58,7 +58,8 @@ pub struct ExperimentArgs {
     /// the SpaceMouse operator), hrrtc (fixed α, as hrrtc-fixed, the name of the earlier
     /// sweeps), hrrtc-paper (the same with the paper's human mode, `--human-mode every`),
     /// hrrtc-noguide, hrrtc-novice, hrrtc-novice-noguide, hrrtc-mouse, hrrtc-shared (the
-    /// novice, keeping α in contact) (at --guide-alpha).
+    /// novice, keeping α in contact) (at --guide-alpha). `NAME=α` runs a method at that α
+    /// only (e.g. `hrrtc-fixed=0.5,hrrtc-adaptive=0.9`).
     #[arg(
         long,
         default_value = "rrt-connect,pos+cs,path,irrtc-mouse,hrrtc,hrrtc-noguide",
