@@ -36,4 +36,4 @@ mod types;
 pub use device::HapticDevice;
 pub use error::DeviceError;
 pub use spec::{Capabilities, DeviceSpec};
-pub use types::{DeviceState, Wrench};
+pub use types::{DeviceState, Wrench, clamp_norm};

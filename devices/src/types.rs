@@ -94,7 +94,7 @@ impl Neg for Wrench {
 }
 
 /// `v` scaled down so that its norm is at most `max` (a negative or NaN `max` acts as 0).
-pub(crate) fn clamp_norm(v: Vector3<f64>, max: f64) -> Vector3<f64> {
+pub fn clamp_norm(v: Vector3<f64>, max: f64) -> Vector3<f64> {
     let max = if max > 0.0 { max } else { 0.0 };
     let norm = v.norm();
     if norm > max { v * (max / norm) } else { v }

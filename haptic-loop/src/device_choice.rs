@@ -1,5 +1,5 @@
 //! Which device the loop drives (`sim`, `sim-spacemouse`, `spacemouse`, `dhd`,
-//! `openhaptics`, `bridge`, `ros2:...`, `replay:FILE`), building it with an optional recorder
+//! `openhaptics`, `driver`, `ros2:...`, `replay:FILE`), building it with an optional recorder
 //! around it, and describing a device's limits. Errors name the device and what to check
 //! (permissions, library path, driver).
 
@@ -12,7 +12,7 @@ use devices::spacemouse::{SpaceMouse, SpaceMouseConfig};
 use devices::{DeviceError, DeviceSpec, HapticDevice};
 
 use crate::Error;
-use crate::bridge::{BridgeConfig, BridgeDevice};
+use crate::driver::{DriverConfig, DriverDevice};
 use crate::session::scenario::SimInput;
 
 /// Which device the loop drives.
@@ -28,9 +28,9 @@ pub enum DeviceChoice {
     Dhd,
     /// A 3D Systems device through OpenHaptics libHD.
     OpenHaptics,
-    /// A device served by an external driver over the bridge services.
-    Bridge,
-    /// A ROS 2 driver's arm: the bridge services served by `hrrtc-ros2 device` (which the
+    /// A device served by an external driver over the driver services.
+    Driver,
+    /// A ROS 2 driver's arm: the driver services served by `hrrtc-ros2 device` (which the
     /// `haptic-loop` binary starts).
     Ros2(Ros2Device),
     /// A recorded session played back.
@@ -40,7 +40,7 @@ pub enum DeviceChoice {
 /// A device name that is none of the choices.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error(
-    "unknown device {0:?}: expected sim, sim-spacemouse, spacemouse, dhd, openhaptics, bridge, ros2:pose=TOPIC,wrench=TOPIC[,...] or replay:FILE{1}"
+    "unknown device {0:?}: expected sim, sim-spacemouse, spacemouse, dhd, openhaptics, driver, ros2:pose=TOPIC,wrench=TOPIC[,...] or replay:FILE{1}"
 )]
 pub struct UnknownDevice(pub String, pub String);
 
@@ -149,7 +149,7 @@ impl FromStr for DeviceChoice {
             "spacemouse" => DeviceChoice::SpaceMouse,
             "dhd" => DeviceChoice::Dhd,
             "openhaptics" => DeviceChoice::OpenHaptics,
-            "bridge" => DeviceChoice::Bridge,
+            "driver" => DeviceChoice::Driver,
             _ => {
                 if let Some(spec) = s.strip_prefix("ros2:") {
                     return Ros2Device::parse(spec)
@@ -174,7 +174,7 @@ impl DeviceChoice {
             DeviceChoice::SpaceMouse => "the SpaceMouse".into(),
             DeviceChoice::Dhd => "the Force Dimension device (libdhd)".into(),
             DeviceChoice::OpenHaptics => "the OpenHaptics device (libHD)".into(),
-            DeviceChoice::Bridge => "the bridged driver".into(),
+            DeviceChoice::Driver => "the external driver".into(),
             DeviceChoice::Ros2(d) => format!(
                 "the ROS 2 driver's arm ({})",
                 d.get("pose").unwrap_or_default()
@@ -196,8 +196,8 @@ impl DeviceChoice {
             DeviceChoice::OpenHaptics => {
                 "check that the Touch driver is installed and configured (Touch_Setup), and that libHD.so is on LD_LIBRARY_PATH or given with --device-lib / HRRTC_HD_LIB"
             }
-            DeviceChoice::Bridge => {
-                "start the driver with the same --namespace, e.g. `cargo run -p haptic-loop --example bridge_driver -- --namespace NAME`"
+            DeviceChoice::Driver => {
+                "start the driver with the same --namespace, e.g. `cargo run -p haptic-loop --example sim_driver -- --namespace NAME`"
             }
             DeviceChoice::Ros2(_) => {
                 "check that the driver publishes its pose (`ros2 topic hz`), that rmw_zenoh's router runs or `connect=` names a reachable endpoint, and hrrtc-ros2's log above"
@@ -237,7 +237,7 @@ pub struct DeviceOptions {
 
 /// Builds the chosen device (not yet opened; `Tick::new` opens it). Simulated devices come
 /// from `sim`, given which one: the caller owns the simulated operator's set-up;
-/// `namespace` is the bridge's.
+/// `namespace` is the external driver's.
 pub fn build(
     args: &DeviceOptions,
     namespace: &str,
@@ -264,15 +264,15 @@ pub fn build(
             })
             .map_err(|e| choice.sdk_error(e))?,
         ),
-        DeviceChoice::Bridge => Box::new(
-            BridgeDevice::new(BridgeConfig::new(namespace)).map_err(|e| choice.open_error(e))?,
+        DeviceChoice::Driver => Box::new(
+            DriverDevice::new(DriverConfig::new(namespace)).map_err(|e| choice.open_error(e))?,
         ),
         // The gateway process needs its Zenoh session and the driver's first pose.
         DeviceChoice::Ros2(d) => Box::new(
-            BridgeDevice::new(BridgeConfig {
+            DriverDevice::new(DriverConfig {
                 open_timeout_s: 10.0,
                 stale_s: d.stale_s(),
-                ..BridgeConfig::new(namespace)
+                ..DriverConfig::new(namespace)
             })
             .map_err(|e| choice.open_error(e))?,
         ),

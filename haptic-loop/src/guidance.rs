@@ -1,6 +1,7 @@
 //! Turns the newest planner [`Guidance`] sample into the guidance wrench F_s = k·F_a
 //! (I-RRT eq. 3), faded by age and bounded. Allocation-free; runs in the RT tick.
 
+use devices::clamp_norm;
 use ipc_types::{Guidance, GuidanceFreshness};
 use nalgebra::Vector3;
 
@@ -221,12 +222,6 @@ impl GuidanceFilter {
             age_ns,
         }
     }
-}
-
-/// `v` scaled down so that its norm is at most `max` (direction kept).
-pub fn clamp_norm(v: Vector3<f64>, max: f64) -> Vector3<f64> {
-    let n = v.norm();
-    if n > max && n > 0.0 { v * (max / n) } else { v }
 }
 
 #[cfg(test)]

@@ -14,10 +14,9 @@
 #![warn(missing_docs)]
 
 pub mod alloc_count;
-pub mod bridge;
-pub mod bridge_driver;
 pub mod contact;
 pub mod device_choice;
+pub mod driver;
 pub mod error;
 pub mod guidance;
 pub mod mapping;
@@ -26,6 +25,7 @@ pub mod rt;
 pub mod runner;
 pub mod safety;
 pub mod session;
+pub mod sim_driver;
 pub mod stats;
 pub mod tick;
 

@@ -48,7 +48,7 @@ pub struct RtOptions {
     /// keeps idle CPUs polling instead of halting (as `cyclictest` does by default): on a
     /// virtual machine a halted vCPU waits for its hypervisor to be scheduled again, which
     /// put this VM's loop wake-up p99 at 0.8–2 ms while the machine idled, against 74–88 µs
-    /// with the request (README "Without real-time permissions").
+    /// with the request (docs/guide/configuration.md, "Without real-time permissions").
     pub cpu_latency_us: Option<u32>,
 }
 
@@ -95,7 +95,7 @@ impl CpuLatencyRequest {
 
 /// Applies `opts` to the calling thread. Never fails: what cannot be done is listed in the
 /// report's warnings (typically "Operation not permitted" without `CAP_SYS_NICE` /
-/// `rtprio` limits; see README "Real-time permissions").
+/// `rtprio` limits; see docs/guide/configuration.md, "Without real-time permissions").
 pub fn setup_current_thread(opts: &RtOptions) -> RtSetupReport {
     let mut report = RtSetupReport::default();
     if let Some(prio) = opts.fifo_priority {

@@ -4,18 +4,15 @@
 //! what the RT thread calls once per period (see `runner`). It reads no clock itself: the
 //! tick time is passed in, so tests and benches drive it in lockstep.
 
-mod plausibility;
 mod state_fill;
 
 use crate::contact::{Anchor, ContactOutput, ContactStage};
 use crate::guidance::{GuidanceConfig, GuidanceFilter, RenderedGuidance};
 use crate::mapping::{Mapping, MappingConfig};
-use crate::safety::{Safety, SafetyConfig};
-use devices::{DeviceError, DeviceSpec, DeviceState, HapticDevice, Wrench};
-use ipc_types::convert as wire;
+use crate::safety::{self, Plausibility, Safety, SafetyConfig};
+use devices::{DeviceError, DeviceSpec, DeviceState, HapticDevice};
 use ipc_types::{ContactCode, FaultCode, Guidance, HapticState};
 use nalgebra::{Isometry3, Vector3};
-use plausibility::Plausibility;
 use state_fill::TickResults;
 
 /// Where the newest [`Guidance`] comes from. Must not allocate or block.
@@ -35,6 +32,13 @@ impl StateSink for ipc_types::services::StateWriter {
         let mut s = *state;
         s.published_ns = ipc_types::monotonic_ns();
         self.update_with_copy(s);
+    }
+}
+
+/// One sample, always (tests, benches, replays): the newest is this one.
+impl GuidanceSource for Guidance {
+    fn latest(&mut self) -> Guidance {
+        *self
     }
 }
 
@@ -89,6 +93,18 @@ pub struct TickConfig {
     pub safety: SafetyConfig,
     /// Nominal tick period, s.
     pub period_s: f64,
+}
+
+impl Default for TickConfig {
+    /// 1 kHz with the default mapping, guidance and safety.
+    fn default() -> Self {
+        Self {
+            mapping: MappingConfig::default(),
+            guidance: GuidanceConfig::default(),
+            safety: SafetyConfig::default(),
+            period_s: 0.001,
+        }
+    }
 }
 
 /// Timing facts of the previous tick, published in this tick's state.
@@ -254,10 +270,8 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
         // 1. Device, checked for plausibility; while it fails, its last good state.
         let read = self.device.read(now_ns);
         let (reading, fault) = self.plausibility.check(read, prev.deadline_misses);
-        let device = reading.unwrap_or_else(|| self.last_device_state());
-        let sc = self.safety.config();
-        let still = device.linear_velocity.norm() < sc.still_speed_m_per_s
-            && device.angular_velocity.norm() < sc.still_rate_rad_per_s;
+        let device = reading.unwrap_or_else(|| self.plausibility.last_good());
+        let still = self.safety.config().is_still(&device);
 
         // 2. Map into the scene.
         let user = self.mapping.to_scene(&device.pose, device.buttons);
@@ -282,7 +296,10 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
         self.guidance_age_ns = g.age_ns;
 
         // 5. Sum in the scene frame, rotate to the device frame, apply safety.
-        let wanted = self.device_wrench(
+        let wanted = safety::wanted_wrench(
+            self.safety.config(),
+            &self.spec,
+            &self.mapping,
             &device,
             &(device_force + g.force_n),
             &(device_torque + g.torque_nm),
@@ -350,42 +367,6 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
             stage.step(&anchor, self.period_s)
         })
     }
-
-    /// The wrench wanted at the device before the safety limits: `force` and `torque`
-    /// (scene frame) rotated into the device frame, plus what is always on, in the device
-    /// frame: a soft wall at the workspace sphere and a little viscous damping of the end
-    /// effector.
-    #[inline]
-    fn device_wrench(
-        &self,
-        device: &DeviceState,
-        force: &Vector3<f64>,
-        torque: &Vector3<f64>,
-    ) -> Wrench {
-        let sc = self.safety.config();
-        let p = device.pose.translation.vector;
-        let outside = p.norm() - self.spec.workspace_radius_m;
-        let boundary = if outside > 0.0 {
-            -p.normalize()
-                * (outside * sc.boundary_stiffness_fraction * self.spec.max_stiffness_n_per_m)
-        } else {
-            Vector3::zeros()
-        };
-        let damping =
-            -device.linear_velocity * (sc.damping_fraction * self.spec.max_damping_n_s_per_m);
-        let rot_damping = -device.angular_velocity
-            * (sc.damping_fraction * self.spec.max_rot_damping_nm_s_per_rad);
-        Wrench {
-            force: self.mapping.vector_to_device(force) + boundary + damping,
-            torque: self.mapping.vector_to_device(torque) + rot_damping,
-        }
-    }
-
-    /// The last good device state, held while the device fails (force is zero then).
-    fn last_device_state(&self) -> DeviceState {
-        let p = &self.state.device_pose;
-        DeviceState::at_rest(wire::isometry(p).unwrap_or_else(Isometry3::identity), 0)
-    }
 }
 
 #[cfg(test)]
@@ -395,22 +376,6 @@ mod tests {
         ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmConfig, Waypoint,
     };
     use ipc_types::{GuidanceFreshness, GuidanceMode, Header};
-
-    struct Fixed(Guidance);
-    impl GuidanceSource for Fixed {
-        fn latest(&mut self) -> Guidance {
-            self.0
-        }
-    }
-
-    fn config() -> TickConfig {
-        TickConfig {
-            mapping: MappingConfig::default(),
-            guidance: GuidanceConfig::default(),
-            safety: SafetyConfig::default(),
-            period_s: 0.001,
-        }
-    }
 
     fn arm() -> SimulatedArm {
         SimulatedArm::new(SimulatedArmConfig::default()).unwrap()
@@ -435,7 +400,7 @@ mod tests {
         }
     }
 
-    /// `config()` without the always-on damping and workspace wall, to see guidance alone.
+    /// The default configuration without the always-on damping and workspace wall, to see guidance alone.
     fn bare() -> TickConfig {
         TickConfig {
             safety: SafetyConfig {
@@ -443,14 +408,14 @@ mod tests {
                 boundary_stiffness_fraction: 0.0,
                 ..SafetyConfig::default()
             },
-            ..config()
+            ..TickConfig::default()
         }
     }
 
     #[test]
     fn guidance_reaches_the_device_after_the_ramp() {
         let g = guidance(4, [0.0, 0.05, 0.0]);
-        let mut t = Tick::new(arm(), &bare(), Fixed(g), NoSink).unwrap();
+        let mut t = Tick::new(arm(), &bare(), g, NoSink).unwrap();
         for i in 1..=1000 {
             t.step(i * MS, PrevTiming::default());
         }
@@ -480,7 +445,7 @@ mod tests {
         .unwrap();
         let mut arm = SimulatedArm::with_user(SimulatedArmConfig::default(), user).unwrap();
         arm.set_true_pose(Isometry3::translation(-0.05, 0.0, 0.0));
-        let mut t = Tick::new(arm, &bare(), Fixed(g), NoSink).unwrap();
+        let mut t = Tick::new(arm, &bare(), g, NoSink).unwrap();
         let mut first_force = None;
         let mut moving_ticks = 0;
         for i in 1..=3000u64 {
@@ -506,7 +471,7 @@ mod tests {
     #[test]
     fn a_position_jump_is_a_fault_in_the_same_tick() {
         let g = guidance(1, [0.05, 0.0, 0.0]);
-        let mut t = Tick::new(arm(), &bare(), Fixed(g), NoSink).unwrap();
+        let mut t = Tick::new(arm(), &bare(), g, NoSink).unwrap();
         for i in 1..=1000 {
             t.step(i * MS, PrevTiming::default());
         }
@@ -522,7 +487,7 @@ mod tests {
     #[test]
     fn a_streak_of_missed_deadlines_latches_zero_force() {
         let g = guidance(1, [0.05, 0.0, 0.0]);
-        let mut t = Tick::new(arm(), &bare(), Fixed(g), NoSink).unwrap();
+        let mut t = Tick::new(arm(), &bare(), g, NoSink).unwrap();
         let mut misses = 0;
         for i in 1..=1000u64 {
             // Isolated misses (every 10th tick) are tolerated.
@@ -562,7 +527,7 @@ mod tests {
         .unwrap();
         let mut arm = SimulatedArm::with_user(SimulatedArmConfig::default(), user).unwrap();
         arm.set_true_pose(Isometry3::translation(0.15, 0.0, 0.0));
-        let mut t = Tick::new(arm, &config(), NoGuidance, NoSink).unwrap();
+        let mut t = Tick::new(arm, &TickConfig::default(), NoGuidance, NoSink).unwrap();
         for i in 1..=2000u64 {
             t.step(i * MS, PrevTiming::default());
         }
@@ -582,7 +547,7 @@ mod tests {
     #[test]
     fn device_fault_zeroes_force_in_the_same_tick() {
         let g = guidance(1, [0.05, 0.0, 0.0]);
-        let mut t = Tick::new(arm(), &config(), Fixed(g), NoSink).unwrap();
+        let mut t = Tick::new(arm(), &TickConfig::default(), g, NoSink).unwrap();
         for i in 1..=1000 {
             t.step(i * MS, PrevTiming::default());
         }
@@ -603,7 +568,7 @@ mod tests {
             position_m: 0.005,
             angle_rad: 0.1,
         };
-        let mut t = Tick::new(arm(), &bare(), Fixed(g), NoSink)
+        let mut t = Tick::new(arm(), &bare(), g, NoSink)
             .unwrap()
             .with_goal(goal);
         for i in 1..=1000 {
@@ -620,9 +585,7 @@ mod tests {
             pose: Isometry3::translation(0.5, 0.0, 0.0),
             ..goal
         };
-        let mut t = Tick::new(arm(), &bare(), Fixed(g), NoSink)
-            .unwrap()
-            .with_goal(far);
+        let mut t = Tick::new(arm(), &bare(), g, NoSink).unwrap().with_goal(far);
         for i in 1..=100 {
             t.step(i * MS, PrevTiming::default());
         }

@@ -4,10 +4,7 @@
 use devices::record::{Recorder, ReplayDevice};
 use devices::sim::{ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmConfig, Waypoint};
 use devices::{DeviceError, HapticDevice};
-use haptic_loop::guidance::GuidanceConfig;
-use haptic_loop::mapping::MappingConfig;
-use haptic_loop::safety::SafetyConfig;
-use haptic_loop::tick::{GuidanceSource, NoGuidance, NoSink, PrevTiming, Tick, TickConfig};
+use haptic_loop::tick::{NoGuidance, NoSink, PrevTiming, Tick, TickConfig};
 use ipc_types::{FaultCode, Guidance, GuidanceMode, HapticState, Header};
 use nalgebra::{Isometry3, Translation3};
 
@@ -15,15 +12,8 @@ const MS: u64 = 1_000_000;
 const TICKS: u64 = 2000;
 const FAULT_AT: u64 = 800;
 
-struct Fixed(Guidance);
-impl GuidanceSource for Fixed {
-    fn latest(&mut self) -> Guidance {
-        self.0
-    }
-}
-
-fn guidance() -> Fixed {
-    Fixed(Guidance {
+fn guidance() -> Guidance {
+    Guidance {
         header: Header {
             sequence: 1,
             timestamp_ns: 0,
@@ -36,15 +26,6 @@ fn guidance() -> Fixed {
         time_to_live_ns: 100_000 * MS,
         mode: GuidanceMode::ROADMAP,
         ..Guidance::default()
-    })
-}
-
-fn config() -> TickConfig {
-    TickConfig {
-        mapping: MappingConfig::default(),
-        guidance: GuidanceConfig::default(),
-        safety: SafetyConfig::default(),
-        period_s: 0.001,
     }
 }
 
@@ -65,7 +46,7 @@ fn arm() -> SimulatedArm {
 
 /// Runs the loop for TICKS ticks; `fault` injects a 3-tick read failure at FAULT_AT.
 fn run<D: HapticDevice>(
-    tick: &mut Tick<D, Fixed, NoSink>,
+    tick: &mut Tick<D, Guidance, NoSink>,
     mut fault: impl FnMut(&mut D, Option<DeviceError>),
 ) -> Vec<HapticState> {
     (1..=TICKS)
@@ -86,7 +67,7 @@ fn issue_5_replayed_session_reproduces_the_loop_output() {
     let path = std::env::temp_dir().join(format!("hrrtc_issue5_{}.mcap", std::process::id()));
 
     let recorder = Recorder::create(arm(), &path).expect("create recording");
-    let mut t = Tick::new(recorder, &config(), guidance(), NoSink).expect("open");
+    let mut t = Tick::new(recorder, &TickConfig::default(), guidance(), NoSink).expect("open");
     let recorded = run(&mut t, |d: &mut Recorder<SimulatedArm>, f| {
         d.inner_mut().inject_fault(f)
     });
@@ -109,7 +90,7 @@ fn issue_5_replayed_session_reproduces_the_loop_output() {
     assert_eq!(recorded[(TICKS - 1) as usize].fault, FaultCode::NONE);
 
     let replay = ReplayDevice::from_file(&path).expect("load recording");
-    let mut t = Tick::new(replay, &config(), guidance(), NoSink).expect("open replay");
+    let mut t = Tick::new(replay, &TickConfig::default(), guidance(), NoSink).expect("open replay");
     let replayed = run(&mut t, |_: &mut ReplayDevice, _| {});
     for (i, (a, b)) in recorded.iter().zip(&replayed).enumerate() {
         assert_eq!(a.commanded_wrench, b.commanded_wrench, "tick {}", i + 1);
@@ -129,17 +110,23 @@ mod spacemouse {
     use devices::spacemouse::{SpaceMouse, SpaceMouseConfig, report};
 
     /// A SpaceMouse Compact fed from bytes, in the loop with F_a pulling along scene +X.
-    fn setup() -> (Tick<SpaceMouse, Fixed, NoSink>, devices::spacemouse::Feed) {
+    fn setup() -> (
+        Tick<SpaceMouse, Guidance, NoSink>,
+        devices::spacemouse::Feed,
+    ) {
         let model = report::known_model(0x256f, 0xc635).unwrap();
         let (dev, mut feed) = SpaceMouse::with_feed(SpaceMouseConfig::default(), model).unwrap();
         feed.attach();
-        let g = Fixed(Guidance {
+        let g = Guidance {
             attractive: [0.05, 0.0, 0.0, 0.0, 0.0, 0.0],
             gain_n_per_m: 40.0,
             gain_nm_per_rad: 0.0,
-            ..guidance().0
-        });
-        (Tick::new(dev, &config(), g, NoSink).unwrap(), feed)
+            ..guidance()
+        };
+        (
+            Tick::new(dev, &TickConfig::default(), g, NoSink).unwrap(),
+            feed,
+        )
     }
 
     #[test]
@@ -233,7 +220,7 @@ mod spacemouse {
             Coupling::from_spec(&spec, 1.0, contact.coupling_fraction),
         );
         // Avatar starts 5 cm above the plate.
-        let mut cfg = config();
+        let mut cfg = TickConfig::default();
         cfg.mapping.origin = Isometry3::from_parts(
             Translation3::new(0.0, 0.0, 0.05),
             nalgebra::UnitQuaternion::identity(),

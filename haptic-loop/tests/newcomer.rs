@@ -63,24 +63,6 @@ fn session(scene: &Scene, config: OperatorConfig, seconds: f64) -> Outcome {
     }
 }
 
-/// A 20 mm cube from x = −0.15 to 0.15 past a 60 × 160 × 160 mm box in the middle: no
-/// narrow passage, but no straight way either; no route.
-fn box_between() -> Scene {
-    Scene {
-        name: "box-between".into(),
-        obstacles: vec![Part::axis_box([0.03, 0.08, 0.08], [0.0, 0.0, 0.0])],
-        moving_object: vec![Part::axis_box([0.01, 0.01, 0.01], [0.0, 0.0, 0.0])],
-        bounds: Bounds {
-            min_m: Vector3::new(-0.2, -0.15, -0.15),
-            max_m: Vector3::new(0.2, 0.15, 0.15),
-        },
-        start: Se3::from_xyz(-0.15, 0.0, 0.0),
-        goal: Se3::from_xyz(0.15, 0.0, 0.0),
-        space: SpaceKind::Se3,
-        route: Vec::new(),
-    }
-}
-
 /// Rolls of the slit about x, rad.
 const SLOT_ROLL_RAD: f64 = 0.6;
 
@@ -122,7 +104,7 @@ fn tilted_slot(roll: f64) -> Scene {
 
 #[test]
 fn without_a_route_the_newcomer_reaches_the_goal_around_a_box() {
-    let scene = box_between();
+    let scene = Scene::box_between();
     for seed in [1, 2] {
         let config = OperatorConfig {
             seed,

@@ -1,4 +1,4 @@
-//! The driver bridge: a device driver in another process (C, C++, Python or Rust, anything
+//! The external driver: a device driver in another process (C, C++, Python or Rust, anything
 //! iceoryx2 serves) publishes [`DriverState`] and subscribes to [`DriverCommand`], so the
 //! haptic loop can drive an arm it does not support natively. Services:
 //! [`crate::services::DRIVER_STATE`] and [`crate::services::DRIVER_COMMAND`].

@@ -8,7 +8,7 @@
 //!   deterministic for a seed and an input sequence, no clock reads, no I/O, no threads.
 //! - [`shell`]: the planner process. Its threads read the haptic state over iceoryx2
 //!   ([`shell::pacing`] decides when), iterate the planner and publish guidance, the
-//!   solution path and roadmap increments ([`shell::roadmap`]); [`shell::convert`] turns
+//!   solution path and roadmap increments (`view::feed`); [`shell::convert`] turns
 //!   wire types into core types and back at the edge. Configured by a validated
 //!   [`shell::ShellConfig`]; fails with [`shell::ShellError`].
 //!

@@ -46,7 +46,7 @@ pub fn bin_dir() -> &'static Path {
             "--lib",
             "--bins",
             "--example",
-            "bridge_driver",
+            "sim_driver",
         ]);
         if release {
             cmd.arg("--release");
@@ -172,6 +172,14 @@ pub fn free_port() -> u16 {
         .local_addr()
         .unwrap()
         .port()
+}
+
+/// `haptic-loop run` on namespace `ns` as the tests run it: memory not locked (a shared
+/// test machine), then `extra` (priority, scene, duration, summary, ...).
+pub fn start_loop(ns: &str, extra: &[&str]) -> Proc {
+    let mut args = vec!["run", "--namespace", ns, "--no-mlock"];
+    args.extend_from_slice(extra);
+    Proc::spawn(&bin("haptic-loop"), &args)
 }
 
 /// |v| of a 3-vector.

@@ -110,16 +110,6 @@ impl SimulatedArm {
         self.user_start_ns = self.sim_time_ns;
     }
 
-    /// Detaches and returns the scripted user (an operator's hand is let go too); the hand
-    /// wrench becomes zero.
-    pub fn detach_user(&mut self) -> Option<ScriptedUser> {
-        self.hand = Wrench::ZERO;
-        match self.user.take() {
-            Some(Hand::Scripted(u)) => Some(*u),
-            _ => None,
-        }
-    }
-
     /// The attached scripted user, if any.
     pub fn user(&self) -> Option<&ScriptedUser> {
         match &self.user {

@@ -182,11 +182,6 @@ impl ScriptedUser {
         t_s >= self.path.duration_s()
     }
 
-    /// The tremor offset of the setpoint position (m, base frame) at the last query.
-    pub fn tremor_offset(&self) -> Vector3<f64> {
-        self.tremor.current()
-    }
-
     /// The wrench last returned by [`hand_wrench`](ScriptedUser::hand_wrench).
     pub fn last_wrench(&self) -> Wrench {
         self.last_wrench

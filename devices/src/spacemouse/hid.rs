@@ -3,7 +3,7 @@
 
 use std::ffi::CString;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
 use std::thread::JoinHandle;
 use std::time::Duration;
@@ -104,8 +104,6 @@ fn connect(api: &mut HidApi) -> Result<(Found, HidDevice), ConnectError> {
 #[derive(Debug)]
 pub(crate) struct Reader {
     stop: Arc<AtomicBool>,
-    /// LED wanted by the RT side: 0 off, 1 on; the reader writes it on change.
-    pub(crate) led: Arc<AtomicU8>,
     thread: Option<JoinHandle<()>>,
 }
 
@@ -122,11 +120,9 @@ impl Reader {
         timeout: Duration,
     ) -> Result<(Reader, Found), ConnectError> {
         let stop = Arc::new(AtomicBool::new(false));
-        let led = Arc::new(AtomicU8::new(0));
         let (tx, rx) = mpsc::channel();
         let thread = {
             let stop = stop.clone();
-            let led = led.clone();
             std::thread::Builder::new()
                 .name("spacemouse-hid".into())
                 .spawn(move || {
@@ -148,15 +144,8 @@ impl Reader {
                         }
                     };
                     feed.attach();
-                    let mut led_written = u8::MAX;
                     let mut buf = [0u8; 64];
                     while !stop.load(Ordering::Acquire) {
-                        let want = led.load(Ordering::Relaxed);
-                        if want != led_written {
-                            // LED is cosmetic: a model without one may refuse the report.
-                            let _ = dev.write(&report::led_report(want != 0));
-                            led_written = want;
-                        }
                         match dev.read_timeout(&mut buf, READ_TIMEOUT_MS) {
                             Ok(0) => {}
                             Ok(n) => {
@@ -174,7 +163,6 @@ impl Reader {
                                         break d;
                                     }
                                 };
-                                led_written = u8::MAX;
                                 feed.attach();
                             }
                         }
@@ -198,7 +186,6 @@ impl Reader {
         Ok((
             Reader {
                 stop,
-                led,
                 thread: Some(thread),
             },
             found,

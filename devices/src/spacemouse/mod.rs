@@ -119,7 +119,6 @@ pub struct SpaceMouse {
     last_reports: u64,
     /// Tick time at which the report count last moved, ns.
     last_report_ns: u64,
-    led: bool,
 }
 
 impl std::fmt::Debug for SpaceMouse {
@@ -173,7 +172,6 @@ impl SpaceMouse {
             last_now_ns: None,
             last_reports: 0,
             last_report_ns: 0,
-            led: false,
         }
     }
 
@@ -183,15 +181,6 @@ impl SpaceMouse {
         match self.last_now_ns {
             Some(now) => now.saturating_sub(self.last_report_ns) as f64 * 1e-9,
             None => 0.0,
-        }
-    }
-
-    /// Asks for the LED on or off; the reader thread writes output report 4. Lock-free.
-    pub fn set_led(&mut self, on: bool) {
-        self.led = on;
-        if let Source::Hid(Some(r)) = &self.source {
-            r.led
-                .store(u8::from(on), std::sync::atomic::Ordering::Relaxed);
         }
     }
 
@@ -221,8 +210,6 @@ impl HapticDevice for SpaceMouse {
             let (r, found) = hid::Reader::start(feed, timeout).map_err(|e| open_error(&e))?;
             let buttons = found.model.map_or(2, |m| m.buttons);
             self.spec = self.config.spec_for(&found.name, buttons);
-            r.led
-                .store(u8::from(self.led), std::sync::atomic::Ordering::Relaxed);
             *reader = Some(r);
             self.output = Some(output);
         }

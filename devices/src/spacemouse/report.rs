@@ -6,7 +6,6 @@
 //! - **combined** (newer models, e.g. SpaceMouse Wireless, Compact, Enterprise): one 13-byte
 //!   id 1 report: translation x, y, z then rotation x, y, z, little-endian `i16`;
 //! - **buttons**: id 3, then a little-endian bit mask (bit i = button i);
-//! - **LED** (host → device output report): `[4, on]`.
 //!
 //! Raw axes are the device's own HID frame: x to the right, y toward the operator, z down
 //! (right-handed); rotation components are about those axes. [`super::AxisMap`] turns them
@@ -20,9 +19,6 @@ pub const REPORT_MOTION: u8 = 1;
 pub const REPORT_ROTATION: u8 = 2;
 /// Report id of the button mask.
 pub const REPORT_BUTTONS: u8 = 3;
-/// Output report id that switches the LED.
-pub const REPORT_LED: u8 = 4;
-
 /// Logitech's vendor id, used by 3Dconnexion models made before 2011.
 pub const VENDOR_LOGITECH: u16 = 0x046d;
 /// 3Dconnexion's own vendor id.
@@ -292,11 +288,6 @@ pub fn parse(bytes: &[u8]) -> Result<Report, ReportError> {
     }
 }
 
-/// The output report that turns the LED on or off.
-pub fn led_report(on: bool) -> [u8; 2] {
-    [REPORT_LED, u8::from(on)]
-}
-
 /// The newest value of every axis and button, folded from reports (the device only reports
 /// on change, so each field holds its last value).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -397,12 +388,6 @@ mod tests {
                 let _ = parse(&v);
             }
         }
-    }
-
-    #[test]
-    fn led_output_report() {
-        assert_eq!(led_report(true), [4, 1]);
-        assert_eq!(led_report(false), [4, 0]);
     }
 
     #[test]

@@ -7,7 +7,7 @@
 //!    indices. Each level of detail of the pointshell has its own columns and budgets.
 //! 2. *Look-up*: [`LANES`] candidates at a time are moved into the scene and looked up in
 //!    the voxmap; their budgets are renewed.
-//! 3. *Force pass* ([`force_chunk`]), in the same chunk, for those within reach of a
+//! 3. *Force pass* ([`force_chunk`], in `force`), in the same chunk, for those within reach of a
 //!    surface they face: penalty, braking and the implicit step's JᵀJ sums, each point's
 //!    terms times its weight (the level-0 points it stands for), without branches.
 //!
@@ -20,13 +20,12 @@
 //! `f32` resolves 0.1 µm, far below the voxmap's 1/256-voxel quantisation; sums are
 //! returned in `f64`.
 
-use super::jtj::JtJ;
 use super::lanes::{LANES, Lanes, axes, lanes};
 use super::pointshell::{Cluster, ClusterGroup, Pointshell};
 use super::voxmap::Voxmap;
 
 /// Calls `$m!($args; i: a b, ...)` with the 21 pairs (a, b) of J's rows whose products
-/// JJᵀ's upper triangle sums, at their index i in [`JtJ`]'s layout (see `PAIRS`): the
+/// JJᵀ's upper triangle sums, at their index i in [`JtJ`](super::jtj::JtJ)'s layout (see `PAIRS`): the
 /// force passes spell the sums out pair by pair with constant indices, since a loop over
 /// the pairs stays rolled and reads J back from memory.
 macro_rules! jj_pairs {
@@ -40,9 +39,14 @@ macro_rules! jj_pairs {
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
-use nalgebra::{Matrix3, Vector3, Vector6};
+mod force;
+#[cfg(target_arch = "x86_64")]
+use force::Sums;
+use force::{Accumulators, ForceConsts, force_chunk};
+pub(super) use force::{PassParams, Totals};
+use nalgebra::{Matrix3, Vector3};
 
-/// The upper triangle of a symmetric 6×6 matrix, in [`JtJ`]'s layout (the force pass
+/// The upper triangle of a symmetric 6×6 matrix, in [`JtJ`](super::jtj::JtJ)'s layout (the force pass
 /// spells the same list out): `nn` (6), `mn` (9), `mm` (6), with J = [n; m] as indices 0..3
 /// and 3..6.
 #[cfg(test)]
@@ -392,293 +396,11 @@ struct Chunks<'a> {
     com: Vector3<f32>,
 }
 
-/// What the force pass needs besides the points.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct PassParams {
-    /// Centre of mass, scene frame, m.
-    pub com: Vector3<f64>,
-    /// Velocity of the centre of mass, m/s.
-    pub velocity: Vector3<f64>,
-    /// Angular velocity, rad/s.
-    pub angular_velocity: Vector3<f64>,
-    /// Penalty stiffness per point, N/m.
-    pub point_stiffness_n_per_m: f64,
-    /// Contact damping per penetrating point, N·s/m.
-    pub contact_damping_n_s_per_m: f64,
-    /// Braking per approaching point at full weight, N·s/m.
-    pub braking_n_s_per_m: f64,
-    /// Thickness of the proximity layer, m.
-    pub proximity_m: f64,
-    /// Release distance of the contact flag, m.
-    pub release_m: f64,
-}
-
-/// The sums of one force pass.
-#[derive(Debug, Default, Clone, Copy, PartialEq)]
-pub(super) struct Totals {
-    /// Generalised force about the centre of mass: [force; torque] (N; N·m).
-    pub wrench: Vector6<f64>,
-    /// Σ JJᵀ over penetrating points: the contact stiffness is `k_p` times it.
-    pub contact_jj: JtJ,
-    /// Σ b JJᵀ over penetrating (contact damping) and approaching (braking) points: the
-    /// contact damping matrix, N·s/m.
-    pub damping_jj: JtJ,
-    /// Penetrating points, counted in the level-0 points they stand for.
-    pub contacts: u32,
-    /// Braking points, counted the same way.
-    pub braking_points: u32,
-    pub within_release: bool,
-    /// Σ d·(surface point), m², with d the depth.
-    pub weighted_point: Vector3<f64>,
-    /// Σ d, m.
-    pub weight: f64,
-    /// Σ d·n.
-    pub normal_sum: Vector3<f64>,
-    /// Deepest penetration, m.
-    pub max_depth: f64,
-}
-
-impl Totals {
-    /// `(1 − t)·self + t·other`: the blend of two levels' sums while the rendered level
-    /// changes. Counts are blended and rounded, the release test holds for either, the
-    /// deepest penetration is the deeper.
-    pub fn lerp(&self, other: &Self, t: f64) -> Self {
-        let mix = |a: f64, b: f64| a + t * (b - a);
-        let count = |a: u32, b: u32| mix(f64::from(a), f64::from(b)).round() as u32;
-        Self {
-            wrench: self.wrench + (other.wrench - self.wrench) * t,
-            contact_jj: self.contact_jj.lerp(&other.contact_jj, t),
-            damping_jj: self.damping_jj.lerp(&other.damping_jj, t),
-            contacts: count(self.contacts, other.contacts),
-            braking_points: count(self.braking_points, other.braking_points),
-            within_release: self.within_release || other.within_release,
-            weighted_point: self.weighted_point + (other.weighted_point - self.weighted_point) * t,
-            weight: mix(self.weight, other.weight),
-            normal_sum: self.normal_sum + (other.normal_sum - self.normal_sum) * t,
-            max_depth: self.max_depth.max(other.max_depth),
-        }
-    }
-}
-
-/// Per-lane running sums of the force pass, one `T` holding [`LANES`] of each: [`Lanes`]
-/// here ([`Accumulators`]), an AVX2 register in [`avx2`].
-#[derive(Clone, Copy)]
-struct Sums<T> {
-    wrench: [T; 6],
-    /// Σ JJᵀ over penetrating points.
-    k: [T; 21],
-    /// Σ w JJᵀ over braking points, w the braking weight.
-    b: [T; 21],
-    point: [T; 3],
-    normal: [T; 3],
-    weight: T,
-    max_depth: T,
-    contacts: T,
-    braking: T,
-    release: T,
-}
-
-/// The force pass's sums, lane by lane.
-type Accumulators = Sums<Lanes>;
-
-impl<T: Copy> Sums<T> {
-    /// Every sum `v`.
-    fn splat(v: T) -> Self {
-        Self {
-            wrench: [v; 6],
-            k: [v; 21],
-            b: [v; 21],
-            point: [v; 3],
-            normal: [v; 3],
-            weight: v,
-            max_depth: v,
-            contacts: v,
-            braking: v,
-            release: v,
-        }
-    }
-
-    /// Each sum through `f`.
-    fn map<U>(&self, mut f: impl FnMut(&T) -> U) -> Sums<U> {
-        Sums {
-            wrench: self.wrench.each_ref().map(&mut f),
-            k: self.k.each_ref().map(&mut f),
-            b: self.b.each_ref().map(&mut f),
-            point: self.point.each_ref().map(&mut f),
-            normal: self.normal.each_ref().map(&mut f),
-            weight: f(&self.weight),
-            max_depth: f(&self.max_depth),
-            contacts: f(&self.contacts),
-            braking: f(&self.braking),
-            release: f(&self.release),
-        }
-    }
-}
-
-impl Default for Accumulators {
-    fn default() -> Self {
-        Self::splat([0.0; LANES])
-    }
-}
-
-/// [`PassParams`] as the force pass uses them.
-#[derive(Debug, Clone, Copy)]
-struct ForceConsts {
-    kp: f32,
-    bc: f32,
-    bb: f32,
-    prox: f32,
-    release: f32,
-    v: Vector3<f32>,
-    w: Vector3<f32>,
-}
-
-impl ForceConsts {
-    fn new(k: &PassParams) -> Self {
-        Self {
-            kp: k.point_stiffness_n_per_m as f32,
-            bc: k.contact_damping_n_s_per_m as f32,
-            bb: k.braking_n_s_per_m as f32,
-            prox: k.proximity_m as f32,
-            release: k.release_m as f32,
-            v: k.velocity.map(|x| x as f32),
-            w: k.angular_velocity.map(|x| x as f32),
-        }
-    }
-}
-
-/// The force pass over one chunk: points at `r` from the centre of mass (m) with field
-/// gradient `g`, signed distance `sd` (m) and weight `wt` (level-0 points) add their
-/// penalty, braking and JJᵀ sums, each times its weight, to `acc`. Every statement works on
-/// all lanes and choices are selections, so there are no branches; a lane with `sd` = +∞
-/// and a unit gradient adds nothing. (Weight 1 multiplies exactly: level 0 gives the bits
-/// of an unweighted pass.)
-#[inline(always)]
-fn force_chunk(
-    acc: &mut Accumulators,
-    r: &[Lanes; 3],
-    g: &[Lanes; 3],
-    sd: &Lanes,
-    wt: &Lanes,
-    k: &ForceConsts,
-) {
-    let ForceConsts {
-        kp,
-        bc,
-        bb,
-        prox,
-        release,
-        v,
-        w,
-    } = *k;
-    let [gx, gy, gz] = g;
-    let inv = lanes(|l| 1.0 / (gx[l] * gx[l] + gy[l] * gy[l] + gz[l] * gz[l]).sqrt());
-    let n = axes(|a| lanes(|l| g[a][l] * inv[l]));
-    // m = r × n: the moment arm of a unit force along n.
-    let m = [
-        lanes(|l| r[1][l] * n[2][l] - r[2][l] * n[1][l]),
-        lanes(|l| r[2][l] * n[0][l] - r[0][l] * n[2][l]),
-        lanes(|l| r[0][l] * n[1][l] - r[1][l] * n[0][l]),
-    ];
-    // Normal velocity of the point: v·n + (ω × r)·n = v·n + ω·(r × n).
-    let vn = lanes(|l| {
-        v.x * n[0][l]
-            + v.y * n[1][l]
-            + v.z * n[2][l]
-            + w.x * m[0][l]
-            + w.y * m[1][l]
-            + w.z * m[2][l]
-    });
-    // The weight where the point penetrates, else 0.
-    let in_contact = lanes(|l| if sd[l] < 0.0 { wt[l] } else { 0.0 });
-    let depth = lanes(|l| if sd[l] < 0.0 { -sd[l] } else { 0.0 });
-    let weighted_depth = lanes(|l| in_contact[l] * depth[l]);
-    // Damping never pulls the point into the surface. (The implicit step keeps its
-    // damping term also for a clamped point: numerical damping.)
-    let push = lanes(|l| in_contact[l] * (kp * depth[l] - bc * vn[l]).max(0.0));
-    // Pre-contact braking: opposes approach only, fading in over the layer.
-    let brake_w = lanes(|l| {
-        if sd[l] >= 0.0 && sd[l] < prox && vn[l] < 0.0 {
-            wt[l] * (1.0 - sd[l] / prox)
-        } else {
-            0.0
-        }
-    });
-    let f = lanes(|l| push[l] - bb * brake_w[l] * vn[l]);
-    let j = [n[0], n[1], n[2], m[0], m[1], m[2]];
-    for (a, ja) in j.iter().enumerate() {
-        for l in 0..LANES {
-            acc.wrench[a][l] += f[l] * ja[l];
-        }
-    }
-    // Σ w JJᵀ, pair by pair (see `jj_pairs`).
-    macro_rules! jj {
-        ($sum:expr, $w:expr; $($i:literal: $a:literal $b:literal),*) => {$(
-            for l in 0..LANES {
-                $sum[$i][l] += $w[l] * (j[$a][l] * j[$b][l]);
-            }
-        )*};
-    }
-    jj_pairs!(jj!(acc.k, in_contact));
-    // In steady contact most chunks brake nowhere: skip their zero braking sums.
-    if brake_w.iter().any(|&b| b > 0.0) {
-        jj_pairs!(jj!(acc.b, brake_w));
-    }
-    for a in 0..3 {
-        for l in 0..LANES {
-            // The point projected on the surface (relative to the centre of mass),
-            // weighted by depth.
-            acc.point[a][l] += weighted_depth[l] * (r[a][l] + depth[l] * n[a][l]);
-            acc.normal[a][l] += weighted_depth[l] * n[a][l];
-        }
-    }
-    for l in 0..LANES {
-        acc.weight[l] += weighted_depth[l];
-        acc.max_depth[l] = acc.max_depth[l].max(depth[l]);
-        acc.contacts[l] += in_contact[l];
-        acc.braking[l] += if brake_w[l] > 0.0 { wt[l] } else { 0.0 };
-        acc.release[l] += if sd[l] < release { 1.0 } else { 0.0 };
-    }
-}
-
-impl Accumulators {
-    /// Sums the lanes (in `f64`): the centre of mass turns positions relative to it back
-    /// into scene coordinates; the damping matrix is the contact damping times the contact
-    /// sum plus the braking times the braking sum (N·s/m).
-    fn reduce(&self, k: &PassParams) -> Totals {
-        let (com, contact_damping, braking) =
-            (&k.com, k.contact_damping_n_s_per_m, k.braking_n_s_per_m);
-        let sum = |x: &Lanes| x.iter().map(|&v| f64::from(v)).sum::<f64>();
-        // wk·Σ(contact) + wb·Σ(braking), as JtJ.
-        let jtj = |wk: f64, wb: f64| {
-            let s = |i: usize| wk * sum(&self.k[i]) + wb * sum(&self.b[i]);
-            JtJ {
-                nn: std::array::from_fn(s),
-                mn: std::array::from_fn(|i| s(6 + i)),
-                mm: std::array::from_fn(|i| s(15 + i)),
-            }
-        };
-        let vec3 = |x: &[Lanes; 3]| Vector3::new(sum(&x[0]), sum(&x[1]), sum(&x[2]));
-        let weight = sum(&self.weight);
-        Totals {
-            wrench: Vector6::from_fn(|a, _| sum(&self.wrench[a])),
-            contact_jj: jtj(1.0, 0.0),
-            damping_jj: jtj(contact_damping, braking),
-            // Counts in level-0 points (sums of whole weights) below 2^24, exact in f32.
-            contacts: sum(&self.contacts) as u32,
-            braking_points: sum(&self.braking) as u32,
-            within_release: sum(&self.release) > 0.0,
-            weighted_point: vec3(&self.point) + com * weight,
-            weight,
-            normal_sum: vec3(&self.normal),
-            max_depth: self.max_depth.iter().fold(0.0, |m, &x| m.max(f64::from(x))),
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::contact::jtj::JtJ;
+    use nalgebra::Vector6;
 
     /// A point for the force pass: position, gradient, signed distance (m), weight.
     type TestPoint = (Vector3<f64>, Vector3<f64>, f64, f64);

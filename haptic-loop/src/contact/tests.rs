@@ -3,12 +3,14 @@
 use super::*;
 use devices::sim::{ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmConfig, Waypoint};
 use nalgebra::{Translation3, UnitQuaternion, Vector3};
+use parry3d_f64::math::Pose;
 use parry3d_f64::query::{contact, intersection_test};
 use parry3d_f64::shape::{Compound, SharedShape};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use scene::Se3;
 use scene::shapes::to_parry;
+use scene::{Scene, Se3};
+use std::sync::Arc;
 
 const MM: f64 = 1e-3;
 
@@ -978,7 +980,7 @@ fn a_shell_has_the_mass_properties_of_a_thin_walled_box() {
         pose: Se3::identity(),
     });
     let at = Pose::translation(0.3, -0.2, 0.1);
-    let mp = super::shell_mass_properties(&at, shape.as_trimesh().unwrap(), 0.002);
+    let mp = super::model::shell_mass_properties(&at, shape.as_trimesh().unwrap(), 0.002);
     let (s, t) = (0.2, 0.002);
     let mass = 6.0 * s * s * t;
     assert!((mp.mass() - mass).abs() < 1e-12, "{}", mp.mass());

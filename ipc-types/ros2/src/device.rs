@@ -1,6 +1,6 @@
 //! `hrrtc-ros2 device`: an arm driven by a ROS 2 driver, served to the haptic loop through
 //! the driver bridge (`ipc_types::DriverState` / `DriverCommand`, the `driver/state` and
-//! `driver/command` services that `haptic-loop run --device bridge` reads and writes). The
+//! `driver/command` services that `haptic-loop run --device driver` reads and writes). The
 //! loop's RT thread stays on iceoryx2; `haptic-loop run --device ros2:...` starts this
 //! process beside itself.
 //!
@@ -31,12 +31,13 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use ipc_types::services::{self, ServiceError};
+use ipc_types::services;
 use ipc_types::{DriverCommand, DriverState, DriverStatus, Header, OutputCode};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use serde::Serialize;
 use zenoh::Wait;
 
+use crate::GatewayError;
 use crate::clock::Clocks;
 use crate::msgs::{self, Joy, Message, PoseStamped, TwistStamped, WrenchStamped};
 use crate::participant::{Participant, RosError, SessionConfig};
@@ -140,37 +141,6 @@ impl DeviceConfig {
             velocity_filter_s: 0.01,
             duration_s: None,
         }
-    }
-}
-
-/// What can stop the device gateway from starting.
-#[derive(Debug, thiserror::Error)]
-pub enum DeviceError {
-    /// The iceoryx2 namespace cannot name services (not a source: the message says it all).
-    #[error("iceoryx2 namespace: {0}")]
-    Namespace(services::NamespaceError),
-    /// ROS 2 names, Zenoh session or declarations.
-    #[error(transparent)]
-    Ros(#[from] RosError),
-    /// An iceoryx2 port.
-    #[error(transparent)]
-    Ipc(#[from] ServiceError),
-    /// A bad setting.
-    #[error("{0}")]
-    Config(String),
-    /// A thread could not start.
-    #[error("the device gateway's {thread} thread: {reason}")]
-    Thread {
-        /// Which.
-        thread: &'static str,
-        /// Why.
-        reason: String,
-    },
-}
-
-impl From<services::NamespaceError> for DeviceError {
-    fn from(e: services::NamespaceError) -> Self {
-        DeviceError::Namespace(e)
     }
 }
 
@@ -382,7 +352,7 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|p| p.into_inner())
 }
 
-fn validate(c: &DeviceConfig) -> Result<(), DeviceError> {
+fn validate(c: &DeviceConfig) -> Result<(), GatewayError> {
     services::validate_namespace(&c.namespace)?;
     rmw::validate_absolute("namespace", &c.ros_namespace).map_err(RosError::from)?;
     rmw::validate_node_name(&c.node_name).map_err(RosError::from)?;
@@ -410,14 +380,14 @@ fn validate(c: &DeviceConfig) -> Result<(), DeviceError> {
     ] {
         let ok = v.is_finite() && if positive { v > 0.0 } else { v >= 0.0 };
         if !ok {
-            return Err(DeviceError::Config(format!(
+            return Err(GatewayError::Config(format!(
                 "{name} {v}: must be a finite number {}",
                 if positive { "> 0" } else { "≥ 0" }
             )));
         }
     }
     if l.buttons > 32 {
-        return Err(DeviceError::Config(format!(
+        return Err(GatewayError::Config(format!(
             "{} buttons: at most 32",
             l.buttons
         )));
@@ -462,7 +432,7 @@ fn driver_state(
 }
 
 /// Runs the device gateway until `stop` is set (or `config.duration_s` passes).
-pub fn run(config: &DeviceConfig, stop: Arc<AtomicBool>) -> Result<DeviceReport, DeviceError> {
+pub fn run(config: &DeviceConfig, stop: Arc<AtomicBool>) -> Result<DeviceReport, GatewayError> {
     validate(config)?;
     let started = Instant::now();
     let participant = Participant::open(&config.session, &config.ros_namespace, &config.node_name)?;

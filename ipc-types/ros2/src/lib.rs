@@ -14,8 +14,11 @@
 pub mod cdr;
 pub mod clock;
 pub mod device;
+mod error;
 pub mod msgs;
 pub mod participant;
 pub mod rmw;
 pub mod serve;
 pub mod typehash;
+
+pub use error::GatewayError;

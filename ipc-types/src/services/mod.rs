@@ -10,7 +10,7 @@
 //! | [`PATH`] | publish-subscribe | planner | history 1, safe overflow: late subscribers get the newest path; the planner never blocks |
 //! | [`ROADMAP`] | publish-subscribe | planner | no history, [`ROADMAP_SUBSCRIBER_BUFFER`] samples, safe overflow: increments; a slow or late viewer catches up from the rolling window (see [`crate::Roadmap`]); the planner never blocks |
 //! | [`DRIVER_STATE`] | publish-subscribe | external device driver | history 1, safe overflow: latest value; a restarted driver simply publishes again |
-//! | [`DRIVER_COMMAND`] | publish-subscribe | haptic loop (bridge relay thread) | history 1, safe overflow: latest value; the driver zeroes force when it goes stale |
+//! | [`DRIVER_COMMAND`] | publish-subscribe | haptic loop (external driver's relay thread) | history 1, safe overflow: latest value; the driver zeroes force when it goes stale |
 //!
 //! The driver pair is publish-subscribe for the same reason as guidance: either side may
 //! die and restart. On the loop's side a non-RT relay thread receives and sends and talks

@@ -69,7 +69,8 @@ pub enum EdgeCheck {
     /// The discrete checks (they reject most colliding edges cheaply), then a proof from
     /// clearances that no configuration on the edge collides (see the module docs). The
     /// default: it costs 1.0–1.5× the discrete time per iteration on the built-in
-    /// primitive scenes and 2.9× on the silencer's mesh (`edges` harness, see the README).
+    /// primitive scenes and 2.9× on the silencer's mesh (`edges` harness, see
+    /// docs/guide/planner-and-scenes.md, "Certified edges").
     #[default]
     Certified,
 }

@@ -40,7 +40,7 @@ pub enum MachineSampler {
     /// per-axis σ `sigma` (weighted m) around it; when both collide and their midpoint is
     /// free, the midpoint is the sample (it lies in a passage narrower than about σ).
     /// After [`crate::rrt::BRIDGE_TRIES`] failed tries the sample is uniform.
-    Bridge {
+    BridgeTest {
         /// Probability of a bridge sample, in [0, 1].
         share: f64,
         /// σ of the bridge's second end (weighted m, > 0).
@@ -49,11 +49,11 @@ pub enum MachineSampler {
 }
 
 impl MachineSampler {
-    /// `uniform` or `bridge` (with `share` and `sigma`).
+    /// `uniform` or `bridge-test` (with `share` and `sigma`).
     pub fn parse(name: &str, share: f64, sigma: f64) -> Option<Self> {
         match name {
             "uniform" => Some(MachineSampler::Uniform),
-            "bridge" => Some(MachineSampler::Bridge { share, sigma }),
+            "bridge-test" => Some(MachineSampler::BridgeTest { share, sigma }),
             _ => None,
         }
     }
@@ -187,7 +187,7 @@ impl PlannerParams {
         pos("weights.rotation", self.weights.rotation)?;
         pos("step", self.step)?;
         pos("edge_resolution", self.edge_resolution)?;
-        if let MachineSampler::Bridge { share, sigma } = self.machine_sampler {
+        if let MachineSampler::BridgeTest { share, sigma } = self.machine_sampler {
             if !(0.0..=1.0).contains(&share) {
                 return Err(PlannerError::InvalidParam {
                     name: "machine_sampler.share",

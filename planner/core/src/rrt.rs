@@ -58,8 +58,8 @@ pub enum Source {
     User,
     /// H-RRT-C HapticSampling on the contact plane.
     Contact,
-    /// A machine sample of the bridge test ([`MachineSampler::Bridge`]).
-    Bridge,
+    /// A machine sample of the bridge test ([`MachineSampler::BridgeTest`]).
+    BridgeTest,
 }
 
 /// Bridge tests tried for one bridge sample before it falls back to a uniform one.
@@ -368,7 +368,7 @@ impl Planner {
 
     /// A sample without the operator, by [`PlannerParams::machine_sampler`].
     fn machine_sample(&mut self) -> (Se3, Source) {
-        let MachineSampler::Bridge { share, sigma } = self.params.machine_sampler else {
+        let MachineSampler::BridgeTest { share, sigma } = self.params.machine_sampler else {
             return (self.free_sample(), Source::Uniform);
         };
         if self.rng.random::<f64>() < share {
@@ -383,7 +383,7 @@ impl Planner {
                 }
                 let mid = self.space.interpolate(&q1, &q2, 0.5);
                 if self.checker.is_free(&mid) {
-                    return (mid, Source::Bridge);
+                    return (mid, Source::BridgeTest);
                 }
             }
         }

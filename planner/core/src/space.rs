@@ -58,14 +58,6 @@ impl Default for Weights {
 }
 
 impl Weights {
-    /// `w_t = 1`, `w_r = radius_m²`: one radian weighs like a point at `radius_m` moves.
-    pub fn for_object_radius(radius_m: f64) -> Self {
-        Weights {
-            rotation: radius_m * radius_m,
-            ..Weights::default()
-        }
-    }
-
     /// The distance (weighted m) from the weighted squared translation `t2` = w_t·|Δp|²
     /// and the rotation angle `theta_rad`.
     pub fn combine_terms(&self, t2: f64, theta_rad: f64) -> f64 {

@@ -64,6 +64,16 @@ pub enum LabError {
         /// What is wrong with it.
         reason: String,
     },
+    /// A live sweep's runs.csv that cannot be read back.
+    #[error("{origin}, line {line}: {reason}")]
+    RunsCsv {
+        /// The file.
+        origin: String,
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong.
+        reason: String,
+    },
     /// No TrueType font for the text of plots was found in the usual system places
     /// (see [`crate::register_font`]).
     #[error("no TrueType font found (DejaVuSans.ttf)")]

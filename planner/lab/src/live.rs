@@ -8,7 +8,7 @@
 
 mod report;
 
-pub use report::{LiveSummary, plot, summarize, to_csv, to_markdown};
+pub use report::{LiveSummary, from_csv, plot, summarize, to_csv, to_markdown};
 
 use crate::LabError;
 use scene::Scene;

@@ -325,24 +325,7 @@ impl Grid {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{Bounds, Part, Se3, SpaceKind};
-
-    /// A 20 mm cube from x = −0.15 to 0.15 past a 60 × 160 × 160 mm box in the middle.
-    fn box_between() -> Scene {
-        Scene {
-            name: "box-between".into(),
-            obstacles: vec![Part::axis_box([0.03, 0.08, 0.08], [0.0, 0.0, 0.0])],
-            moving_object: vec![Part::axis_box([0.01, 0.01, 0.01], [0.0, 0.0, 0.0])],
-            bounds: Bounds {
-                min_m: Vector3::new(-0.2, -0.15, -0.15),
-                max_m: Vector3::new(0.2, 0.15, 0.15),
-            },
-            start: Se3::from_xyz(-0.15, 0.0, 0.0),
-            goal: Se3::from_xyz(0.15, 0.0, 0.0),
-            space: SpaceKind::Se3,
-            route: Vec::new(),
-        }
-    }
+    use crate::{Part, Se3};
 
     /// Every segment of the way keeps the ball (less the grid's half-cell slack) off the
     /// box, checked every millimetre.
@@ -360,7 +343,7 @@ mod tests {
 
     #[test]
     fn the_way_goes_around_a_box_between_start_and_goal() {
-        let scene = box_between();
+        let scene = Scene::box_between();
         let way = scene.coarse_way();
         assert!(way.found);
         assert!((way.body_radius_m - 0.01).abs() < 1e-12);
@@ -404,7 +387,7 @@ mod tests {
 
     #[test]
     fn a_closed_mesh_is_blocked_inside_and_gone_around() {
-        let mut scene = box_between();
+        let mut scene = Scene::box_between();
         let sphere = crate::MeshData::bumpy_sphere("sphere.obj", 0.1, 16, 32);
         scene.obstacles = vec![Part {
             primitive: Primitive::Mesh {

@@ -286,6 +286,26 @@ impl Scene {
         Self::wall_with_square_hole(0.08)
     }
 
+    /// A 20 mm cube from x = −0.15 to 0.15 m past a 60 × 160 × 160 mm box in the middle:
+    /// no narrow passage, but no straight way either; no route. The smallest scene an
+    /// operator who does not know the way has to think about (tests of the coarse way and
+    /// the newcomer).
+    pub fn box_between() -> Scene {
+        Scene {
+            name: "box-between".into(),
+            obstacles: vec![Part::axis_box([0.03, 0.08, 0.08], [0.0, 0.0, 0.0])],
+            moving_object: vec![Part::axis_box([0.01, 0.01, 0.01], [0.0, 0.0, 0.0])],
+            bounds: Bounds {
+                min_m: Vector3::new(-0.2, -0.15, -0.15),
+                max_m: Vector3::new(0.2, 0.15, 0.15),
+            },
+            start: Se3::from_xyz(-0.15, 0.0, 0.0),
+            goal: Se3::from_xyz(0.15, 0.0, 0.0),
+            space: SpaceKind::Se3,
+            route: Vec::new(),
+        }
+    }
+
     /// [`Scene::wall_with_hole`] with a square hole of side `hole_side_m` (m, in
     /// (0, 0.7)) instead of 80 mm; named `wall-hole-<side in mm>` unless the side is 80 mm.
     /// Larger holes give easier scenes for tests.

@@ -13,7 +13,7 @@
 //! - *main*: runs planner iterations as fast as they go and, independently of their speed,
 //!   publishes [`Guidance`] at `guidance_rate_hz`, the [`ipc_types::Path`] once solved, and roadmap
 //!   increments for viewers ([`ipc_types::Roadmap`], filled by
-//!   [`roadmap::RoadmapFeed`]: O(1024) nodes per sample whatever the roadmap's
+//!   [`view::feed::RoadmapFeed`]: O(1024) nodes per sample whatever the roadmap's
 //!   size) at `roadmap_rate_hz`. Never waits for the haptic loop or a viewer: a roadmap
 //!   sample that cannot be loaned is skipped, and a full viewer queue overflows safely.
 
@@ -25,7 +25,6 @@ pub mod convert;
 mod error;
 pub use ipc_types::pacing;
 mod receiver;
-pub mod roadmap;
 
 use crate::{Planner, PlannerParams, Scene, Se3};
 pub use error::ShellError;
@@ -34,11 +33,11 @@ use convert::{operator_pose, to_wire_path, user_input};
 use ipc_types::services::{self, GuidanceNotifier, Publisher};
 use ipc_types::{Guidance, GuidanceMode, Header};
 use receiver::{Operator, lock, receive_states};
-use roadmap::{FeedInfo, RoadmapFeed};
 use serde::Serialize;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
+use view::feed::{FeedInfo, RoadmapFeed};
 
 /// Everything the planner process needs, validated.
 #[derive(Debug, Clone)]

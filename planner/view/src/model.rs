@@ -205,22 +205,8 @@ impl RoadmapModel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use planner::shell::roadmap::{FeedInfo, RoadmapFeed};
-    use planner_core::Se3;
-    use planner_core::tree::{NodeId, Tree};
-
-    /// A tree of `n` nodes in a line along x at height `y`, 1 mm apart.
-    fn chain(n: usize, y: f64) -> Tree {
-        let mut t = Tree::new(Se3::from_xyz(0.0, y, 0.0), 1.0);
-        for i in 1..n {
-            t.add(
-                NodeId(i as u32 - 1),
-                Se3::from_xyz(i as f64 * 1e-3, y, 0.0),
-                1.0,
-            );
-        }
-        t
-    }
+    use crate::feed::{FeedInfo, RoadmapFeed};
+    use crate::test_trees::chain;
 
     fn info(pid: u32) -> FeedInfo {
         FeedInfo {

@@ -55,16 +55,12 @@ fn bridge_b(dir: &Path, ns: &str, port: u16, offset_s: &str) -> Proc {
     )
 }
 
-fn start_loop(ns: &str, summary: &Path) -> Proc {
-    Proc::spawn(
-        &bin("haptic-loop"),
+fn loop_host(ns: &str, summary: &Path) -> Proc {
+    tests::start_loop(
+        ns,
         &[
-            "run",
-            "--namespace",
-            ns,
             "--priority",
             "0",
-            "--no-mlock",
             "--no-contact",
             "--scene",
             SCENE,
@@ -100,7 +96,7 @@ impl TwoHosts {
         let dir = host_b(host_tag);
         let port = free_port();
         let loop_summary = std::env::temp_dir().join(format!("{ns}-loop.json"));
-        let lp = start_loop(&ns, &loop_summary);
+        let lp = loop_host(&ns, &loop_summary);
         let (node, _) = services::create_node(&format!("it_{tag}_watch")).unwrap();
         let state = services::state_reader(&node, &ns).unwrap();
         wait_for("the loop publishes", Duration::from_secs(30), || {

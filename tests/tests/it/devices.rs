@@ -1,5 +1,5 @@
 //! Issue 5: real-device plumbing without real devices. The `devices` command and `--device`
-//! errors as a user sees them; the bridge with the example driver as a separate process;
+//! errors as a user sees them; an external driver (the example) as a separate process;
 //! and the RT invariant (no allocation in `read`/`write`) for every new device type,
 //! measured by the counting allocator over thousands of ticks.
 
@@ -14,11 +14,8 @@ use devices::sdk::{dhd, hd};
 use devices::sim::{SimulatedArm, SimulatedArmConfig};
 use devices::spacemouse::{SpaceMouse, SpaceMouseConfig, report};
 use haptic_loop::alloc_count;
-use haptic_loop::bridge::{BridgeConfig, BridgeDevice};
-use haptic_loop::guidance::GuidanceConfig;
-use haptic_loop::mapping::MappingConfig;
-use haptic_loop::safety::SafetyConfig;
-use haptic_loop::tick::{GuidanceSource, NoSink, PrevTiming, Tick, TickConfig};
+use haptic_loop::driver::{DriverConfig, DriverDevice};
+use haptic_loop::tick::{NoSink, PrevTiming, Tick, TickConfig};
 use ipc_types::{FaultCode, Guidance, GuidanceMode, Header};
 
 const MS: u64 = 1_000_000;
@@ -62,7 +59,7 @@ fn absent_devices_fail_with_a_message_naming_what_to_check() {
             ],
             &["OpenHaptics", "HRRTC_HD_LIB"],
         ),
-        (&["--device", "bridge"], &["driver", "--namespace"]),
+        (&["--device", "driver"], &["driver", "--namespace"]),
         (
             &["--device", "trackball"],
             &["unknown device", "spacemouse"],
@@ -85,11 +82,11 @@ fn absent_devices_fail_with_a_message_naming_what_to_check() {
 }
 
 #[test]
-fn bridge_with_the_example_driver_process_runs_the_loop() {
+fn an_external_driver_process_runs_the_loop() {
     let _serial = tests::one_loop_at_a_time();
-    let ns = tests::unique_namespace("bridgeproc");
+    let ns = tests::unique_namespace("driverproc");
     let mut driver = tests::Proc::spawn(
-        &tests::example("bridge_driver"),
+        &tests::example("sim_driver"),
         &["--namespace", &ns, "--duration-s", "20"],
     );
     let summary = std::env::temp_dir().join(format!("{ns}.json"));
@@ -99,7 +96,7 @@ fn bridge_with_the_example_driver_process_runs_the_loop() {
             "--namespace",
             &ns,
             "--device",
-            "bridge",
+            "driver",
             "--priority",
             "0",
         ])
@@ -126,23 +123,21 @@ fn bridge_with_the_example_driver_process_runs_the_loop() {
     let _ = std::fs::remove_file(&summary);
 }
 
-struct Fixed;
-impl GuidanceSource for Fixed {
-    fn latest(&mut self) -> Guidance {
-        Guidance {
-            header: Header {
-                sequence: 1,
-                timestamp_ns: 0,
-                writer_pid: 1,
-                reserved: 0,
-            },
-            attractive: [0.02, 0.01, -0.01, 0.0, 0.0, 0.05],
-            gain_n_per_m: 40.0,
-            gain_nm_per_rad: 0.05,
-            time_to_live_ns: u64::MAX / 4,
-            mode: GuidanceMode::ROADMAP,
-            ..Guidance::default()
-        }
+/// A guidance sample that stays fresh for the whole test.
+fn fixed_guidance() -> Guidance {
+    Guidance {
+        header: Header {
+            sequence: 1,
+            timestamp_ns: 0,
+            writer_pid: 1,
+            reserved: 0,
+        },
+        attractive: [0.02, 0.01, -0.01, 0.0, 0.0, 0.05],
+        gain_n_per_m: 40.0,
+        gain_nm_per_rad: 0.05,
+        time_to_live_ns: u64::MAX / 4,
+        mode: GuidanceMode::ROADMAP,
+        ..Guidance::default()
     }
 }
 
@@ -153,13 +148,8 @@ fn rt_allocations(
     ticks: u64,
     mut tick_ns: impl FnMut(u64) -> u64,
 ) -> (u64, FaultCode) {
-    let config = TickConfig {
-        mapping: MappingConfig::default(),
-        guidance: GuidanceConfig::default(),
-        safety: SafetyConfig::default(),
-        period_s: 0.001,
-    };
-    let mut t = Tick::new(dev, &config, Fixed, NoSink).expect("device opens");
+    let config = TickConfig::default();
+    let mut t = Tick::new(dev, &config, fixed_guidance(), NoSink).expect("device opens");
     for i in 1..=20 {
         t.step(tick_ns(i), PrevTiming::default());
     }
@@ -224,20 +214,20 @@ fn new_devices_read_and_write_without_allocating() {
     let (n, _) = rt_allocations(Box::new(h), 3000, |_| ipc_types::monotonic_ns());
     assert_eq!(n, 0, "openhaptics");
 
-    // Bridge with the example driver on another thread.
-    let ns = tests::unique_namespace("rtallocbridge");
+    // An external driver: the example on another thread.
+    let ns = tests::unique_namespace("rtallocdriver");
     let stop = Arc::new(AtomicBool::new(false));
     let driver = {
         let (ns, stop) = (ns.clone(), stop.clone());
         std::thread::spawn(move || {
-            haptic_loop::bridge_driver::run(&ns, 1000.0, Duration::from_millis(50), &stop)
+            haptic_loop::sim_driver::run(&ns, 1000.0, Duration::from_millis(50), &stop)
         })
     };
-    let b = BridgeDevice::new(BridgeConfig::new(&ns)).unwrap();
+    let b = DriverDevice::new(DriverConfig::new(&ns)).unwrap();
     let (n, _) = rt_allocations(Box::new(b), 3000, |_| ipc_types::monotonic_ns());
     stop.store(true, Ordering::Release);
     driver.join().unwrap().unwrap();
-    assert_eq!(n, 0, "bridge");
+    assert_eq!(n, 0, "external driver");
 }
 
 #[test]

@@ -8,6 +8,7 @@ static ALLOCATOR: CountingAllocator = CountingAllocator;
 
 mod alloc;
 mod bridge;
+mod bridge_in_planner;
 mod devices;
 mod external_c;
 mod issue_16;

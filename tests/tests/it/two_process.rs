@@ -5,23 +5,9 @@ use ipc_types::{FaultCode, Guidance, GuidanceFreshness, HapticState};
 use std::time::{Duration, Instant};
 use tests::{Proc, bin, norm, one_loop_at_a_time, unique_namespace, wait_for};
 
+/// The loop at the normal scheduler for up to 60 s.
 fn start_loop(ns: &str) -> Proc {
-    start_loop_with(ns, &[])
-}
-
-fn start_loop_with(ns: &str, extra: &[&str]) -> Proc {
-    let mut args = vec![
-        "run",
-        "--namespace",
-        ns,
-        "--priority",
-        "0",
-        "--no-mlock",
-        "--duration-s",
-        "60",
-    ];
-    args.extend_from_slice(extra);
-    Proc::spawn(&bin("haptic-loop"), &args)
+    tests::start_loop(ns, &["--priority", "0", "--duration-s", "60"])
 }
 
 pub(crate) fn start_planner(ns: &str, extra: &[&str]) -> Proc {
@@ -99,7 +85,10 @@ fn guidance_reaches_the_arm_fades_on_planner_death_and_returns() {
     let ns = unique_namespace("kill");
     // Without contact rendering: the virtual coupling (its proxy braking near the wall the
     // scripted operator heads for) would add its own force to the commanded wrench.
-    let mut lp = start_loop_with(&ns, &["--no-contact"]);
+    let mut lp = tests::start_loop(
+        &ns,
+        &["--priority", "0", "--duration-s", "60", "--no-contact"],
+    );
     let (node, _) = services::create_node("it_kill_watch").unwrap();
     let state = services::state_reader(&node, &ns).unwrap();
     let mut planner = start_planner(&ns, &["--ttl-ms", "100"]);

@@ -9,20 +9,16 @@ use tests::loop_watch::{PHASE_TICKS, PHASES, condition};
 use tests::{Proc, bin, unique_namespace, wait_for};
 
 /// The loop as the product runs it: SCHED_FIFO priority 80 when permitted (the summary
-/// says whether it was); memory not locked (a shared test machine), no contact rendering
+/// says whether it was); no contact rendering
 /// (saves the 4 s voxmap build; the view reads the same state either way) and the `free`
 /// scene, which the planner solves at once and then only publishes: the test adds no
 /// planner burning a core to the other tests running beside it on two cores.
-fn start_loop(ns: &str, summary: &str) -> Proc {
-    Proc::spawn(
-        &bin("haptic-loop"),
+fn free_scene_loop(ns: &str, summary: &str) -> Proc {
+    tests::start_loop(
+        ns,
         &[
-            "run",
-            "--namespace",
-            ns,
             "--priority",
             "80",
-            "--no-mlock",
             "--no-contact",
             "--scene",
             "free",
@@ -55,7 +51,7 @@ fn issue_8_a_slow_or_dead_view_changes_nothing_in_the_loop() {
     let dir = std::env::temp_dir().join(&ns);
     std::fs::create_dir_all(&dir).unwrap();
     let summary = dir.join("loop.json");
-    let mut lp = start_loop(&ns, summary.to_str().unwrap());
+    let mut lp = free_scene_loop(&ns, summary.to_str().unwrap());
     let (node, _) = services::create_node("it_view_watch").unwrap();
     let state = services::state_reader(&node, &ns).unwrap();
     let planner_json = dir.join("planner.json");

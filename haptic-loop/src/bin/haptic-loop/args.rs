@@ -64,7 +64,7 @@ pub struct LoopArgs {
     #[arg(long)]
     pub no_guidance: bool,
     /// Who holds a simulated device: `expert` or `novice` (an operator that follows the
-    /// scene's route and reacts to what it feels: see README "The simulated operator"),
+    /// scene's route and reacts to what it feels: see docs/guide/simulated-operator.md),
     /// `newcomer` (one who does not know the way: it never reads the route, plans its own
     /// coarse way and follows felt guidance), or `scripted` (the wall-hole demo's timed
     /// path, which reacts to nothing) [default: demo: expert, newcomer on a scene without a
@@ -97,7 +97,7 @@ pub struct LoopArgs {
     /// Contact point budget: points near the surface the contact stage may look at per
     /// millisecond of tick period; past it, contact is rendered from a coarser level of
     /// detail of the object's points (down to 4 mm spacing).
-    #[arg(long, default_value_t = 6000.0)]
+    #[arg(long, default_value_t = 4000.0)]
     pub contact_points_per_ms: f64,
     /// Render contact always at this level of detail (0 = every point, each level about
     /// twice the spacing of the one before), whatever it costs, instead of the budget.
@@ -112,8 +112,8 @@ pub struct LoopArgs {
 #[derive(Debug, Args, Clone)]
 pub struct DeviceArgs {
     /// Device: sim (simulated arm), sim-spacemouse (simulated SpaceMouse), spacemouse, dhd,
-    /// openhaptics, bridge, ros2:pose=TOPIC,wrench=TOPIC[,KEY=VALUE...] (a ROS 2 driver's arm,
-    /// served by the hrrtc-ros2 executable beside this one; keys in the README) or
+    /// openhaptics, driver (an external driver process), ros2:pose=TOPIC,wrench=TOPIC[,KEY=VALUE...] (a ROS 2 driver's arm,
+    /// served by the hrrtc-ros2 executable beside this one; keys in docs/guide/ros2.md) or
     /// replay:FILE.
     #[arg(long, default_value = "sim", value_parser = DeviceChoice::from_str)]
     pub device: DeviceChoice,
@@ -205,7 +205,7 @@ pub struct DemoArgs {
 /// Options of `haptic-loop devices`.
 #[derive(Debug, Args, Clone)]
 pub struct DevicesArgs {
-    /// Namespace in which to look for a bridged driver.
+    /// Namespace in which to look for an external driver.
     #[arg(long, default_value = services::DEFAULT_NAMESPACE)]
     pub namespace: String,
     /// Vendor library to probe for dhd / openhaptics (as for `run --device-lib`).

@@ -1,12 +1,12 @@
 //! `haptic-loop devices`: what is attached (SpaceMouse, Force Dimension, OpenHaptics, a
-//! bridged driver), each with its limits. Exit code 0, also when none is found.
+//! external driver), each with its limits. Exit code 0, also when none is found.
 
 use crate::args::DevicesArgs;
 use devices::HapticDevice;
 use devices::sdk::{dhd, hd};
 use devices::spacemouse::{self, SpaceMouseConfig};
-use haptic_loop::bridge::{BridgeConfig, BridgeDevice};
 use haptic_loop::device_choice::{Sdk, describe, vendor_library};
+use haptic_loop::driver::{DriverConfig, DriverDevice};
 use std::time::Duration;
 
 /// `haptic-loop devices`: prints what is attached with its spec; exit code 0 either way.
@@ -78,14 +78,14 @@ pub fn run(args: &DevicesArgs) -> anyhow::Result<i32> {
         },
     }
 
-    let mut bridge_cfg = BridgeConfig::new(&args.namespace);
-    bridge_cfg.open_timeout_s = 0.3;
-    let mut b = BridgeDevice::new(bridge_cfg).map_err(|e| anyhow::anyhow!("bridge: {e}"))?;
+    let mut driver_cfg = DriverConfig::new(&args.namespace);
+    driver_cfg.open_timeout_s = 0.3;
+    let mut b = DriverDevice::new(driver_cfg).map_err(|e| anyhow::anyhow!("driver: {e}"))?;
     match b.open() {
         Ok(()) => {
             found += 1;
             println!(
-                "bridge       {} (driver on namespace '{}')",
+                "driver       {} (external driver on namespace '{}')",
                 b.spec().name,
                 args.namespace
             );
@@ -93,7 +93,7 @@ pub fn run(args: &DevicesArgs) -> anyhow::Result<i32> {
             b.close();
         }
         Err(_) => notes.push(format!(
-            "bridge: no driver on namespace '{}'",
+            "driver: no external driver on namespace '{}'",
             args.namespace
         )),
     }

@@ -39,7 +39,7 @@ enum Command {
     /// Only the loop, on the simulated arm or a real device (--device); start a planner
     /// yourself with `planner serve`. Runs until Ctrl-C / SIGTERM or --duration-s.
     Run(RunArgs),
-    /// List attached devices (SpaceMouse, Force Dimension, OpenHaptics, bridged driver)
+    /// List attached devices (SpaceMouse, Force Dimension, OpenHaptics, external driver)
     /// with their limits. Exit code 0, also when none is found.
     Devices(DevicesArgs),
 }

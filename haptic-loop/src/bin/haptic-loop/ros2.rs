@@ -1,5 +1,5 @@
 //! `--device ros2:...`: the `hrrtc-ros2 device` process that serves a ROS 2 driver's arm on
-//! the driver bridge. It lives beside `haptic-loop` (cargo builds both into one folder) and
+//! the external driver's services. It lives beside `haptic-loop` (cargo builds both into one folder) and
 //! links Zenoh, which this binary must not.
 
 use anyhow::Context;

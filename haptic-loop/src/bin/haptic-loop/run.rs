@@ -16,7 +16,7 @@ pub fn run(args: &RunArgs, stop: &Arc<AtomicBool>) -> anyhow::Result<i32> {
         .map(|d| args::seconds("duration-s", d))
         .transpose()?;
     let choice = &args.device.device;
-    // A ROS 2 driver's arm is served by hrrtc-ros2 on the driver bridge: start it first.
+    // A ROS 2 driver's arm is served by hrrtc-ros2 as an external driver: start it first.
     let mut gateway = match choice {
         DeviceChoice::Ros2(d) => Some(ros2::Gateway::start(
             d,

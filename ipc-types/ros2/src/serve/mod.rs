@@ -30,12 +30,13 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use ipc_types::services::{self, ServiceError};
+use ipc_types::services;
 use ipc_types::{Guidance, Path, Roadmap, pacing};
 use scene::Scene;
 use serde::Serialize;
 use zenoh::Wait;
 
+use crate::GatewayError;
 use crate::clock::Clocks;
 use crate::msgs::{self, Header, Message, TfMessage, TransformStamped};
 use crate::participant::{Participant, RosError, RosPublisher, SessionConfig};
@@ -108,37 +109,6 @@ impl ServeConfig {
             max_roadmap_nodes: 200_000,
             duration_s: None,
         }
-    }
-}
-
-/// What can stop the gateway from starting.
-#[derive(Debug, thiserror::Error)]
-pub enum ServeError {
-    /// The iceoryx2 namespace cannot name services (not a source: the message says it all).
-    #[error("iceoryx2 namespace: {0}")]
-    Namespace(services::NamespaceError),
-    /// ROS 2 names, Zenoh session or declarations.
-    #[error(transparent)]
-    Ros(#[from] RosError),
-    /// An iceoryx2 port.
-    #[error(transparent)]
-    Ipc(#[from] ServiceError),
-    /// A bad setting.
-    #[error("{0}")]
-    Config(String),
-    /// A thread could not start or died starting.
-    #[error("the gateway's {thread} thread: {reason}")]
-    Thread {
-        /// Which.
-        thread: &'static str,
-        /// Why.
-        reason: String,
-    },
-}
-
-impl From<services::NamespaceError> for ServeError {
-    fn from(e: services::NamespaceError) -> Self {
-        ServeError::Namespace(e)
     }
 }
 
@@ -318,7 +288,7 @@ fn planner_id(p: &Participant) -> u32 {
     u32::from_le_bytes([z[0], z[1], z[2], z[3]]).max(1)
 }
 
-fn validate(config: &ServeConfig) -> Result<(), ServeError> {
+fn validate(config: &ServeConfig) -> Result<(), GatewayError> {
     services::validate_namespace(&config.namespace)?;
     rmw::validate_absolute("namespace", &config.ros_namespace).map_err(RosError::from)?;
     rmw::validate_node_name(&config.node_name).map_err(RosError::from)?;
@@ -326,14 +296,14 @@ fn validate(config: &ServeConfig) -> Result<(), ServeError> {
         if v.is_finite() && v > 0.0 {
             Ok(())
         } else {
-            Err(ServeError::Config(format!(
+            Err(GatewayError::Config(format!(
                 "{name} {v}: must be a positive number"
             )))
         }
     };
     positive("marker rate (Hz)", config.marker_rate_hz)?;
     if !(config.state_spin_us.is_finite() && config.state_spin_us >= 0.0) {
-        return Err(ServeError::Config(format!(
+        return Err(GatewayError::Config(format!(
             "state spin {} µs: must be a number ≥ 0",
             config.state_spin_us
         )));
@@ -343,14 +313,14 @@ fn validate(config: &ServeConfig) -> Result<(), ServeError> {
         positive("duration (s)", d)?;
     }
     if config.state_decimation == 0 {
-        return Err(ServeError::Config(
+        return Err(GatewayError::Config(
             "state decimation 0: publish every n-th tick, n ≥ 1".into(),
         ));
     }
     if let Some(f) = &config.parent_frame
         && (f.is_empty() || f.starts_with('/'))
     {
-        return Err(ServeError::Config(format!(
+        return Err(GatewayError::Config(format!(
             "parent frame {f:?}: a TF frame id is non-empty and does not start with '/'"
         )));
     }
@@ -358,7 +328,7 @@ fn validate(config: &ServeConfig) -> Result<(), ServeError> {
 }
 
 /// Runs the gateway until `stop` is set (or `config.duration_s` passes).
-pub fn run(config: &ServeConfig, stop: Arc<AtomicBool>) -> Result<ServeReport, ServeError> {
+pub fn run(config: &ServeConfig, stop: Arc<AtomicBool>) -> Result<ServeReport, GatewayError> {
     validate(config)?;
     let started = Instant::now();
     let participant = Arc::new(Participant::open(
@@ -477,7 +447,7 @@ pub fn run(config: &ServeConfig, stop: Arc<AtomicBool>) -> Result<ServeReport, S
         std::thread::Builder::new()
             .name(format!("ros2-{name}"))
             .spawn(move || body(&config, &frames, &pubs, &counters, &stop, ready))
-            .map_err(|e| ServeError::Thread {
+            .map_err(|e| GatewayError::Thread {
                 thread: name,
                 reason: e.to_string(),
             })
@@ -493,7 +463,7 @@ pub fn run(config: &ServeConfig, stop: Arc<AtomicBool>) -> Result<ServeReport, S
             Ok(Ok(())) => {}
             Ok(Err(e)) => setup = Err(e),
             Err(_) => {
-                setup = Err(ServeError::Thread {
+                setup = Err(GatewayError::Thread {
                     thread: "state or planner",
                     reason: "it died during set-up".into(),
                 })
@@ -597,7 +567,7 @@ type ThreadBody = fn(
     &StatePubs,
     &Counters,
     &AtomicBool,
-    std::sync::mpsc::Sender<Result<(), ServeError>>,
+    std::sync::mpsc::Sender<Result<(), GatewayError>>,
 ) -> Vec<String>;
 
 /// The tick topics: reads the state phase-locked to the loop (as the planner's receiver, at
@@ -609,9 +579,9 @@ fn state_thread(
     pubs: &StatePubs,
     counters: &Counters,
     stop: &AtomicBool,
-    ready: std::sync::mpsc::Sender<Result<(), ServeError>>,
+    ready: std::sync::mpsc::Sender<Result<(), GatewayError>>,
 ) -> Vec<String> {
-    let opened = (|| -> Result<_, ServeError> {
+    let opened = (|| -> Result<_, GatewayError> {
         let (node, _) = services::create_node(&format!("ros2_state_{}", std::process::id()))?;
         let state = services::StateFollower::open(&node, &config.namespace)?;
         Ok((node, state))
@@ -717,10 +687,10 @@ fn planner_thread(
     pubs: &StatePubs,
     counters: &Counters,
     stop: &AtomicBool,
-    ready: std::sync::mpsc::Sender<Result<(), ServeError>>,
+    ready: std::sync::mpsc::Sender<Result<(), GatewayError>>,
 ) -> Vec<String> {
     let ns = &config.namespace;
-    let opened = (|| -> Result<_, ServeError> {
+    let opened = (|| -> Result<_, GatewayError> {
         let (node, _) = services::create_node(&format!("ros2_planner_{}", std::process::id()))?;
         let path = services::subscriber::<Path>(&node, ns)?;
         let roadmap = services::subscriber::<Roadmap>(&node, ns)?;

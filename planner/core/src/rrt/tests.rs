@@ -533,7 +533,7 @@ fn bridge_samples_are_free_and_hug_the_obstacles() {
     // uniform samples do (the midpoints of two colliding configurations σ apart).
     let scene = Scene::bug_trap();
     let params = PlannerParams {
-        machine_sampler: MachineSampler::Bridge {
+        machine_sampler: MachineSampler::BridgeTest {
             share: 1.0,
             sigma: 0.01,
         },
@@ -543,7 +543,7 @@ fn bridge_samples_are_free_and_hug_the_obstacles() {
     let mut bridge = Vec::new();
     for _ in 0..2000 {
         let r = p.iterate(None);
-        if r.source == Source::Bridge {
+        if r.source == Source::BridgeTest {
             let q = r.sample.expect("a sample");
             assert!(p.checker().is_free(&q), "bridge sample collides: {q:?}");
             bridge.push(p.checker().clearance_m(&q));
@@ -576,7 +576,7 @@ fn bridge_parameters_are_checked() {
         (0.5, f64::NAN, "machine_sampler.sigma"),
     ] {
         let params = PlannerParams {
-            machine_sampler: MachineSampler::Bridge { share, sigma },
+            machine_sampler: MachineSampler::BridgeTest { share, sigma },
             ..PlannerParams::default()
         };
         match params.validate() {
@@ -585,8 +585,8 @@ fn bridge_parameters_are_checked() {
         }
     }
     assert_eq!(
-        MachineSampler::parse("bridge", 0.3, 0.02),
-        Some(MachineSampler::Bridge {
+        MachineSampler::parse("bridge-test", 0.3, 0.02),
+        Some(MachineSampler::BridgeTest {
             share: 0.3,
             sigma: 0.02
         })

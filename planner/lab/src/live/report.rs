@@ -188,6 +188,123 @@ pub fn to_csv(runs: &[LiveRun]) -> String {
     out
 }
 
+/// Runs read back from a runs.csv written by [`to_csv`] (`origin` names it in errors), so
+/// that sweeps run in parts (other seeds, another day) can be reported together. Columns
+/// are found by their header names; an empty number is missing (NaN).
+pub fn from_csv(text: &str, origin: &str) -> Result<Vec<LiveRun>, LabError> {
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
+    let bad = |line: usize, reason: String| LabError::RunsCsv {
+        origin: origin.to_owned(),
+        line,
+        reason,
+    };
+    let col = |name: &str| {
+        header
+            .iter()
+            .position(|h| *h == name)
+            .ok_or_else(|| bad(1, format!("no column `{name}`")))
+    };
+    let names = [
+        "scene",
+        "route",
+        "method",
+        "planner",
+        "alpha",
+        "input",
+        "guidance",
+        "operator",
+        "seed",
+        "solved",
+        "time_to_solve_s",
+        "nodes",
+        "edges",
+        "time_to_goal_s",
+        "contact_s",
+        "max_penetration_mm",
+        "voxel_mm",
+        "max_force_step_n",
+        "ticks",
+        "deadline_misses",
+        "compute_p999_us",
+        "run_s",
+        "blocks",
+        "corrections",
+        "retries",
+    ];
+    let at: Vec<usize> = names.iter().map(|n| col(n)).collect::<Result<_, _>>()?;
+    let mut runs = Vec::new();
+    for (i, line) in lines.enumerate().filter(|(_, l)| !l.trim().is_empty()) {
+        let n = i + 2;
+        let f: Vec<&str> = line.split(',').collect();
+        if f.len() != header.len() {
+            return Err(bad(
+                n,
+                format!("{} fields, the header has {}", f.len(), header.len()),
+            ));
+        }
+        let field = |k: usize| f[at[k]];
+        let float = |k: usize| -> Result<f64, LabError> {
+            let v = field(k);
+            if v.is_empty() {
+                return Ok(f64::NAN);
+            }
+            v.parse::<f64>()
+                .map_err(|e| bad(n, format!("{} `{v}`: {e}", names[k])))
+        };
+        let int = |k: usize| -> Result<u64, LabError> {
+            field(k)
+                .parse::<u64>()
+                .map_err(|e| bad(n, format!("{} `{}`: {e}", names[k], field(k))))
+        };
+        let small = |k: usize| -> Result<u32, LabError> {
+            u32::try_from(int(k)?).map_err(|e| bad(n, format!("{}: {e}", names[k])))
+        };
+        let flag = |k: usize| -> Result<bool, LabError> {
+            match field(k) {
+                "true" => Ok(true),
+                "false" => Ok(false),
+                v => Err(bad(
+                    n,
+                    format!("{} `{v}`: expected true or false", names[k]),
+                )),
+            }
+        };
+        runs.push(LiveRun {
+            scene: field(0).to_owned(),
+            route: flag(1)?,
+            method: field(2).to_owned(),
+            planner: flag(3)?,
+            alpha: float(4)?,
+            input: match field(5) {
+                "arm" => super::Input::Arm,
+                "mouse" => super::Input::Mouse,
+                v => return Err(bad(n, format!("input `{v}`: expected arm or mouse"))),
+            },
+            guidance: flag(6)?,
+            operator: field(7).to_owned(),
+            seed: int(8)?,
+            solved: flag(9)?,
+            time_to_solve_s: float(10)?,
+            nodes: int(11)?,
+            edges: int(12)?,
+            time_to_goal_s: float(13)?,
+            contact_s: float(14)?,
+            max_penetration_mm: float(15)?,
+            voxel_mm: float(16)?,
+            max_force_step_n: float(17)?,
+            ticks: int(18)?,
+            deadline_misses: int(19)?,
+            compute_p999_us: float(20)?,
+            run_s: float(21)?,
+            blocks: small(22)?,
+            corrections: small(23)?,
+            retries: small(24)?,
+        });
+    }
+    Ok(runs)
+}
+
 /// The summaries as a markdown table, with each scene's speed-up of every method over
 /// automatic RRT-Connect (ratio of medians of the time to solve) when that was run, and
 /// each method's median time to the goal over the better of `operator-alone` and

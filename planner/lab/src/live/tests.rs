@@ -160,6 +160,21 @@ fn summaries_count_unsolved_at_the_limit_and_csv_is_well_formed() {
         "unsolved time is empty: {}",
         lines[2]
     );
+    // Read back (a sweep run in parts is reported together): the same runs, the same CSV.
+    let back = from_csv(&csv, "runs.csv").unwrap();
+    assert_eq!(back.len(), runs.len());
+    assert_eq!(to_csv(&back), csv);
+    assert!(back[1].time_to_solve_s.is_nan() || back[1].solved);
+    // A short line and a bad number are named with their line.
+    let short = format!("{}\ntunnels,false\n", lines[0]);
+    let e = from_csv(&short, "x.csv").unwrap_err().to_string();
+    assert!(e.contains("x.csv, line 2") && e.contains("fields"), "{e}");
+    let bad = csv.replacen(",false,,", ",false,soon,", 1);
+    let e = from_csv(&bad, "y.csv").unwrap_err().to_string();
+    assert!(
+        e.contains("y.csv, line 3") && e.contains("time_to_solve_s"),
+        "{e}"
+    );
 }
 
 #[test]

@@ -43,16 +43,16 @@ pub struct CoreArgs {
     /// RRTConnect); the other tree always connects greedily.
     #[arg(long, default_value = "greedy", value_parser = ["greedy", "step"])]
     pub extend: String,
-    /// Machine (operator-free) samples: `uniform`, or `bridge` (the bridge test of Hsu et
-    /// al. 2003 for narrow passages, one sample in --bridge-share; uniform otherwise).
-    #[arg(long, default_value = "uniform", value_parser = ["uniform", "bridge"])]
+    /// Machine (operator-free) samples: `uniform`, or `bridge-test` (the bridge test of Hsu et
+    /// al. 2003 for narrow passages, one sample in --bridge-test-share; uniform otherwise).
+    #[arg(long, default_value = "uniform", value_parser = ["uniform", "bridge-test"])]
     pub machine_sampler: String,
-    /// Share of bridge samples among machine samples, in [0, 1].
+    /// Share of bridge-test samples among machine samples, in [0, 1].
     #[arg(long, default_value_t = 0.5)]
-    pub bridge_share: f64,
-    /// σ of the bridge's second end around the first, weighted m (m, or rad × 0.1).
+    pub bridge_test_share: f64,
+    /// σ of the bridge test's second end around the first, weighted m (m, or rad × 0.1).
     #[arg(long, default_value_t = 0.01)]
-    pub bridge_sigma: f64,
+    pub bridge_test_sigma: f64,
     /// Share of machine samples (and of bridge tests' first ends) turned square to an
     /// obstacle's faces instead of uniformly (obstacle-based RRT's alignment), in [0, 1];
     /// for passages narrow in orientation, e.g. `--scene bug-trap`.
@@ -86,8 +86,8 @@ impl CoreArgs {
             shortcut_attempts: self.shortcut_attempts,
             machine_sampler: planner::MachineSampler::parse(
                 &self.machine_sampler,
-                self.bridge_share,
-                self.bridge_sigma,
+                self.bridge_test_share,
+                self.bridge_test_sigma,
             )
             .with_context(|| format!("--machine-sampler: unknown `{}`", self.machine_sampler))?,
             aligned_share: self.aligned_share,

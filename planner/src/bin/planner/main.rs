@@ -6,7 +6,6 @@
 
 mod common;
 mod experiment;
-mod experiment_live;
 mod scenes;
 mod serve;
 mod solve;

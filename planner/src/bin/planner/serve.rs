@@ -64,8 +64,8 @@ pub struct ServeArgs {
     /// SCHED_FIFO priority of the thread that receives the haptic state (below the haptic
     /// loop's, 80 by default), so that it wakes on time on a busy machine and catches each
     /// state as it is written; it sleeps but for the spin window. 0 keeps the normal
-    /// scheduler; without permission (see README "Real-time permissions") it is kept too,
-    /// with a warning.
+    /// scheduler; without permission (see docs/guide/configuration.md, "Without real-time
+    /// permissions") it is kept too, with a warning.
     #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u8).range(0..=98))]
     pub state_priority: u8,
     /// Roadmap increments per second for `planner view` (1024 nodes each; a late viewer

@@ -19,7 +19,7 @@ pub struct SolveArgs {
     #[arg(long, default_value_t = 60.0)]
     pub time_limit: f64,
     /// Grow local trees at bridge samples the two main trees cannot reach (with
-    /// `--machine-sampler bridge`: the narrow-passage samples seed trees of their own).
+    /// `--machine-sampler bridge-test`: the narrow-passage samples seed trees of their own).
     #[arg(long)]
     pub local_trees: bool,
     /// Plan by small-step retraction (Saha & Latombe 2005) for passages too narrow to

@@ -3,65 +3,13 @@
 //!
 //! State machine: forces start latched off (`STARTUP`). Any fault cause latches zero force
 //! in the tick it is seen. A latched fault clears only after its cause has been absent
-//! *and* the device has been still (see `Tick`) for `fault_clear_s`; forces then ramp in
+//! *and* the device has been still ([`SafetyConfig::is_still`]) for `fault_clear_s`; forces then ramp in
 //! over `ramp_s`, rate limited. So nothing jumps at start, and a hand that is moving when a
 //! fault ends is not suddenly pushed.
 
-use crate::guidance::clamp_norm;
-use devices::Wrench;
+use super::SafetyConfig;
+use devices::{Wrench, clamp_norm};
 use ipc_types::FaultCode;
-
-/// Safety limits. Each bound is the smaller of this and the device's own specification.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SafetyConfig {
-    /// Cap on |force|, N; `f64::INFINITY` = the device's maximum.
-    pub max_force_n: f64,
-    /// Cap on |torque|, N·m; `f64::INFINITY` = the device's maximum.
-    pub max_torque_nm: f64,
-    /// Largest change of force per second, N/s (e.g. 2000 N/s = 2 N per 1 ms tick). Going to
-    /// zero on a fault is not rate limited.
-    pub max_force_rate_n_per_s: f64,
-    /// Largest change of torque per second, N·m/s.
-    pub max_torque_rate_nm_per_s: f64,
-    /// Time over which forces ramp from zero to full after start or after a fault clears, s.
-    pub ramp_s: f64,
-    /// A fault clears after its cause has been absent, and the device still, this long, s.
-    pub fault_clear_s: f64,
-    /// The device counts as still below this end-effector speed, m/s (device frame).
-    pub still_speed_m_per_s: f64,
-    /// ... and below this angular speed, rad/s.
-    pub still_rate_rad_per_s: f64,
-    /// Fastest plausible end-effector speed, m/s: a larger position change between two
-    /// readings is a `DEVICE_JUMP` fault.
-    pub max_device_speed_m_per_s: f64,
-    /// This many consecutive ticks that each missed a deadline latch `OVERRUN_STREAK`.
-    pub max_miss_streak: u32,
-    /// Always-on viscous damping on the end-effector velocity, as a fraction of the device's
-    /// stable damping (0 disables).
-    pub damping_fraction: f64,
-    /// Stiffness of the soft wall at the workspace boundary (the device's workspace
-    /// sphere), as a fraction of the device's stable stiffness (0 disables).
-    pub boundary_stiffness_fraction: f64,
-}
-
-impl Default for SafetyConfig {
-    fn default() -> Self {
-        Self {
-            max_force_n: f64::INFINITY,
-            max_torque_nm: f64::INFINITY,
-            max_force_rate_n_per_s: 2000.0,
-            max_torque_rate_nm_per_s: 100.0,
-            ramp_s: 0.5,
-            fault_clear_s: 0.1,
-            still_speed_m_per_s: 0.02,
-            still_rate_rad_per_s: 0.5,
-            max_device_speed_m_per_s: 3.0,
-            max_miss_streak: 5,
-            damping_fraction: 0.1,
-            boundary_stiffness_fraction: 0.5,
-        }
-    }
-}
 
 /// Fault latch and output shaping.
 #[derive(Debug, Clone)]

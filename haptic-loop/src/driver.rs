@@ -1,4 +1,4 @@
-//! The driver bridge: a [`HapticDevice`] whose device lives in another process, behind the
+//! An external driver: a [`HapticDevice`] whose device lives in another process, behind the
 //! iceoryx2 services [`services::DRIVER_STATE`] (driver → loop) and
 //! [`services::DRIVER_COMMAND`] (loop → driver); see `ipc_types::DriverState` for the
 //! contract a driver implements.
@@ -22,9 +22,9 @@ use ipc_types::services;
 use ipc_types::{DriverCommand, DriverState, DriverStatus, Header, OutputCode};
 use nalgebra::Vector3;
 
-/// Bridge settings.
+/// Settings of the link to an external driver.
 #[derive(Debug, Clone, PartialEq)]
-pub struct BridgeConfig {
+pub struct DriverConfig {
     /// IPC namespace the driver publishes in.
     pub namespace: String,
     /// A state older than this (by its driver timestamp) is a fault, s.
@@ -35,10 +35,10 @@ pub struct BridgeConfig {
     pub poll_s: f64,
 }
 
-impl BridgeConfig {
+impl DriverConfig {
     /// Defaults for `namespace`: stale after 20 ms, open waits 2 s, poll every 250 µs.
     pub fn new(namespace: &str) -> Self {
-        BridgeConfig {
+        DriverConfig {
             namespace: namespace.to_string(),
             stale_s: 0.02,
             open_timeout_s: 2.0,
@@ -50,7 +50,10 @@ impl BridgeConfig {
 /// The DeviceSpec a driver's state announces.
 pub fn spec_from_state(s: &DriverState) -> DeviceSpec {
     DeviceSpec {
-        name: s.name_str().unwrap_or("bridged device").to_string(),
+        name: s
+            .name_str()
+            .unwrap_or("external driver's device")
+            .to_string(),
         max_force_n: s.max_force_n,
         max_torque_nm: s.max_torque_nm,
         max_stiffness_n_per_m: s.max_stiffness_n_per_m,
@@ -84,8 +87,8 @@ impl Session {
 }
 
 /// A device served by an external driver process.
-pub struct BridgeDevice {
-    config: BridgeConfig,
+pub struct DriverDevice {
+    config: DriverConfig,
     spec: DeviceSpec,
     session: Option<Session>,
     sequence: u64,
@@ -93,9 +96,9 @@ pub struct BridgeDevice {
     pid: u32,
 }
 
-impl std::fmt::Debug for BridgeDevice {
+impl std::fmt::Debug for DriverDevice {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("BridgeDevice")
+        f.debug_struct("DriverDevice")
             .field("namespace", &self.config.namespace)
             .field("spec", &self.spec.name)
             .field("open", &self.session.is_some())
@@ -103,9 +106,9 @@ impl std::fmt::Debug for BridgeDevice {
     }
 }
 
-impl BridgeDevice {
-    /// A bridge on `config.namespace`; nothing is opened yet.
-    pub fn new(config: BridgeConfig) -> Result<Self, DeviceError> {
+impl DriverDevice {
+    /// A link to a driver on `config.namespace`; nothing is opened yet.
+    pub fn new(config: DriverConfig) -> Result<Self, DeviceError> {
         services::validate_namespace(&config.namespace)
             .map_err(|_| DeviceError::InvalidConfig("namespace"))?;
         for (v, name) in [
@@ -117,10 +120,10 @@ impl BridgeDevice {
                 return Err(DeviceError::InvalidConfig(name));
             }
         }
-        Ok(BridgeDevice {
+        Ok(DriverDevice {
             config,
             spec: DeviceSpec {
-                name: "bridged device".into(),
+                name: "external driver's device".into(),
                 max_force_n: 0.0,
                 max_torque_nm: 0.0,
                 max_stiffness_n_per_m: 0.0,
@@ -152,11 +155,11 @@ impl BridgeDevice {
         let thread = {
             let stop = stop.clone();
             std::thread::Builder::new()
-                .name("driver-bridge".into())
+                .name("driver-link".into())
                 .spawn(move || {
                     // iceoryx2 ports are not Send: create them on this thread.
                     let ports =
-                        services::create_node(&format!("haptic_bridge_{}", std::process::id()))
+                        services::create_node(&format!("haptic_driver_{}", std::process::id()))
                             .and_then(|(node, _)| {
                                 let sub = services::subscriber::<ipc_types::DriverState>(
                                     &node, &namespace,
@@ -172,7 +175,7 @@ impl BridgeDevice {
                             p
                         }
                         Err(e) => {
-                            tracing::error!("driver bridge: {e}");
+                            tracing::error!("external driver: {e}");
                             let _ = ready_tx.send(false);
                             return;
                         }
@@ -190,7 +193,7 @@ impl BridgeDevice {
                         if cmd.header.sequence != sent {
                             sent = cmd.header.sequence;
                             if let Err(e) = publ.send_copy(cmd) {
-                                tracing::warn!("driver bridge: send failed: {e:?}");
+                                tracing::warn!("external driver: send failed: {e:?}");
                             }
                         }
                         std::thread::sleep(poll);
@@ -203,7 +206,9 @@ impl BridgeDevice {
                     off.output = OutputCode::OFF;
                     let _ = publ.send_copy(off);
                 })
-                .map_err(|_| DeviceError::OpenFailed("cannot start the driver bridge thread"))?
+                .map_err(|_| {
+                    DeviceError::OpenFailed("cannot start the external driver's relay thread")
+                })?
         };
         match ready_rx.recv() {
             Ok(true) => Ok(Session {
@@ -215,14 +220,14 @@ impl BridgeDevice {
             _ => {
                 let _ = thread.join();
                 Err(DeviceError::OpenFailed(
-                    "cannot open the driver bridge services (iceoryx2; see the log)",
+                    "cannot open the external driver's services (iceoryx2; see the log)",
                 ))
             }
         }
     }
 }
 
-impl HapticDevice for BridgeDevice {
+impl HapticDevice for DriverDevice {
     fn open(&mut self) -> Result<(), DeviceError> {
         self.close();
         let mut session = self.spawn_relay()?;
@@ -235,7 +240,7 @@ impl HapticDevice for BridgeDevice {
             if Instant::now() > deadline {
                 session.shutdown();
                 return Err(DeviceError::OpenFailed(
-                    "no driver publishes a valid state on hrrtc/<namespace>/driver/state (start one, e.g. the bridge_driver example)",
+                    "no driver publishes a valid state on hrrtc/<namespace>/driver/state (start one, e.g. the sim_driver example)",
                 ));
             }
             std::thread::sleep(Duration::from_millis(1));
@@ -313,7 +318,7 @@ impl HapticDevice for BridgeDevice {
     }
 }
 
-impl Drop for BridgeDevice {
+impl Drop for DriverDevice {
     fn drop(&mut self) {
         self.close();
     }
@@ -322,42 +327,42 @@ impl Drop for BridgeDevice {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bridge_driver;
+    use crate::sim_driver;
     use ipc_types::monotonic_ns;
 
     fn namespace(tag: &str) -> String {
-        format!("test_bridge_{tag}_{}", std::process::id())
+        format!("test_driver_{tag}_{}", std::process::id())
     }
 
     #[test]
     fn a_missing_driver_fails_open_with_what_to_do() {
-        let mut c = BridgeConfig::new(&namespace("none"));
+        let mut c = DriverConfig::new(&namespace("none"));
         c.open_timeout_s = 0.2;
-        let mut dev = BridgeDevice::new(c).unwrap();
+        let mut dev = DriverDevice::new(c).unwrap();
         match dev.open() {
             Err(DeviceError::OpenFailed(msg)) => assert!(msg.contains("driver/state")),
             other => panic!("expected OpenFailed, got {other:?}"),
         }
         assert_eq!(dev.read(0), Err(DeviceError::NotOpen));
-        let mut bad = BridgeConfig::new("a/b");
-        assert!(BridgeDevice::new(bad.clone()).is_err());
+        let mut bad = DriverConfig::new("a/b");
+        assert!(DriverDevice::new(bad.clone()).is_err());
         bad.namespace = "ok".into();
         bad.stale_s = f64::NAN;
-        assert!(BridgeDevice::new(bad).is_err());
+        assert!(DriverDevice::new(bad).is_err());
     }
 
     #[test]
-    fn bridge_round_trip_with_the_example_driver_and_stale_fault() {
+    fn driver_round_trip_with_the_example_driver_and_stale_fault() {
         let ns = namespace("rt");
         let stop = Arc::new(AtomicBool::new(false));
         let driver = {
             let ns = ns.clone();
             let stop = stop.clone();
             std::thread::spawn(move || {
-                bridge_driver::run(&ns, 1000.0, Duration::from_millis(50), &stop)
+                sim_driver::run(&ns, 1000.0, Duration::from_millis(50), &stop)
             })
         };
-        let mut dev = BridgeDevice::new(BridgeConfig::new(&ns)).unwrap();
+        let mut dev = DriverDevice::new(DriverConfig::new(&ns)).unwrap();
         dev.open().expect("driver is publishing");
         assert_eq!(dev.spec().name, "example driver: simulated arm");
         assert_eq!(dev.spec().max_force_n, 8.0, "the simulated arm's limit");

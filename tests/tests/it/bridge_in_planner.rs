@@ -9,14 +9,7 @@ use ipc_types::{Guidance, GuidanceMode, Header, services};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
+use tests::free_port;
 
 fn guidance(sequence: u64, writer_pid: u32) -> Guidance {
     Guidance {

@@ -1,17 +1,18 @@
 //! The device plausibility monitor: each tick's device read becomes the reading the tick
 //! may use and a fault code. Besides the faults the device reports itself (read error,
 //! disconnection) it catches non-finite values, a stale timestamp, a jump farther than the
-//! arm can move, and a streak of deadline misses.
+//! arm can move, and a streak of deadline misses; and keeps the last good reading, which
+//! stands in (at rest) while reads fail.
 
-use crate::safety::SafetyConfig;
+use super::SafetyConfig;
 use devices::{DeviceError, DeviceState};
 use ipc_types::FaultCode;
-use nalgebra::Vector3;
+use nalgebra::{Isometry3, Vector3};
 
 /// Checks each device read against the previous reading and the loop's own timing; holds
 /// what it needs of the previous ticks. Allocation-free.
 #[derive(Debug, Clone)]
-pub(super) struct Plausibility {
+pub(crate) struct Plausibility {
     /// The arm's top speed, m/s.
     max_speed_m_per_s: f64,
     /// Consecutive ticks with a new deadline miss that latch `OVERRUN_STREAK` (0: never).
@@ -22,6 +23,8 @@ pub(super) struct Plausibility {
     last_timestamp_ns: u64,
     /// Position of the last reading, m (device frame).
     last_position: Option<Vector3<f64>>,
+    /// Pose of the last reading (device frame): what stands in while reads fail.
+    last_pose: Option<Isometry3<f64>>,
     /// Consecutive ticks whose previous tick missed its deadline.
     miss_streak: u32,
     /// Deadline misses since start, as of the last tick.
@@ -30,13 +33,14 @@ pub(super) struct Plausibility {
 
 impl Plausibility {
     /// A monitor with the limits of `safety`, for ticks of `period_s` seconds.
-    pub(super) fn new(safety: &SafetyConfig, period_s: f64) -> Self {
+    pub(crate) fn new(safety: &SafetyConfig, period_s: f64) -> Self {
         Self {
             max_speed_m_per_s: safety.max_device_speed_m_per_s,
             max_miss_streak: safety.max_miss_streak,
             period_s,
             last_timestamp_ns: 0,
             last_position: None,
+            last_pose: None,
             miss_streak: 0,
             last_misses: 0,
         }
@@ -47,7 +51,7 @@ impl Plausibility {
     /// `OVERRUN_STREAK` when `deadline_misses` (since start) has grown in too many
     /// consecutive ticks.
     #[inline]
-    pub(super) fn check(
+    pub(crate) fn check(
         &mut self,
         read: Result<DeviceState, DeviceError>,
         deadline_misses: u64,
@@ -82,6 +86,7 @@ impl Plausibility {
             }
             self.last_timestamp_ns = s.timestamp_ns;
             self.last_position = Some(s.pose.translation.vector);
+            self.last_pose = Some(s.pose);
         }
         // Deadline misses in consecutive ticks: the loop cannot keep its rhythm.
         if deadline_misses > self.last_misses {
@@ -98,12 +103,18 @@ impl Plausibility {
         }
         (reading, fault)
     }
+
+    /// The last reading's pose at rest (the identity before any): the device as the tick
+    /// takes it while reads fail (the force is zero then).
+    #[inline]
+    pub(crate) fn last_good(&self) -> DeviceState {
+        DeviceState::at_rest(self.last_pose.unwrap_or_else(Isometry3::identity), 0)
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra::Isometry3;
 
     const MS: u64 = 1_000_000;
 
@@ -116,6 +127,19 @@ mod tests {
 
     fn monitor() -> Plausibility {
         Plausibility::new(&SafetyConfig::default(), 0.001)
+    }
+
+    #[test]
+    fn the_last_good_reading_stands_in_at_rest() {
+        let mut m = monitor();
+        assert_eq!(m.last_good().pose, Isometry3::identity());
+        let mut moving = DeviceState::at_rest(Isometry3::translation(0.01, 0.02, 0.0), MS);
+        moving.linear_velocity.x = 0.1;
+        m.check(Ok(moving), 0);
+        m.check(Err(DeviceError::ReadFailed), 0);
+        let held = m.last_good();
+        assert_eq!(held.pose, moving.pose);
+        assert_eq!(held.linear_velocity, Vector3::zeros(), "at rest");
     }
 
     #[test]

@@ -4,10 +4,11 @@
 //! Sessions run scene by scene, and within a scene seed by seed with every method of a
 //! seed back to back. Each session's `--summary-json` becomes a row of OUT/runs.csv
 //! (written after every run, so an interrupted sweep keeps what it did); OUT/summary.md
-//! and OUT/live.png at the end.
+//! and OUT/live.png at the end. A sweep run in parts (`--first-seed`) is reported together
+//! with `--report-from`.
 //! The methods, rows and reports are `lab::live`'s; this file starts and stops processes.
 
-use crate::experiment::ExperimentArgs;
+use super::ExperimentArgs;
 use anyhow::{Context, bail};
 use lab::LabError;
 use lab::live::{self, LiveMethod, LiveRun};
@@ -30,6 +31,7 @@ struct LiveSweep {
     route: bool,
     methods: Vec<LiveMethod>,
     seeds: u64,
+    first_seed: u64,
     time_limit_s: f64,
     out: PathBuf,
     exe: PathBuf,
@@ -40,6 +42,9 @@ fn sweep_of(a: &ExperimentArgs) -> anyhow::Result<LiveSweep> {
     let seeds = a.seeds.unwrap_or(3);
     if seeds == 0 {
         bail!("--seeds must be >= 1");
+    }
+    if a.first_seed == 0 || a.first_seed.checked_add(seeds).is_none() {
+        bail!("--first-seed must be >= 1 (and leave room for --seeds)");
     }
     for &alpha in a.alphas.iter().chain(std::iter::once(&a.guide_alpha)) {
         if !(0.0..=1.0).contains(&alpha) {
@@ -94,6 +99,7 @@ fn sweep_of(a: &ExperimentArgs) -> anyhow::Result<LiveSweep> {
         route: !a.no_route,
         methods,
         seeds,
+        first_seed: a.first_seed,
         time_limit_s,
         out: a.out.clone(),
         exe,
@@ -206,8 +212,54 @@ fn tag(scene: &str, method: &str, seed: u64) -> String {
     format!("{}-{}-{seed}", clean(scene), clean(method))
 }
 
+/// Writes OUT/summary.md (also printed) and OUT/live.png from `runs`.
+fn reports(runs: &[LiveRun], time_limit_s: f64, out: &Path) -> anyhow::Result<()> {
+    let summaries = live::summarize(runs, time_limit_s);
+    let md = live::to_markdown(&summaries, time_limit_s);
+    let md_path = out.join("summary.md");
+    write(&md_path, &md)?;
+    println!("{md}");
+    println!("wrote {}", md_path.display());
+    let png = out.join("live.png");
+    match live::plot(runs, time_limit_s, &png) {
+        Ok(()) => println!("wrote {}", png.display()),
+        Err(LabError::NoFont) => {
+            eprintln!("planner: no TrueType font found (DejaVuSans.ttf): plot skipped")
+        }
+        Err(e) => eprintln!("planner: {:#}", anyhow::Error::new(e)),
+    }
+    Ok(())
+}
+
+/// `--report-from`: the runs of earlier sweeps, reported together in OUT.
+fn report_from(a: &ExperimentArgs) -> anyhow::Result<i32> {
+    let time_limit_s = crate::common::positive("time-limit", a.time_limit.unwrap_or(30.0))?;
+    let mut runs = Vec::new();
+    for dir in &a.report_from {
+        let path = dir.join("runs.csv");
+        let text = std::fs::read_to_string(&path)
+            .with_context(|| format!("--report-from: cannot read {}", path.display()))?;
+        runs.extend(live::from_csv(&text, &path.display().to_string())?);
+    }
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create {}", a.out.display()))?;
+    let csv = a.out.join("runs.csv");
+    write(&csv, &live::to_csv(&runs))?;
+    println!(
+        "{} runs from {} sweeps; wrote {}",
+        runs.len(),
+        a.report_from.len(),
+        csv.display()
+    );
+    reports(&runs, time_limit_s, &a.out)?;
+    Ok(0)
+}
+
 /// Runs the live sweep; see the module docs. Exit code 0 (also when runs were unsolved).
 pub fn run(a: &ExperimentArgs) -> anyhow::Result<i32> {
+    if !a.report_from.is_empty() {
+        return report_from(a);
+    }
     let sweep = sweep_of(a)?;
     for dir in ["summaries", "logs"] {
         let d = sweep.out.join(dir);
@@ -231,7 +283,7 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<i32> {
     // Every method of a seed back to back: a change of the machine's load (it is shared)
     // then falls on all methods alike rather than on one.
     'all: for (scene, scene_arg) in sweep.scenes.iter().zip(&sweep.scene_args) {
-        for seed in 1..=sweep.seeds {
+        for seed in sweep.first_seed..sweep.first_seed + sweep.seeds {
             for method in &sweep.methods {
                 if cancel.load(std::sync::atomic::Ordering::Acquire) {
                     break 'all;
@@ -262,19 +314,7 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<i32> {
         }
     }
     bar.finish();
-    let summaries = live::summarize(&runs, sweep.time_limit_s);
-    let md = live::to_markdown(&summaries, sweep.time_limit_s);
-    let md_path = sweep.out.join("summary.md");
-    write(&md_path, &md)?;
-    println!("{md}");
-    println!("wrote {} and {}", csv.display(), md_path.display());
-    let png = sweep.out.join("live.png");
-    match live::plot(&runs, sweep.time_limit_s, &png) {
-        Ok(()) => println!("wrote {}", png.display()),
-        Err(LabError::NoFont) => {
-            eprintln!("planner: no TrueType font found (DejaVuSans.ttf): plot skipped")
-        }
-        Err(e) => eprintln!("planner: {:#}", anyhow::Error::new(e)),
-    }
+    println!("wrote {}", csv.display());
+    reports(&runs, sweep.time_limit_s, &sweep.out)?;
     Ok(0)
 }

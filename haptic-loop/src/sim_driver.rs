@@ -1,6 +1,6 @@
-//! An example device driver for the bridge: serves the simulated arm over
+//! An example external device driver: serves the simulated arm over
 //! [`services::DRIVER_STATE`] / [`services::DRIVER_COMMAND`] exactly as a driver for a
-//! real arm would (in any language iceoryx2 supports). `examples/bridge_driver.rs` runs it;
+//! real arm would (in any language iceoryx2 supports). `examples/sim_driver.rs` runs it;
 //! tests run it on a thread.
 //!
 //! Its own safety: it applies a command only when valid, `OutputCode::ON`, and newer than

@@ -1,13 +1,6 @@
-//! `planner experiment`: the papers' sweeps with a simulated operator in lockstep, then
-//! runs.csv, summary.md and plots. The options are validated into a [`SweepConfig`];
-//! [`Sweep`] does the work, this file shows its progress.
+//! The options of `planner experiment` (the lockstep sweeps and the live one share them).
 
-use crate::common::positive;
-use anyhow::{Context, bail};
 use clap::Args;
-use lab::LabError;
-use lab::experiment::sweep::{Sweep, SweepConfig, SweepKind};
-use lab::experiment::{hrrtc_specs, irrt_specs};
 use std::path::PathBuf;
 
 /// Options of `planner experiment`.
@@ -77,6 +70,15 @@ pub struct ExperimentArgs {
     /// (expert, novice, ...) [default: expert].
     #[arg(long, value_name = "NAME")]
     pub operator: Option<String>,
+    /// live: the first seed: a sweep run in parts takes seeds --first-seed ..
+    /// --first-seed + --seeds − 1.
+    #[arg(long, default_value_t = 1)]
+    pub first_seed: u64,
+    /// live: run no session; read the runs.csv of these earlier sweeps' output folders
+    /// (comma-separated) and write their reports together into OUT (give the --time-limit
+    /// they ran with).
+    #[arg(long, value_delimiter = ',')]
+    pub report_from: Vec<PathBuf>,
     /// live: run each scene without its `[[route]]`, as a user's own scene: copies of the
     /// scenes without it are written to OUT/scenes-no-route/ and the sessions run on them.
     #[arg(long)]
@@ -98,113 +100,4 @@ pub struct ExperimentArgs {
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
-}
-
-impl ExperimentArgs {
-    /// Validates the arguments into a [`SweepConfig`].
-    pub fn to_config(&self) -> anyhow::Result<SweepConfig> {
-        let time_limit_s = positive("time-limit", self.time_limit.unwrap_or(10.0))?;
-        let seeds = self.seeds.unwrap_or(5);
-        if seeds == 0 {
-            bail!("--seeds must be >= 1");
-        }
-        let (kind, specs) = if self.sweep == "irrt" {
-            let methods = self
-                .methods
-                .iter()
-                .map(|m| {
-                    planner::Sampling::parse(m, self.beta, 0.5)
-                        .with_context(|| format!("unknown method `{m}` in --methods"))
-                })
-                .collect::<anyhow::Result<Vec<_>>>()?;
-            let specs = irrt_specs(
-                &self.scene,
-                &methods,
-                &self.sigmas,
-                &self.eps,
-                seeds,
-                time_limit_s,
-            );
-            (SweepKind::Irrt, specs)
-        } else {
-            let specs = hrrtc_specs(
-                &self.scenes,
-                &self.alphas,
-                self.hrrtc_eps,
-                self.error_sigma,
-                self.local_trees,
-                seeds,
-                time_limit_s,
-            );
-            (SweepKind::Hrrtc, specs)
-        };
-        Ok(SweepConfig {
-            kind,
-            specs,
-            seeds,
-            time_limit_s,
-            out: self.out.clone(),
-            pictures: self.pictures,
-        })
-    }
-}
-
-/// Runs the command: the sweep with a progress bar, then prints the summary table and what
-/// was written. The exit code is 0; pictures and plots that cannot be drawn are reported
-/// and skipped.
-pub fn run(a: &ExperimentArgs) -> anyhow::Result<i32> {
-    if a.sweep == "live" {
-        return crate::experiment_live::run(a);
-    }
-    let sweep = Sweep::new(a.to_config()?)?;
-    let bar = if a.quiet {
-        indicatif::ProgressBar::hidden()
-    } else {
-        indicatif::ProgressBar::new(sweep.runs() as u64)
-    };
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{elapsed_precise} [{bar:40}] {pos}/{len} runs, eta {eta} {msg}",
-        )
-        .context("progress template")?,
-    );
-    if a.pictures && !sweep.pictures() {
-        eprintln!("planner: no TrueType font found (DejaVuSans.ttf): pictures skipped");
-    }
-    let results = sweep.run(|r, not_drawn| {
-        if let Some(e) = not_drawn {
-            eprintln!("planner: {:#}", anyhow::Error::new(e));
-        }
-        bar.set_message(format!(
-            "{} {} seed {}: {}",
-            r.scene,
-            r.method,
-            r.seed,
-            if r.solved {
-                format!("{:.2} s", r.time_s)
-            } else {
-                "unsolved".into()
-            }
-        ));
-        bar.inc(1);
-    })?;
-    bar.finish();
-    let reports = sweep.write_reports(&results)?;
-    println!("{}", reports.markdown);
-    println!(
-        "wrote {} and {}",
-        reports.csv.display(),
-        reports.md.display()
-    );
-    match sweep.plot(&reports.summaries) {
-        Ok(png) => println!("wrote {}", png.display()),
-        Err(LabError::NoFont) => {
-            eprintln!("planner: no TrueType font found (DejaVuSans.ttf): plots skipped")
-        }
-        Err(LabError::Draw { path, source }) => {
-            eprintln!("planner: cannot draw {}: {source}", path.display())
-        }
-        Err(e) => return Err(e.into()),
-    }
-    Ok(0)
 }

@@ -1,8 +1,8 @@
 //! Example device driver for the haptic loop's driver bridge: serves a simulated arm over
-//! iceoryx2. Run it, then `haptic-loop run --device bridge` with the same `--namespace`.
+//! iceoryx2. Run it, then `haptic-loop run --device driver` with the same `--namespace`.
 //!
 //! ```sh
-//! cargo run -p haptic-loop --example bridge_driver -- --namespace default
+//! cargo run -p haptic-loop --example sim_driver -- --namespace default
 //! ```
 
 use std::sync::Arc;
@@ -31,18 +31,18 @@ struct Args {
 fn main() -> std::process::ExitCode {
     let args = Args::parse();
     if let Err(e) = ipc_types::services::validate_namespace(&args.namespace) {
-        eprintln!("bridge_driver: --namespace: {e}");
+        eprintln!("sim_driver: --namespace: {e}");
         return std::process::ExitCode::from(2);
     }
     let stop = Arc::new(AtomicBool::new(false));
     let s = stop.clone();
     if let Err(e) = ctrlc::set_handler(move || s.store(true, Ordering::Release)) {
-        eprintln!("bridge_driver: cannot install the signal handler: {e}");
+        eprintln!("sim_driver: cannot install the signal handler: {e}");
         return std::process::ExitCode::from(2);
     }
     if let Some(d) = args.duration_s {
         if !(d.is_finite() && d > 0.0) {
-            eprintln!("bridge_driver: --duration-s must be a finite number > 0, got {d}");
+            eprintln!("sim_driver: --duration-s must be a finite number > 0, got {d}");
             return std::process::ExitCode::from(2);
         }
         let s = stop.clone();
@@ -51,7 +51,7 @@ fn main() -> std::process::ExitCode {
             s.store(true, Ordering::Release);
         });
     }
-    match haptic_loop::bridge_driver::run(
+    match haptic_loop::sim_driver::run(
         &args.namespace,
         args.rate_hz,
         Duration::from_millis(args.command_timeout_ms),
@@ -59,13 +59,13 @@ fn main() -> std::process::ExitCode {
     ) {
         Ok(r) => {
             println!(
-                "bridge_driver: {} states published, {} commands applied, {} ignored",
+                "sim_driver: {} states published, {} commands applied, {} ignored",
                 r.states, r.applied, r.ignored
             );
             std::process::ExitCode::SUCCESS
         }
         Err(e) => {
-            eprintln!("bridge_driver: error: {e}");
+            eprintln!("sim_driver: error: {e}");
             std::process::ExitCode::from(2)
         }
     }

@@ -1,4 +1,6 @@
-//! The planner's side of the roadmap stream: fills [`Roadmap`] samples from the trees.
+//! The planner's side of the roadmap stream: fills [`Roadmap`] samples from the trees
+//! (the planner's shell sends them; [`crate::model`] is the reading side, and the tests of
+//! both ends live here).
 //!
 //! Protocol (see `ipc_types::Roadmap`): a manifest of the live trees, then the nodes added
 //! since the previous sample (at most three quarters of the sample, starting at a
@@ -6,10 +8,10 @@
 //! roadmap from where the previous sample stopped. Work per sample is O(trees +
 //! [`ROADMAP_NODES`]), whatever the roadmap's size.
 
-use crate::tree::Tree;
 use ipc_types::{
     Header, NO_PARENT, ROADMAP_NODES, ROADMAP_TREES, Roadmap, RoadmapNode, RoadmapTree, TreeKind,
 };
+use planner_core::tree::Tree;
 
 /// Slots of each sample kept for new nodes; the rest (at least a quarter) carry the
 /// rolling window.
@@ -160,7 +162,7 @@ fn kind_of(position: usize) -> TreeKind {
 }
 
 fn wire_node(tree: &Tree, tree_id: u32, index: u32) -> RoadmapNode {
-    let n = tree.node(crate::tree::NodeId(index));
+    let n = tree.node(planner_core::tree::NodeId(index));
     RoadmapNode {
         pose: ipc_types::convert::pose(&n.config.to_isometry()),
         distance_to_goal: n.labels.distance_to_goal,
@@ -176,21 +178,7 @@ fn wire_node(tree: &Tree, tree_id: u32, index: u32) -> RoadmapNode {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Se3;
-    use crate::tree::NodeId;
-
-    /// A tree of `n` nodes in a line along x at height `y`, 1 mm apart.
-    fn chain(n: usize, y: f64) -> Tree {
-        let mut t = Tree::new(Se3::from_xyz(0.0, y, 0.0), 1.0);
-        for i in 1..n {
-            t.add(
-                NodeId(i as u32 - 1),
-                Se3::from_xyz(i as f64 * 1e-3, y, 0.0),
-                1.0,
-            );
-        }
-        t
-    }
+    use crate::test_trees::chain;
 
     fn info() -> FeedInfo {
         FeedInfo {

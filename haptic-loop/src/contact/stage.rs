@@ -1,0 +1,546 @@
+//! [`ContactStage`]: the dynamic proxy object and its coupling, one step per tick (see the
+//! module docs of `contact` for the force model).
+
+use super::coherence::Coherence;
+use super::level::{LevelChooser, Plan};
+use super::near::{Found, PassParams, SearchParams, Totals};
+use super::{
+    Anchor, ContactConfig, ContactError, ContactModel, ContactOutput, Coupling, LEVELS, Probe,
+    Resolution, Sample,
+};
+use devices::DeviceSpec;
+use ipc_types::ContactCode;
+use nalgebra::{
+    Isometry3, Matrix3, Matrix6, Point3, Translation3, UnitQuaternion, Vector3, Vector6,
+};
+use parry3d_f64::math::Pose;
+use parry3d_f64::shape::SharedShape;
+use std::sync::Arc;
+
+/// `[a; b]` as one 6-vector (velocity and angular velocity, or force and torque).
+fn stack(a: &Vector3<f64>, b: &Vector3<f64>) -> Vector6<f64> {
+    Vector6::new(a.x, a.y, a.z, b.x, b.y, b.z)
+}
+
+/// The dynamic proxy with its coupling. `step` is allocation-free.
+#[derive(Debug, Clone)]
+pub struct ContactStage {
+    model: Arc<ContactModel>,
+    config: ContactConfig,
+    coupling: Coupling,
+    /// Proxy reference-point pose.
+    pose: Isometry3<f64>,
+    /// Velocity of the centre of mass, m/s.
+    velocity: Vector3<f64>,
+    /// Angular velocity, rad/s.
+    angular_velocity: Vector3<f64>,
+    in_contact: bool,
+    held_normal: Vector3<f64>,
+    held_point: Vector3<f64>,
+    started: bool,
+    /// Penetrating and braking points of the previous step (see `shared_damping`).
+    previous_contacts: u32,
+    previous_braking: u32,
+    last_tested: u32,
+    /// Level of detail in use, and a change of level being blended.
+    levels: LevelChooser,
+    /// The coarsest level the resolution allows at the model's spacing.
+    coarsest_level: usize,
+    /// Changes of the rendered level so far.
+    level_changes: u64,
+    cache: Coherence,
+}
+
+impl ContactStage {
+    /// A proxy for `model`; it is placed at the first anchor it sees.
+    pub fn new(model: Arc<ContactModel>, config: ContactConfig, coupling: Coupling) -> Self {
+        Self {
+            cache: Coherence::new(&model.shells),
+            levels: LevelChooser::starting(&config.resolution),
+            coarsest_level: config
+                .resolution
+                .coarsest_level(model.shells[0].spacing_m()),
+            level_changes: 0,
+            model,
+            config,
+            coupling,
+            pose: Isometry3::identity(),
+            velocity: Vector3::zeros(),
+            angular_velocity: Vector3::zeros(),
+            in_contact: false,
+            held_normal: Vector3::zeros(),
+            held_point: Vector3::zeros(),
+            started: false,
+            previous_contacts: 0,
+            previous_braking: 0,
+            last_tested: 0,
+        }
+    }
+
+    /// Builds model and stage in one go: obstacles (scene frame) and object parts (object
+    /// frame) at `config`'s voxel size, coupling gains from `spec` at `position_scale`.
+    pub fn from_shapes(
+        obstacles: &[(Pose, SharedShape)],
+        object: &[(Pose, SharedShape)],
+        config: ContactConfig,
+        spec: &DeviceSpec,
+        position_scale: f64,
+    ) -> Result<Self, ContactError> {
+        let model = ContactModel::build(obstacles, object, &config.voxmap)?;
+        let coupling = Coupling::from_spec(spec, position_scale, config.coupling_fraction);
+        Ok(Self::new(Arc::new(model), config, coupling))
+    }
+
+    /// The coupling gains in use.
+    pub fn coupling(&self) -> &Coupling {
+        &self.coupling
+    }
+
+    /// Pointshell points tested against the voxmap in the last step (after culling).
+    pub fn last_points_tested(&self) -> u32 {
+        self.last_tested
+    }
+
+    /// Renders at `resolution` from the next step on (a fixed level starts at once, a
+    /// budget from level 0). Fails, changing nothing, on an invalid resolution.
+    pub fn set_resolution(&mut self, resolution: Resolution) -> Result<(), ContactError> {
+        resolution.validate().map_err(ContactError::Resolution)?;
+        self.config.resolution = resolution;
+        self.levels = LevelChooser::starting(&resolution);
+        self.coarsest_level = resolution.coarsest_level(self.model.shells[0].spacing_m());
+        Ok(())
+    }
+
+    /// Level of detail rendered in the last step (the new one while a change is blended).
+    pub fn level(&self) -> usize {
+        self.levels.level()
+    }
+
+    /// How many times the rendered level has changed since the stage was made.
+    pub fn level_changes(&self) -> u64 {
+        self.level_changes
+    }
+
+    /// The model.
+    pub fn model(&self) -> &ContactModel {
+        &self.model
+    }
+
+    /// Proxy pose (reference point), scene frame.
+    pub fn pose(&self) -> &Isometry3<f64> {
+        &self.pose
+    }
+
+    /// Puts the proxy at `pose` at rest (start-up, tests).
+    pub fn place(&mut self, pose: Isometry3<f64>) {
+        self.pose = pose;
+        self.velocity = Vector3::zeros();
+        self.angular_velocity = Vector3::zeros();
+        self.in_contact = false;
+        self.started = true;
+        self.cache.reset();
+    }
+
+    fn mass_matrix(&self) -> Matrix6<f64> {
+        let m = self.config.proxy_mass_kg;
+        let r = self.pose.rotation.to_rotation_matrix();
+        let inertia = r.matrix() * self.model.inertia_per_kg * r.matrix().transpose() * m;
+        let mut mm = Matrix6::zeros();
+        mm.fixed_view_mut::<3, 3>(0, 0)
+            .copy_from(&(Matrix3::identity() * m));
+        mm.fixed_view_mut::<3, 3>(3, 3).copy_from(&inertia);
+        mm
+    }
+
+    /// Total energy of proxy and coupling towards a fixed `anchor` plus the contact springs
+    /// of the level in use (each point's spring times its weight), J: ½uᵀMu + ½k|Δx|² +
+    /// ½k_r|Δθ|² + Σ½w·k_p d². For the passivity test.
+    pub fn energy(&self, anchor: &Isometry3<f64>) -> f64 {
+        let u = stack(&self.velocity, &self.angular_velocity);
+        let kinetic = 0.5 * u.dot(&(self.mass_matrix() * u));
+        let c = &self.coupling;
+        let dx = anchor.transform_point(&Point3::from(self.model.com_local)) - self.com();
+        let dtheta = (anchor.rotation * self.pose.rotation.inverse()).scaled_axis();
+        let coupling =
+            0.5 * c.k_n_per_m * dx.norm_squared() + 0.5 * c.k_nm_per_rad * dtheta.norm_squared();
+        let shell = &self.model.shells[self.levels.level()];
+        let contact: f64 = shell
+            .points()
+            .iter()
+            .zip(shell.weights())
+            .map(|(p, w)| {
+                match self
+                    .model
+                    .voxmap
+                    .sample(&self.pose.transform_point(&Point3::from(*p)).coords)
+                {
+                    Sample::Near { distance_m, .. } if distance_m < 0.0 => {
+                        0.5 * w * self.config.point_stiffness_n_per_m * distance_m * distance_m
+                    }
+                    _ => 0.0,
+                }
+            })
+            .sum();
+        kinetic + coupling + contact
+    }
+
+    /// The scene's wrench on the object held still at `pose` (reference point, scene frame)
+    /// at the level of detail in use: force (N), torque about the reference point (N·m),
+    /// deepest penetration (m) and the number of penetrating points. Does not move the
+    /// proxy.
+    pub fn probe(&self, pose: &Isometry3<f64>) -> Probe {
+        // A fresh cache: a full search. (Allocates: a diagnostic, not for the RT thread.)
+        let mut cache = Coherence::new(&self.model.shells);
+        let level = self.levels.level();
+        let s = self
+            .sum_contacts(
+                pose,
+                &Vector3::zeros(),
+                &Vector3::zeros(),
+                &mut cache,
+                |_| Plan::at(level),
+            )
+            .totals;
+        let force: Vector3<f64> = s.wrench.fixed_rows::<3>(0).into_owned();
+        let com = pose
+            .transform_point(&Point3::from(self.model.com_local))
+            .coords;
+        let lever = com - pose.translation.vector;
+        Probe {
+            force_n: force,
+            torque_nm: s.wrench.fixed_rows::<3>(3).into_owned() + lever.cross(&force),
+            penetration_m: s.max_depth,
+            contacts: s.contacts,
+            point_m: if s.weight > 0.0 {
+                s.weighted_point / s.weight
+            } else {
+                Vector3::zeros()
+            },
+        }
+    }
+
+    fn com(&self) -> Point3<f64> {
+        self.pose
+            .transform_point(&Point3::from(self.model.com_local))
+    }
+
+    /// How close to a surface a point counts as near (m): the proximity layer, or the
+    /// release distance when that is wider.
+    fn reach_m(&self) -> f64 {
+        self.config.proximity_voxels.max(self.config.release_voxels) * self.model.voxmap.voxel_m()
+    }
+
+    /// Per-point contact damping and braking (N·s/m): the configured totals shared among
+    /// the points that produced them in the previous step (one tick of lag, no second pass).
+    fn shared_damping(&self) -> (f64, f64) {
+        (
+            self.config.contact_damping_n_s_per_m / f64::from(self.previous_contacts.max(1)),
+            self.config.braking_n_s_per_m / f64::from(self.previous_braking.max(1)),
+        )
+    }
+
+    /// The scene's wrench on the object at `pose` moving with `velocity` (centre of mass,
+    /// m/s) and `angular_velocity` (rad/s), at the levels `plan` chooses, given the near
+    /// clusters' point count at any level it asks for. Groups, clusters and points whose
+    /// motion budget in `cache` is not used up are skipped (see [`Coherence`]) and the
+    /// budgets are renewed.
+    ///
+    /// This is the hot loop of the tick: after the object-level check it runs in
+    /// [`ShellColumns::near_clusters`] and [`ShellColumns::search`] (see the `near`
+    /// module).
+    fn sum_contacts(
+        &self,
+        pose: &Isometry3<f64>,
+        velocity: &Vector3<f64>,
+        angular_velocity: &Vector3<f64>,
+        cache: &mut Coherence,
+        plan: impl FnOnce(&mut dyn FnMut(usize) -> u32) -> Plan,
+    ) -> Found {
+        let model = &*self.model;
+        let vox = &model.voxmap;
+        let h = vox.voxel_m();
+        let prox = self.config.proximity_voxels * h;
+        let release = self.config.release_voxels * h;
+        let reach = self.reach_m();
+        let moved = cache.motion_m;
+        let com = pose.transform_point(&Point3::from(model.com_local)).coords;
+        // Nothing within reach: the plan sees no near points (and returns to level 0).
+        if moved < cache.object {
+            plan(&mut |_| 0);
+            return Found::default();
+        }
+        cache.object = moved + vox.clearance(&com) - model.radius_m - reach;
+        if moved < cache.object {
+            plan(&mut |_| 0);
+            return Found::default();
+        }
+        let (b_contact, b_brake) = self.shared_damping();
+        let k = SearchParams {
+            rotation: pose.rotation.to_rotation_matrix().into_inner(),
+            translation: pose.translation.vector,
+            reach_m: reach,
+            moved_m: moved,
+        };
+        let pass = PassParams {
+            com,
+            velocity: *velocity,
+            angular_velocity: *angular_velocity,
+            point_stiffness_n_per_m: self.config.point_stiffness_n_per_m,
+            contact_damping_n_s_per_m: b_contact,
+            braking_n_s_per_m: b_brake,
+            proximity_m: prox,
+            release_m: release,
+        };
+        // Each level's near pass at most once, and only for the levels asked for.
+        let mut counts = [None; LEVELS];
+        let levels = &mut cache.levels;
+        let mut near = |l: usize| {
+            *counts[l].get_or_insert_with(|| {
+                let c = &mut levels[l];
+                model.columns[l].near_clusters(
+                    &mut c.groups,
+                    &mut c.clusters,
+                    &k,
+                    vox,
+                    &mut c.scratch,
+                )
+            })
+        };
+        let plan = plan(&mut near);
+        near(plan.from);
+        near(plan.to);
+        let mut search = |l: usize| {
+            let c = &mut levels[l];
+            model.columns[l].search(&mut c.points, &k, &pass, vox, &mut c.scratch)
+        };
+        let from = search(plan.from);
+        if plan.to == plan.from {
+            return from;
+        }
+        let to = search(plan.to);
+        Found {
+            totals: from.totals.lerp(&to.totals, plan.alpha),
+            tested: from.tested + to.tested,
+            near: from.near.max(to.near),
+        }
+    }
+    /// One step of `dt_s` towards `anchor`. Allocation-free.
+    pub fn step(&mut self, anchor: &Anchor, dt_s: f64) -> ContactOutput {
+        if !self.started {
+            self.place(anchor.pose);
+        }
+        let before = self.pose;
+        // 1. The scene's wrench on the points near a surface (the hot loop).
+        let found = self.search(dt_s);
+        // 2. The coupling's spring-damper towards the anchor.
+        let pull = self.pull(anchor);
+        // 3. Linearly implicit Euler with the contact and coupling stiffness.
+        let u_next = self.implicit_velocity(&found.totals, &pull, dt_s);
+        // 4. No point travels further than the travel bound.
+        let u_next = self.bound_travel(u_next, &found, dt_s);
+        // 5. The proxy moves.
+        self.integrate(u_next, &pull.com, dt_s);
+        // 6. Contact state, with hysteresis.
+        let code = self.contact_state(&found);
+        // 7. The wrenches on the proxy and the device.
+        self.output(&before, &found, &pull, code)
+    }
+
+    /// Step 1: [`Self::sum_contacts`] at the levels the chooser plans from the motion since
+    /// the last step; keeps the counts the next step's shared damping needs.
+    fn search(&mut self, dt_s: f64) -> Found {
+        let mut cache = std::mem::take(&mut self.cache);
+        cache.advance(&self.pose, &self.model.com_local, self.model.radius_m);
+        let mut levels = self.levels;
+        let (resolution, coarsest) = (self.config.resolution, self.coarsest_level);
+        let found = self.sum_contacts(
+            &self.pose,
+            &self.velocity,
+            &self.angular_velocity,
+            &mut cache,
+            |near| match resolution {
+                Resolution::Level(_) => Plan::at(levels.level()),
+                Resolution::Budget { points_per_ms, .. } => levels.plan(
+                    near,
+                    points_per_ms * dt_s * 1e3,
+                    coarsest,
+                    (Resolution::BLEND_S / dt_s).round().max(1.0) as u32,
+                ),
+            },
+        );
+        self.level_changes += u64::from(levels.level() != self.levels.level());
+        self.levels = levels;
+        self.cache = cache;
+        self.previous_contacts = found.totals.contacts;
+        self.last_tested = found.tested;
+        self.previous_braking = found.totals.braking_points;
+        found
+    }
+
+    /// Step 2: the coupling between the centres of mass of the anchor and the proxy.
+    fn pull(&self, anchor: &Anchor) -> Pull {
+        let c = self.coupling;
+        let com = self.com().coords;
+        let anchor_com = anchor
+            .pose
+            .transform_point(&Point3::from(self.model.com_local))
+            .coords;
+        let anchor_v = anchor.linear_velocity
+            + anchor
+                .angular_velocity
+                .cross(&(anchor_com - anchor.pose.translation.vector));
+        let dtheta = (anchor.pose.rotation * self.pose.rotation.inverse()).scaled_axis();
+        let f_spring = c.k_n_per_m * (anchor_com - com);
+        Pull {
+            force_n: f_spring + c.b_n_s_per_m * (anchor_v - self.velocity),
+            torque_nm: c.k_nm_per_rad * dtheta
+                + c.b_nm_s_per_rad * (anchor.angular_velocity - self.angular_velocity),
+            com,
+            anchor_lever_m: anchor_com - anchor.pose.translation.vector,
+        }
+    }
+
+    /// Step 3: linearly implicit Euler, `(M + dt·D + dt²·K) u' = (M + dt·D) u + dt·F`, where
+    /// F already holds the damping forces at u; zero velocities when the solve fails
+    /// (only with non-finite input: stop rather than explode).
+    fn implicit_velocity(&self, s: &Totals, pull: &Pull, dt_s: f64) -> Vector6<f64> {
+        let c = self.coupling;
+        let mut force = s.wrench;
+        force += stack(&pull.force_n, &pull.torque_nm);
+        let mut damping = s.damping_jj.matrix(1.0);
+        let mut stiffness = s.contact_jj.matrix(self.config.point_stiffness_n_per_m);
+        let mut coupling_damping = Matrix6::zeros();
+        for a in 0..3 {
+            stiffness[(a, a)] += c.k_n_per_m;
+            stiffness[(a + 3, a + 3)] += c.k_nm_per_rad;
+            coupling_damping[(a, a)] = c.b_n_s_per_m;
+            coupling_damping[(a + 3, a + 3)] = c.b_nm_s_per_rad;
+        }
+        damping += coupling_damping;
+        let mass = self.mass_matrix();
+        let u = stack(&self.velocity, &self.angular_velocity);
+        let lhs = mass + damping * dt_s + stiffness * (dt_s * dt_s);
+        let rhs = (mass + damping * dt_s) * u + force * dt_s;
+        let u_next = match lhs.cholesky() {
+            Some(ch) => ch.solve(&rhs),
+            None => Vector6::zeros(),
+        };
+        if u_next.iter().all(|x| x.is_finite()) {
+            u_next
+        } else {
+            Vector6::zeros()
+        }
+    }
+
+    /// Step 4, the travel bound (VPS's speed limit): a point that enters contact this step
+    /// has no stiffness in the implicit solve yet, so whatever pulls the proxy (the coupling
+    /// stretched by a hand far ahead, or a light plate tipping over an edge) could carry it
+    /// deep before the next search sees it. While some point is within reach, no point may
+    /// travel more than `max_travel_voxels`; otherwise every point is at least the reach
+    /// (plus the object's free budget) away, and may travel that much more. Scaling the
+    /// velocities only removes kinetic energy, so the bound is passive; the coupling's
+    /// force follows positions and so changes continuously.
+    fn bound_travel(&self, u_next: Vector6<f64>, found: &Found, dt_s: f64) -> Vector6<f64> {
+        let bound = self.config.max_travel_voxels * self.model.voxmap.voxel_m();
+        let limit_m = if found.near > 0 {
+            bound
+        } else {
+            (self.cache.object - self.cache.motion_m).max(0.0) + self.reach_m() + bound
+        };
+        let travel_m = (u_next.fixed_rows::<3>(0).norm()
+            + u_next.fixed_rows::<3>(3).norm() * self.model.radius_m)
+            * dt_s;
+        if travel_m > limit_m {
+            u_next * (limit_m / travel_m)
+        } else {
+            u_next
+        }
+    }
+
+    /// Step 5: the proxy takes the velocities `u_next` and moves for `dt_s` about its centre
+    /// of mass `com` (where it was at the start of the step).
+    fn integrate(&mut self, u_next: Vector6<f64>, com: &Vector3<f64>, dt_s: f64) {
+        self.velocity = u_next.fixed_rows::<3>(0).into_owned();
+        self.angular_velocity = u_next.fixed_rows::<3>(3).into_owned();
+        let new_com = com + self.velocity * dt_s;
+        let rotation =
+            UnitQuaternion::from_scaled_axis(self.angular_velocity * dt_s) * self.pose.rotation;
+        let translation = new_com - rotation * self.model.com_local;
+        self.pose = Isometry3::from_parts(Translation3::from(translation), rotation);
+    }
+
+    /// Step 6: contact with hysteresis, entered on penetration and left only when no point
+    /// is within the release distance; the normal is held from the step contact began.
+    fn contact_state(&mut self, found: &Found) -> ContactCode {
+        let s = &found.totals;
+        let entering = s.contacts > 0 && !self.in_contact;
+        if s.contacts > 0 {
+            self.in_contact = true;
+        } else if !s.within_release {
+            self.in_contact = false;
+        }
+        if entering {
+            self.held_normal = s
+                .normal_sum
+                .try_normalize(1e-12)
+                .unwrap_or_else(Vector3::zeros);
+        }
+        if s.weight > 0.0 {
+            self.held_point = s.weighted_point / s.weight;
+        }
+        let code = if self.in_contact {
+            ContactCode::CONTACT
+        } else if found.near > 0 {
+            ContactCode::PROXIMITY
+        } else {
+            ContactCode::FREE
+        };
+        if !self.in_contact {
+            self.held_normal = Vector3::zeros();
+            self.held_point = Vector3::zeros();
+        }
+        code
+    }
+
+    /// Step 7: the wrenches about the reference points (the moment of a force at the
+    /// centre of mass): the scene's on the proxy, and the coupling's on the device.
+    fn output(
+        &self,
+        before: &Isometry3<f64>,
+        found: &Found,
+        pull: &Pull,
+        code: ContactCode,
+    ) -> ContactOutput {
+        let s = &found.totals;
+        let lever = pull.com - before.translation.vector;
+        let contact_force: Vector3<f64> = s.wrench.fixed_rows::<3>(0).into_owned();
+        ContactOutput {
+            proxy: self.pose,
+            contact_force_n: contact_force,
+            contact_torque_nm: s.wrench.fixed_rows::<3>(3) + lever.cross(&contact_force),
+            device_force_n: -pull.force_n,
+            device_torque_nm: -pull.torque_nm + pull.anchor_lever_m.cross(&(-pull.force_n)),
+            operator_force_n: pull.force_n,
+            code,
+            normal: self.held_normal,
+            point_m: self.held_point,
+            penetration_m: s.max_depth,
+            contacts: s.contacts,
+            points_tested: found.tested,
+            level: self.levels.level() as u8,
+        }
+    }
+}
+
+/// The coupling's spring-damper in one step (scene frame).
+#[derive(Debug, Clone, Copy)]
+struct Pull {
+    /// Force on the proxy, at its centre of mass, N.
+    force_n: Vector3<f64>,
+    /// Torque on the proxy, N·m.
+    torque_nm: Vector3<f64>,
+    /// The proxy's centre of mass at the start of the step, m.
+    com: Vector3<f64>,
+    /// From the anchor's reference point to its centre of mass, m.
+    anchor_lever_m: Vector3<f64>,
+}
