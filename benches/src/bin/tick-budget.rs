@@ -30,6 +30,7 @@ use benches::harness::{cube_setup, wall_setup};
 use benches::pressing::newcomer_setup;
 use clap::Parser;
 use haptic_loop::contact::{LEVELS, Resolution};
+use haptic_loop::rt;
 use haptic_loop::tick::{NoGuidance, NoSink, PrevTiming, Tick};
 use hdrhistogram::Histogram;
 use ipc_types::ContactCode;
@@ -75,9 +76,12 @@ struct Args {
     /// other work's preemption, and this column shows what the tick itself costs.
     #[arg(long)]
     cpu_time: bool,
-    /// Run each tick at its time on the wall clock, sleeping between ticks as the loop
-    /// does (the run then takes --seconds of wall time): a thread that sleeps finds its
-    /// caches cooled by whatever ran meanwhile, which back-to-back ticks never see.
+    /// Run each tick at its time on the wall clock, as the loop's RT thread does: set up
+    /// as the loop sets it up (SCHED_FIFO 80, memory locked, CPU wake-up latency request
+    /// 0 µs, where permitted; the report says what was) and sleeping to each absolute
+    /// deadline between ticks. The run then takes --seconds of wall time. A thread that
+    /// sleeps finds its caches cooled by whatever ran meanwhile, which back-to-back ticks
+    /// never see.
     #[arg(long)]
     paced: bool,
     /// Write the figures as JSON here.
@@ -190,14 +194,26 @@ fn main() -> anyhow::Result<()> {
         .context("open the simulated arm")?
         .with_contact(stage);
     let mut cpu_hist = hist.clone();
-    let start = Instant::now();
+    // Held while the ticks run (the CPU latency request lives as long as the report).
+    let rt = args.paced.then(|| {
+        let r = rt::setup_current_thread(&rt::RtOptions::default());
+        for w in &r.warnings {
+            eprintln!("tick-budget: {w}");
+        }
+        println!(
+            "paced like the loop: SCHED_FIFO {}, memory locked {}, CPU wake-up latency request {}",
+            r.fifo,
+            r.memory_locked,
+            r.cpu_latency
+                .as_ref()
+                .map_or("none".to_owned(), |c| format!("{} µs", c.us))
+        );
+        r
+    });
+    let start_ns = rt::monotonic_ns();
     for i in 1..=ticks {
         if args.paced {
-            let due = start + std::time::Duration::from_nanos(i * period_ns);
-            let now = Instant::now();
-            if due > now {
-                std::thread::sleep(due - now);
-            }
+            rt::sleep_until(start_ns + i * period_ns, 0);
         }
         let c0 = if args.cpu_time { thread_cpu_ns() } else { 0 };
         let t0 = Instant::now();
@@ -212,6 +228,7 @@ fn main() -> anyhow::Result<()> {
             at_level[c.level()] += 1;
         }
     }
+    drop(rt);
     let max_penetration_m = tick.max_penetration_m();
     let percentiles = |h: &Histogram<u64>| {
         let us = |q: f64| h.value_at_quantile(q) as f64 / 1000.0;

@@ -48,11 +48,14 @@ impl Resolution {
     /// How long a change of level is blended, s.
     pub const BLEND_S: f64 = 0.02;
 
-    /// The default budget: 6 000 points per millisecond, down to 4 mm spacing. Chosen from
-    /// `tick-budget --scene` on a 2-core VM (about 11 ns per point looked at, AVX2): 6 000
-    /// points cost about 70 µs, leaving room in a 1 ms tick for the rest of it and for a
-    /// planner on the other core.
-    pub const DEFAULT: Self = Self::budget(6000.0);
+    /// The default budget: 4 000 points per millisecond, down to 4 mm spacing. First
+    /// chosen at 6 000 from `tick-budget --scene` on a 2-core VM (about 11 ns per point
+    /// looked at, AVX2, ticks back to back: 6 000 points about 70 µs); lowered when the
+    /// ticks were paced as the loop paces them (a sleeping thread's caches are cold) with
+    /// the newcomer pressing on the crossing planes for a minute: compute p99.9 123 µs at
+    /// 6 000, 87 µs at 4 000 (`tick-budget --scene crossing-planes --newcomer --paced`),
+    /// and 4 of 80 live sessions of the issue-32 sweep above 100 µs at 6 000.
+    pub const DEFAULT: Self = Self::budget(4000.0);
 
     /// The coarsest spacing a budget goes down to by default, m: a few times the features
     /// the built-in scenes' clearances are made of, and where the torque test still holds.
