@@ -107,7 +107,9 @@ def test_python_guidance_is_rendered_and_malformed_guidance_is_rejected(loop):
     # F_a = 1 cm along x at k = 20 N/m: F_s = 0.2 N along x, scene frame. A sample is
     # published every 50 ms (well within its 0.2 s time-to-live) and the state polled in
     # between: publishing before every read made the check depend on a tick falling
-    # between the two calls, which a poll loop phase-locked to the ticks never saw.
+    # between the two calls, which a poll loop phase-locked to the ticks never saw. The
+    # loop ramps guidance in at 20 N/s (GuidanceConfig::max_force_rate_n_per_s), so the
+    # rendered force reaches 0.2 N 10 ms after the first sample, and stays there.
     last_publish = [-1.0]
 
     def rendered():
@@ -116,7 +118,8 @@ def test_python_guidance_is_rendered_and_malformed_guidance_is_rejected(loop):
             last_publish[0] = time.monotonic()
         s = reader.read()
         fresh = s.guidance_freshness == hrrtc.GuidanceFreshness.FRESH
-        return s if fresh and s.guidance_sequence == publisher.sequence else None
+        settled = abs(s.guidance_wrench.force_n[0] - 0.2) < 1e-9
+        return s if fresh and settled and s.guidance_sequence == publisher.sequence else None
 
     s = wait_for("the loop renders Python's guidance", 10, rendered)
     assert s.guidance_wrench.force_n[:] == pytest.approx([0.2, 0.0, 0.0], abs=1e-9)
