@@ -190,7 +190,9 @@ pub fn to_csv(runs: &[LiveRun]) -> String {
 
 /// Runs read back from a runs.csv written by [`to_csv`] (`origin` names it in errors), so
 /// that sweeps run in parts (other seeds, another day) can be reported together. Columns
-/// are found by their header names; an empty number is missing (NaN).
+/// are found by their header names; an empty number is missing (NaN). Numbers come back
+/// as the CSV rounded them (e.g. run times to 10 ms), so a report of read-back runs can
+/// differ from the sweep's own in the last digit (a contact share in the fourth decimal).
 pub fn from_csv(text: &str, origin: &str) -> Result<Vec<LiveRun>, LabError> {
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
