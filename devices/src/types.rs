@@ -94,6 +94,8 @@ impl Neg for Wrench {
 }
 
 /// `v` scaled down so that its norm is at most `max` (a negative or NaN `max` acts as 0).
+/// Inline: the loop's guidance and safety stages call it from another crate every tick.
+#[inline]
 pub fn clamp_norm(v: Vector3<f64>, max: f64) -> Vector3<f64> {
     let max = if max > 0.0 { max } else { 0.0 };
     let norm = v.norm();
