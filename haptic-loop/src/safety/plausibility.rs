@@ -7,7 +7,7 @@
 use super::SafetyConfig;
 use devices::{DeviceError, DeviceState};
 use ipc_types::FaultCode;
-use nalgebra::{Isometry3, Vector3};
+use nalgebra::Isometry3;
 
 /// Checks each device read against the previous reading and the loop's own timing; holds
 /// what it needs of the previous ticks. Allocation-free.
@@ -21,9 +21,8 @@ pub(crate) struct Plausibility {
     period_s: f64,
     /// Device timestamp of the last reading, ns (0 before the first).
     last_timestamp_ns: u64,
-    /// Position of the last reading, m (device frame).
-    last_position: Option<Vector3<f64>>,
-    /// Pose of the last reading (device frame): what stands in while reads fail.
+    /// Pose of the last reading (device frame, m): the jump check's reference, and what
+    /// stands in while reads fail.
     last_pose: Option<Isometry3<f64>>,
     /// Consecutive ticks whose previous tick missed its deadline.
     miss_streak: u32,
@@ -39,7 +38,6 @@ impl Plausibility {
             max_miss_streak: safety.max_miss_streak,
             period_s,
             last_timestamp_ns: 0,
-            last_position: None,
             last_pose: None,
             miss_streak: 0,
             last_misses: 0,
@@ -75,17 +73,16 @@ impl Plausibility {
         if let Some(s) = &reading {
             if s.timestamp_ns <= self.last_timestamp_ns {
                 fault = FaultCode::DEVICE_STALE;
-            } else if let Some(last) = self.last_position {
+            } else if let Some(last) = self.last_pose {
                 // Farther than the arm can move between the two readings (plus 2 mm of
                 // sensor noise): a glitch, not a motion.
                 let dt_s = (s.timestamp_ns - self.last_timestamp_ns) as f64 * 1e-9;
                 let limit = self.max_speed_m_per_s * dt_s.max(self.period_s) + 0.002;
-                if (s.pose.translation.vector - last).norm() > limit {
+                if (s.pose.translation.vector - last.translation.vector).norm() > limit {
                     fault = FaultCode::DEVICE_JUMP;
                 }
             }
             self.last_timestamp_ns = s.timestamp_ns;
-            self.last_position = Some(s.pose.translation.vector);
             self.last_pose = Some(s.pose);
         }
         // Deadline misses in consecutive ticks: the loop cannot keep its rhythm.
@@ -115,6 +112,7 @@ impl Plausibility {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::Vector3;
 
     const MS: u64 = 1_000_000;
 
