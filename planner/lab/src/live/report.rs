@@ -142,14 +142,40 @@ fn num(v: f64, decimals: usize) -> String {
     }
 }
 
+/// The columns of runs.csv, in order. `contact_share` is derived (contact_s / run_s): it is
+/// written for readers of the file and not read back ([`from_csv`]).
+const COLUMNS: [&str; 26] = [
+    "scene",
+    "route",
+    "method",
+    "planner",
+    "alpha",
+    "input",
+    "guidance",
+    "operator",
+    "seed",
+    "solved",
+    "time_to_solve_s",
+    "nodes",
+    "edges",
+    "time_to_goal_s",
+    "contact_s",
+    "contact_share",
+    "max_penetration_mm",
+    "voxel_mm",
+    "max_force_step_n",
+    "ticks",
+    "deadline_misses",
+    "compute_p999_us",
+    "run_s",
+    "blocks",
+    "corrections",
+    "retries",
+];
+
 /// The runs as CSV (header first); missing values are empty fields.
 pub fn to_csv(runs: &[LiveRun]) -> String {
-    let mut out = String::from(
-        "scene,route,method,planner,alpha,input,guidance,operator,seed,solved,time_to_solve_s,\
-         nodes,edges,time_to_goal_s,contact_s,contact_share,max_penetration_mm,voxel_mm,\
-         max_force_step_n,ticks,deadline_misses,compute_p999_us,run_s,blocks,corrections,\
-         retries\n",
-    );
+    let mut out = COLUMNS.join(",") + "\n";
     for r in runs {
         let _ = writeln!(
             out,
@@ -207,33 +233,11 @@ pub fn from_csv(text: &str, origin: &str) -> Result<Vec<LiveRun>, LabError> {
             .position(|h| *h == name)
             .ok_or_else(|| bad(1, format!("no column `{name}`")))
     };
-    let names = [
-        "scene",
-        "route",
-        "method",
-        "planner",
-        "alpha",
-        "input",
-        "guidance",
-        "operator",
-        "seed",
-        "solved",
-        "time_to_solve_s",
-        "nodes",
-        "edges",
-        "time_to_goal_s",
-        "contact_s",
-        "max_penetration_mm",
-        "voxel_mm",
-        "max_force_step_n",
-        "ticks",
-        "deadline_misses",
-        "compute_p999_us",
-        "run_s",
-        "blocks",
-        "corrections",
-        "retries",
-    ];
+    // Every column but the derived one, in the order the fields are read below.
+    let names: Vec<&str> = COLUMNS
+        .into_iter()
+        .filter(|c| *c != "contact_share")
+        .collect();
     let at: Vec<usize> = names.iter().map(|n| col(n)).collect::<Result<_, _>>()?;
     let mut runs = Vec::new();
     for (i, line) in lines.enumerate().filter(|(_, l)| !l.trim().is_empty()) {
