@@ -6,19 +6,16 @@
 //! demo's (`haptic_loop::session::scenario`); only the clock is the harness's.
 
 use crate::BenchError;
-use devices::HapticDevice;
-use devices::sim::{OperatorConfig, OperatorHand, SimulatedArm, SimulatedArmConfig};
-use haptic_loop::contact::{ContactConfig, ContactModel, ContactStage, Coupling};
-use haptic_loop::guidance::GuidanceConfig;
-use haptic_loop::safety::SafetyConfig;
+use devices::sim::{OperatorConfig, SimulatedArm};
+use haptic_loop::contact::ContactStage;
 use haptic_loop::session::scenario;
 use haptic_loop::tick::TickConfig;
 use scene::Scene;
-use std::sync::Arc;
 
-/// The newcomer of `seed` on `scene` with its route removed, at `rate_hz`, contact at
-/// `voxel_m` (m) with the loop's default point budget: the arm it holds, the tick's
-/// configuration and the contact stage.
+/// The newcomer of `seed` on `scene` with its route removed (so the mapping is the one of a
+/// `--no-route` session), at `rate_hz`, contact at `voxel_m` (m) with the loop's default
+/// point budget: the arm it holds, the tick's configuration and the contact stage
+/// (`scenario::newcomer_rig`).
 pub fn newcomer_setup(
     scene: &Scene,
     rate_hz: f64,
@@ -27,28 +24,10 @@ pub fn newcomer_setup(
 ) -> Result<(SimulatedArm, TickConfig, ContactStage), BenchError> {
     let mut scene = scene.clone();
     scene.route.clear();
-    let arm_config = SimulatedArmConfig::default();
-    let radius = arm_config.workspace_radius_m;
-    let scale = scenario::fitting_scale(&scene, radius);
-    let tick_config = TickConfig {
-        mapping: scenario::mapping_config(&scene, scale),
-        guidance: GuidanceConfig::none(),
-        safety: SafetyConfig::default(),
-        period_s: 1.0 / rate_hz,
+    let config = OperatorConfig {
+        seed,
+        ..OperatorConfig::newcomer()
     };
-    let operator = scenario::newcomer_operator(
-        &scene,
-        &tick_config.mapping,
-        radius,
-        OperatorConfig {
-            seed,
-            ..OperatorConfig::newcomer()
-        },
-    )?;
-    let arm = SimulatedArm::with_operator(arm_config, OperatorHand::new(operator))?;
-    let contact = ContactConfig::with_voxel_m(voxel_m);
-    let model = ContactModel::from_scene(&scene, &contact.voxmap)?;
-    let coupling = Coupling::from_spec(arm.spec(), scale, contact.coupling_fraction);
-    let stage = ContactStage::new(Arc::new(model), contact, coupling);
-    Ok((arm, tick_config, stage))
+    let rig = scenario::newcomer_rig(&scene, config, rate_hz, voxel_m)?;
+    Ok((rig.arm, rig.tick, rig.contact))
 }

@@ -3,19 +3,12 @@
 //! reaches the goal around an obstacle with its own coarse way; on its own it does not get
 //! through a ±0.05 rad slot, though the slot lets the object through at the right angle.
 
-use devices::HapticDevice;
 use devices::sim::operator::OperatorStats;
-use devices::sim::{
-    NewcomerConfig, OperatorConfig, OperatorHand, SimulatedArm, SimulatedArmConfig,
-};
-use haptic_loop::contact::{ContactConfig, ContactModel, ContactStage, Coupling};
-use haptic_loop::guidance::GuidanceConfig;
-use haptic_loop::safety::SafetyConfig;
+use devices::sim::{NewcomerConfig, OperatorConfig};
 use haptic_loop::session::scenario;
-use haptic_loop::tick::{NoGuidance, NoSink, PrevTiming, Tick, TickConfig};
+use haptic_loop::tick::{NoGuidance, NoSink, PrevTiming, Tick};
 use nalgebra::{UnitQuaternion, Vector3};
 use scene::{Bounds, Part, Primitive, Scene, Se3, SpaceKind};
-use std::sync::Arc;
 
 /// What a session showed.
 struct Outcome {
@@ -28,26 +21,11 @@ struct Outcome {
 /// `seconds` of the loop at 1 kHz on `scene`, the arm held by the newcomer of `config`,
 /// contact at 2 mm voxels, no guidance.
 fn session(scene: &Scene, config: OperatorConfig, seconds: f64) -> Outcome {
-    let arm_config = SimulatedArmConfig::default();
-    let radius = arm_config.workspace_radius_m;
-    let scale = scenario::fitting_scale(scene, radius);
-    let tick_config = TickConfig {
-        mapping: scenario::mapping_config(scene, scale),
-        guidance: GuidanceConfig::none(),
-        safety: SafetyConfig::default(),
-        period_s: 1e-3,
-    };
-    let operator = scenario::newcomer_operator(scene, &tick_config.mapping, radius, config)
-        .expect("the newcomer");
-    let stats = operator.shared_stats();
-    let arm = SimulatedArm::with_operator(arm_config, OperatorHand::new(operator)).unwrap();
-    let contact = ContactConfig::with_voxel_m(0.002);
-    let model = ContactModel::from_scene(scene, &contact.voxmap).expect("contact model");
-    let coupling = Coupling::from_spec(arm.spec(), scale, contact.coupling_fraction);
-    let stage = ContactStage::new(Arc::new(model), contact, coupling);
-    let mut tick = Tick::new(arm, &tick_config, NoGuidance, NoSink)
+    let rig = scenario::newcomer_rig(scene, config, 1000.0, 0.002).expect("the newcomer");
+    let stats = rig.stats;
+    let mut tick = Tick::new(rig.arm, &rig.tick, NoGuidance, NoSink)
         .unwrap()
-        .with_contact(stage)
+        .with_contact(rig.contact)
         .with_goal(scenario::goal_zone(scene));
     let mut max_x_m = f64::NEG_INFINITY;
     for i in 1..=(seconds * 1000.0) as u64 {

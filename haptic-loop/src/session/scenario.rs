@@ -239,6 +239,56 @@ pub fn newcomer_operator(
     Operator::newcomer(config, start, goal, &way).map_err(sim_error("the simulated operator"))
 }
 
+/// The newcomer holding the simulated arm on `scene` in lockstep with a `Tick`, as the demo
+/// sets it up (its scale and mapping, the arm, contact at `voxel_m` m with the default
+/// budget) at `rate_hz`, with no guidance: what the newcomer's tests and
+/// `tick-budget --newcomer` drive.
+pub struct NewcomerRig {
+    /// The arm, held by the newcomer.
+    pub arm: SimulatedArm,
+    /// The tick's configuration (guidance off).
+    pub tick: crate::tick::TickConfig,
+    /// The contact stage.
+    pub contact: crate::contact::ContactStage,
+    /// The newcomer's counts (blocks, retries, ...), readable while it runs.
+    pub stats: Arc<SharedStats>,
+}
+
+/// Builds a [`NewcomerRig`] for `config.newcomer` on `scene`.
+pub fn newcomer_rig(
+    scene: &Scene,
+    config: OperatorConfig,
+    rate_hz: f64,
+    voxel_m: f64,
+) -> Result<NewcomerRig, Error> {
+    use crate::contact::{ContactConfig, ContactModel, ContactStage, Coupling};
+    let arm_config = devices::sim::SimulatedArmConfig::default();
+    let radius = arm_config.workspace_radius_m;
+    let scale = fitting_scale(scene, radius);
+    let tick = crate::tick::TickConfig {
+        mapping: mapping_config(scene, scale),
+        guidance: crate::guidance::GuidanceConfig::none(),
+        safety: crate::safety::SafetyConfig::default(),
+        period_s: 1.0 / rate_hz,
+    };
+    let operator = newcomer_operator(scene, &tick.mapping, radius, config)?;
+    let stats = operator.shared_stats();
+    let arm = SimulatedArm::with_operator(arm_config, OperatorHand::new(operator))
+        .map_err(sim_error("the simulated arm"))?;
+    let contact = ContactConfig::with_voxel_m(voxel_m);
+    let model = ContactModel::from_scene(scene, &contact.voxmap).map_err(|e| Error::Contact {
+        scene: scene.name.clone(),
+        error: Box::new(e),
+    })?;
+    let coupling = Coupling::from_spec(arm.spec(), scale, contact.coupling_fraction);
+    Ok(NewcomerRig {
+        arm,
+        tick,
+        contact: ContactStage::new(Arc::new(model), contact, coupling),
+        stats,
+    })
+}
+
 /// The reacting operator of `config`: on the scene's route, or the newcomer on its own way.
 fn reacting_operator(setup: &LoopSetup, config: OperatorConfig) -> Result<Operator, Error> {
     if config.newcomer.is_none() {
