@@ -28,8 +28,15 @@ pub struct ServeArgs {
     /// k for the force part of F_s = k·F_a, N per scene metre.
     #[arg(long, default_value_t = 20.0)]
     pub gain_n_per_m: f64,
-    /// k for the torque part of F_s = k·F_a, N·m per rad.
-    #[arg(long, default_value_t = 0.05)]
+    /// k for the torque part of F_s = k·F_a before a solution, N·m per rad. Default 0: the
+    /// orientations of the roadmap's nodes near the operator are mostly uniform draws, and
+    /// their barycenter leans towards the goal's orientation (the distance label), which is
+    /// not the orientation of the openings on the way; an operator who followed that torque
+    /// lost the orientations it had found by touch (bug trap without its route, adaptive
+    /// H-RRT-C at α 0.9, the newcomer: at the goal 0 of 5 sessions at 0.05 N·m/rad, 3 of 3
+    /// at 0; docs/guide/planner-and-scenes.md). After a solution the lead's torque
+    /// (--lead-torque-nm) turns the object to the path's orientation.
+    #[arg(long, default_value_t = 0.0)]
     pub gain_nm_per_rad: f64,
     /// Once solved, the guidance leads along the path: a spring towards a carrot ahead on
     /// it whose pull saturates at this force, N (at 5 cm from the carrot; 40 N/m at the
