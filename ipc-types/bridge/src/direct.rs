@@ -110,21 +110,12 @@ fn direct_guidance(
     delays: Arc<Mutex<PeerDelays>>,
     session: &zenoh::Session,
 ) -> Result<(zenoh::pubsub::Subscriber<()>, Arc<GuidancePorts>), BridgeError> {
-    let (node, _) = services::create_node_in::<services::IpcThreadsafe>(&format!(
-        "bridge_guidance_{}",
-        std::process::id()
-    ))?;
     let ports = Arc::new(GuidancePorts {
-        publisher: services::publisher_in::<services::IpcThreadsafe, Guidance>(
-            &node,
-            &config.namespace,
-        )?,
-        notifier: services::guidance_notifier_in::<services::IpcThreadsafe>(
-            &node,
+        inlet: services::GuidanceInlet::open(
+            &format!("bridge_guidance_{}", std::process::id()),
             &config.namespace,
         )?,
         last_warning: Mutex::new(None),
-        _node: node,
     });
     let k = key(keys, "guidance");
     let out = ports.clone();
@@ -135,13 +126,11 @@ fn direct_guidance(
             bump(&counters.received, Kind::GUIDANCE);
             let mut warned = lock(&out.last_warning);
             if let Some((_, g)) = accept::<Guidance>(&incoming, &counters, &delays, &mut warned) {
-                if out.publisher.send_copy(g).is_ok() {
+                if out.inlet.send(g) {
                     bump(&counters.delivered, Kind::GUIDANCE);
                 } else {
                     bump(&counters.dropped, Kind::GUIDANCE);
                 }
-                // The relay also polls: a failed wake-up costs only latency.
-                let _ = out.notifier.notify();
             }
         })
         .wait()
@@ -184,8 +173,6 @@ fn direct_state(
 
 /// The loop side's guidance ports, shared with Zenoh's callback threads.
 struct GuidancePorts {
-    publisher: iceoryx2::port::publisher::Publisher<services::IpcThreadsafe, Guidance, ()>,
-    notifier: iceoryx2::port::notifier::Notifier<services::IpcThreadsafe>,
+    inlet: services::GuidanceInlet,
     last_warning: Mutex<Option<Instant>>,
-    _node: iceoryx2::node::Node<services::IpcThreadsafe>,
 }

@@ -437,6 +437,36 @@ pub fn guidance_notifier_in<S: iceoryx2::service::Service>(
         .map_err(port_error(service, "notifier", String::new()))
 }
 
+/// The loop's guidance service and its wake-up event, written from any thread: for the
+/// processes that bring guidance in from a network, whose samples arrive on Zenoh's
+/// callback threads (the Zenoh bridge's loop side, the ROS 2 gateway). Owns its node; the
+/// ports close before it.
+pub struct GuidanceInlet {
+    publisher: iceoryx2::port::publisher::Publisher<IpcThreadsafe, Guidance, ()>,
+    notifier: iceoryx2::port::notifier::Notifier<IpcThreadsafe>,
+    _node: Node<IpcThreadsafe>,
+}
+
+impl GuidanceInlet {
+    /// Opens the guidance publisher and notifier on `namespace` in a new node named `node`.
+    pub fn open(node: &str, namespace: &str) -> Result<Self, ServiceError> {
+        let (node, _) = create_node_in::<IpcThreadsafe>(node)?;
+        Ok(GuidanceInlet {
+            publisher: publisher_in::<IpcThreadsafe, Guidance>(&node, namespace)?,
+            notifier: guidance_notifier_in::<IpcThreadsafe>(&node, namespace)?,
+            _node: node,
+        })
+    }
+
+    /// Sends `g` and wakes the loop's relay; false when the sample could not be sent. A
+    /// failed wake-up is not reported: the relay also polls, so it costs only latency.
+    pub fn send(&self, g: Guidance) -> bool {
+        let sent = self.publisher.send_copy(g).is_ok();
+        let _ = self.notifier.notify();
+        sent
+    }
+}
+
 /// Listener of [`GUIDANCE_EVENT`] (for the loop's relay thread, never the RT thread).
 pub fn guidance_listener(
     node: &Node<Ipc>,

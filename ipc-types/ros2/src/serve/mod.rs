@@ -31,7 +31,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use ipc_types::services;
-use ipc_types::{Guidance, Path, Roadmap, pacing};
+use ipc_types::{Path, Roadmap, pacing};
 use scene::Scene;
 use serde::Serialize;
 use zenoh::Wait;
@@ -265,13 +265,6 @@ impl Counters {
     }
 }
 
-/// The loop's guidance service, written from Zenoh's callback threads.
-struct GuidancePorts {
-    publisher: iceoryx2::port::publisher::Publisher<services::IpcThreadsafe, Guidance, ()>,
-    notifier: iceoryx2::port::notifier::Notifier<services::IpcThreadsafe>,
-    _node: iceoryx2::node::Node<services::IpcThreadsafe>,
-}
-
 struct GuidanceState {
     input: GuidanceInput,
     /// When each kind was last logged (at most once a second per kind).
@@ -341,21 +334,10 @@ pub fn run(config: &ServeConfig, stop: Arc<AtomicBool>) -> Result<ServeReport, G
     let counters = Arc::new(Counters::default());
 
     // Guidance: from Zenoh's callback straight into the loop's service.
-    let (node, _) = services::create_node_in::<services::IpcThreadsafe>(&format!(
-        "ros2_guidance_{}",
-        std::process::id()
-    ))?;
-    let ports = GuidancePorts {
-        publisher: services::publisher_in::<services::IpcThreadsafe, Guidance>(
-            &node,
-            &config.namespace,
-        )?,
-        notifier: services::guidance_notifier_in::<services::IpcThreadsafe>(
-            &node,
-            &config.namespace,
-        )?,
-        _node: node,
-    };
+    let inlet = services::GuidanceInlet::open(
+        &format!("ros2_guidance_{}", std::process::id()),
+        &config.namespace,
+    )?;
     let (topic, key, _guidance_token) =
         participant.subscription_token::<msgs::WrenchStamped>("guidance", Qos::volatile(1))?;
     let state = Mutex::new(GuidanceState {
@@ -393,13 +375,11 @@ pub fn run(config: &ServeConfig, stop: Arc<AtomicBool>) -> Result<ServeReport, G
                 ) {
                     Ok(g) => {
                         drop(st);
-                        if ports.publisher.send_copy(g).is_ok() {
+                        if inlet.send(g) {
                             counters.delivered.fetch_add(1, Ordering::Relaxed);
                         } else {
                             counters.dropped.fetch_add(1, Ordering::Relaxed);
                         }
-                        // The relay also polls: a failed wake-up costs only latency.
-                        let _ = ports.notifier.notify();
                     }
                     Err(e) => {
                         let i = Rejection::KINDS
