@@ -166,11 +166,10 @@ impl LevelChooser {
     }
 
     /// The plan for a tick whose near clusters hold `near(l)` points at level `l` (which
-    /// runs level l's near pass: asked for the level in use, a blend's target, and the
-    /// next finer level when this one holds few points), with `budget` points, levels up
-    /// to `coarsest`, and blends of `blend_ticks` ticks. A jump estimates the level that
-    /// fits (on a surface each level holds about a quarter of the finer one's points) and
-    /// goes further next tick if that was not enough.
+    /// runs level l's near pass: asked for the level in use, a blend's target, the next
+    /// finer level when this one holds few points, and the coarser ones a jump passes),
+    /// with `budget` points, levels up to `coarsest`, and blends of `blend_ticks` ticks. A
+    /// jump goes to the finest level whose counted points fit ([`fitting`]).
     pub fn plan(
         &mut self,
         mut near: impl FnMut(usize) -> u32,
@@ -180,9 +179,10 @@ impl LevelChooser {
     ) -> Plan {
         if let Some((to, done)) = self.blend {
             if f64::from(near(self.current)) + f64::from(near(to)) > budget {
-                // Both no longer fit: settle at the coarser of the two.
-                self.current = self.current.max(to);
+                // Both no longer fit: settle at the coarser of the two, or coarser still
+                // if that alone does not fit either.
                 self.blend = None;
+                self.current = fitting(&mut near, self.current.max(to), budget, coarsest);
                 return Plan::at(self.current);
             }
             let done = done + 1;
@@ -207,13 +207,8 @@ impl LevelChooser {
         }
         if n > budget {
             // Over budget now: no time to blend.
-            let (mut level, mut estimate) = (c, n);
-            while level < coarsest && estimate > budget {
-                level += 1;
-                estimate /= 4.0;
-            }
-            self.current = level;
-            return Plan::at(level);
+            self.current = fitting(&mut near, c, budget, coarsest);
+            return Plan::at(self.current);
         }
         self.current = c;
         let to = if c < coarsest && n > COARSEN * budget {
@@ -234,6 +229,21 @@ impl LevelChooser {
             alpha: 1.0 / f64::from(blend_ticks),
         }
     }
+}
+
+/// The finest level from `level` up to `coarsest` whose near points fit `budget`, by their
+/// counts (each level's near pass; a quarter per level holds on a flat patch, not near
+/// edges and corners, where a level can hold half of the finer one's points or more, and
+/// a tick rendered at a guess could search twice the budget); `coarsest` if none fits.
+fn fitting(
+    near: &mut impl FnMut(usize) -> u32,
+    level: usize,
+    budget: f64,
+    coarsest: usize,
+) -> usize {
+    (level..coarsest)
+        .find(|&l| f64::from(near(l)) <= budget)
+        .unwrap_or(coarsest.max(level))
 }
 
 #[cfg(test)]
@@ -307,6 +317,26 @@ mod tests {
         assert_eq!(c.plan(|l| patch(1_000_000)[l], 4000.0, 2, 20), Plan::at(2));
         // Leaving contact returns to the finest level at once.
         assert_eq!(c.plan(|_| 0, 4000.0, 2, 20), Plan::at(0));
+    }
+
+    #[test]
+    fn a_jump_keeps_to_the_budget_where_levels_do_not_thin_by_a_quarter() {
+        // Near an edge each level holds half of the finer one's points: 30 000, 15 000,
+        // 7 500, 3 750. A guess of a quarter per level would render level 2 (7 500 points,
+        // nearly twice the budget); the counts say level 3.
+        let edge = |l: usize| 30_000u32 >> l;
+        let mut c = LevelChooser::default();
+        assert_eq!(c.plan(edge, 4000.0, 3, 20), Plan::at(3));
+        // A blend that no longer fits settles where the points fit.
+        let mut c = LevelChooser::at(1);
+        let small = |l: usize| [800u32, 200, 50, 12][l];
+        let p = c.plan(small, 4000.0, 3, 20);
+        assert_eq!((p.from, p.to), (1, 0), "refining starts a blend");
+        let grown = |l: usize| [20_000u32, 10_000, 5_000, 2_500][l];
+        assert_eq!(c.plan(grown, 4000.0, 3, 20), Plan::at(3));
+        // Nothing fits: the coarsest allowed level.
+        let mut c = LevelChooser::default();
+        assert_eq!(c.plan(|l| 90_000u32 >> l, 4000.0, 2, 20), Plan::at(2));
     }
 
     #[test]
