@@ -33,6 +33,12 @@ impl PlannerChild {
 
     /// [`PlannerChild::spawn`] with more `planner serve` arguments.
     pub fn spawn_with(ns: &str, extra: &[String]) -> Result<Self, BenchError> {
+        Self::spawn_on(ns, "wall-hole", extra)
+    }
+
+    /// `planner serve` on namespace `ns` and `scene` (a built-in name or a scene file) with
+    /// more arguments, from the binary next to the running one.
+    pub fn spawn_on(ns: &str, scene: &str, extra: &[String]) -> Result<Self, BenchError> {
         let exe = std::env::current_exe().map_err(|error| BenchError::Start {
             what: "the planner (no path of this executable)".into(),
             error,
@@ -42,7 +48,7 @@ impl PlannerChild {
             return Err(BenchError::NoPlanner(planner));
         }
         let child = Command::new(&planner)
-            .args(["serve", "--namespace", ns, "--scene", "wall-hole"])
+            .args(["serve", "--namespace", ns, "--scene", scene])
             .args(extra)
             .stdout(Stdio::null())
             .stderr(Stdio::null())

@@ -16,27 +16,35 @@
 //! With `--scene NAME --newcomer` the scene's route is removed and the arm is held by the
 //! newcomer (the operator who does not know the way) as in `haptic-loop demo --operator
 //! newcomer --no-planner` (`benches::pressing`): minutes of pressing on the first walls in
-//! its way, sliding, wiggling and turning, what the live sessions' loop sees.
+//! its way, sliding, wiggling and turning, what the live sessions' loop sees. Add
+//! `--paced --planner "ARGS"` to run a planner process beside the ticks as a live session
+//! does (`planner serve` on the scene without its route, the newcomer's seed and ARGS, e.g.
+//! `--sampling hrrtc --alpha 0.5`): the ticks publish their state to it over iceoryx2 and
+//! render its guidance through the loop's relay, so its trees grow from what the newcomer
+//! does and the newcomer feels and follows its guidance, on the same 2 cores.
 //!
 //! The contact stage renders at the default point budget (`Resolution::DEFAULT`, scaled
 //! by the tick period) unless `--level L` fixes a level of detail or `--points-per-ms P`
 //! sets another budget; the report says how many ticks each level rendered.
 //!
-//! `cargo run --release -p benches --bin tick-budget -- --seconds 20 [--voxel-mm 1] [--rate-hz 1000] [--level L | --points-per-ms P] [--cube-points N | --scene NAME [--newcomer [--seed S]]] [--json F]`
+//! `cargo run --release -p benches --bin tick-budget -- --seconds 20 [--voxel-mm 1] [--rate-hz 1000] [--level L | --points-per-ms P] [--cube-points N | --scene NAME [--newcomer [--seed S] [--paced --planner ARGS]]] [--cpu-time] [--paced] [--slowest N] [--json F]`
 
 use anyhow::{Context, bail};
 use benches::face_contact::face_setup;
-use benches::harness::{cube_setup, wall_setup};
+use benches::harness::{PlannerChild, cube_setup, wall_setup};
 use benches::pressing::newcomer_setup;
 use clap::Parser;
+use devices::sim::SimulatedArm;
 use haptic_loop::contact::{LEVELS, Resolution};
+use haptic_loop::relay::Relay;
 use haptic_loop::rt;
-use haptic_loop::tick::{NoGuidance, NoSink, PrevTiming, Tick};
+use haptic_loop::tick::{GuidanceSource, NoGuidance, NoSink, PrevTiming, StateSink, Tick};
 use hdrhistogram::Histogram;
 use ipc_types::ContactCode;
+use ipc_types::services;
 use serde::Serialize;
-use std::path::PathBuf;
-use std::time::Instant;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 /// Tick compute budget with contact rendering (lockstep, simulated arm).
 #[derive(Debug, Parser)]
@@ -84,6 +92,20 @@ struct Args {
     /// never see.
     #[arg(long)]
     paced: bool,
+    /// With --newcomer --paced: run `planner serve` (from the same target directory) beside
+    /// the ticks as a live session does, on the scene without its route, with the
+    /// newcomer's seed and these arguments (e.g. "--sampling hrrtc --alpha 0.5"; "" for
+    /// its defaults). The ticks publish their state to it and render its guidance.
+    #[arg(
+        long,
+        value_name = "ARGS",
+        allow_hyphen_values = true,
+        requires_all = ["newcomer", "paced"]
+    )]
+    planner: Option<String>,
+    /// Also list the N slowest ticks (wall clock) with what each rendered.
+    #[arg(long, default_value_t = 0)]
+    slowest: usize,
     /// Write the figures as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
@@ -107,6 +129,49 @@ struct Report {
     /// The same by the thread's CPU time (with `--cpu-time`).
     cpu_us: Option<Percentiles>,
     points_tested_max: u32,
+    /// The slowest ticks, slowest first (`--slowest`).
+    slowest: Vec<SlowTick>,
+    /// Deadlines missed, counted as the loop counts them (with `--paced`).
+    deadline_misses: Option<u64>,
+    /// The planner beside the ticks (`--planner`), from its own report.
+    planner: Option<PlannerFigures>,
+}
+
+#[derive(Debug, Serialize)]
+struct PlannerFigures {
+    /// `planner serve` arguments after the namespace, scene and seed.
+    args: String,
+    solved: bool,
+    nodes: u64,
+    iterations: u64,
+    /// Fresh haptic states it read per second.
+    state_rate_hz: f64,
+}
+
+/// One of the slowest ticks.
+#[derive(Debug, Clone, Copy, Serialize)]
+struct SlowTick {
+    /// Tick number from 1.
+    tick: u64,
+    compute_us: f64,
+    /// Level of detail after the tick, and pointshell points the search looked at.
+    level: usize,
+    points_tested: u32,
+    in_contact: bool,
+}
+
+/// What the ticks measured.
+struct Measured {
+    /// The slowest ticks, slowest first (`--slowest`).
+    slowest: Vec<SlowTick>,
+    /// Deadlines missed (`--paced`).
+    misses: u64,
+    hist: Histogram<u64>,
+    cpu_hist: Histogram<u64>,
+    in_contact: u64,
+    tested_max: u32,
+    at_level: [u64; LEVELS],
+    max_penetration_m: f64,
 }
 
 #[derive(Debug, Serialize)]
@@ -140,9 +205,6 @@ fn main() -> anyhow::Result<()> {
         .map_err(|e| anyhow::anyhow!("--level / --points-per-ms: {e}"))?;
     let ticks = (args.seconds * args.rate_hz) as u64;
     let period_ns = (1e9 / args.rate_hz).round() as u64;
-    let mut hist = Histogram::<u64>::new_with_bounds(1, 1_000_000_000, 3).context("histogram")?;
-    let mut in_contact = 0u64;
-    let mut tested_max = 0u32;
     if let Some(n) = args.cube_points
         && !(100..=1_000_000).contains(&n)
     {
@@ -160,8 +222,15 @@ fn main() -> anyhow::Result<()> {
                 scene::Scene::by_name_or_path(name).with_context(|| format!("--scene {name}"))?;
             let (arm, config, stage) = newcomer_setup(&scene, args.rate_hz, voxel_m, args.seed)?;
             let what = format!(
-                "full tick: the newcomer (seed {}) on {} without its route, no planner",
-                args.seed, scene.name
+                "full tick: the newcomer (seed {}) on {} without its route, {}",
+                args.seed,
+                scene.name,
+                args.planner
+                    .as_ref()
+                    .map_or("no planner".to_owned(), |a| format!(
+                        "`planner serve {}` beside it",
+                        a.trim()
+                    ))
             );
             (arm, config, stage, what)
         }
@@ -189,47 +258,37 @@ fn main() -> anyhow::Result<()> {
     let mut stage = stage;
     stage.set_resolution(resolution)?;
     let points = stage.model().pointshell().len();
-    let mut at_level = [0u64; LEVELS];
-    let mut tick = Tick::new(arm, &tick_config, NoGuidance, NoSink)
-        .context("open the simulated arm")?
-        .with_contact(stage);
-    let mut cpu_hist = hist.clone();
-    // Held while the ticks run (the CPU latency request lives as long as the report).
-    let rt = args.paced.then(|| {
-        let r = rt::setup_current_thread(&rt::RtOptions::default());
-        for w in &r.warnings {
-            eprintln!("tick-budget: {w}");
+    let (m, planner) = match &args.planner {
+        None => {
+            let tick = Tick::new(arm, &tick_config, NoGuidance, NoSink)
+                .context("open the simulated arm")?
+                .with_contact(stage);
+            (run_ticks(tick, &args, ticks, period_ns)?, None)
         }
-        println!(
-            "paced like the loop: SCHED_FIFO {}, memory locked {}, CPU wake-up latency request {}",
-            r.fifo,
-            r.memory_locked,
-            r.cpu_latency
-                .as_ref()
-                .map_or("none".to_owned(), |c| format!("{} µs", c.us))
-        );
-        r
-    });
-    let start_ns = rt::monotonic_ns();
-    for i in 1..=ticks {
-        if args.paced {
-            rt::sleep_until(start_ns + i * period_ns, 0);
+        Some(planner_args) => {
+            let name = args.scene.as_deref().unwrap_or_default();
+            let dir = std::env::temp_dir().join(format!("tick-budget-{}", std::process::id()));
+            let result = with_planner(&args, name, planner_args, &dir, |guidance, writer| {
+                let tick = Tick::new(arm, &tick_config, guidance, writer)
+                    .context("open the simulated arm")?
+                    .with_contact(stage);
+                run_ticks(tick, &args, ticks, period_ns)
+            });
+            let _ = std::fs::remove_dir_all(&dir);
+            let (m, figures) = result?;
+            (m, Some(figures))
         }
-        let c0 = if args.cpu_time { thread_cpu_ns() } else { 0 };
-        let t0 = Instant::now();
-        let s = *tick.step(i * period_ns, PrevTiming::default());
-        hist.saturating_record((t0.elapsed().as_nanos() as u64).max(1));
-        if args.cpu_time {
-            cpu_hist.saturating_record(thread_cpu_ns().saturating_sub(c0).max(1));
-        }
-        in_contact += u64::from(s.contact == ContactCode::CONTACT);
-        if let Some(c) = tick.contact() {
-            tested_max = tested_max.max(c.last_points_tested());
-            at_level[c.level()] += 1;
-        }
-    }
-    drop(rt);
-    let max_penetration_m = tick.max_penetration_m();
+    };
+    let Measured {
+        slowest,
+        misses,
+        hist,
+        cpu_hist,
+        in_contact,
+        tested_max,
+        at_level,
+        max_penetration_m,
+    } = m;
     let percentiles = |h: &Histogram<u64>| {
         let us = |q: f64| h.value_at_quantile(q) as f64 / 1000.0;
         Percentiles {
@@ -254,6 +313,9 @@ fn main() -> anyhow::Result<()> {
         compute_us: percentiles(&hist),
         cpu_us: args.cpu_time.then(|| percentiles(&cpu_hist)),
         points_tested_max: tested_max,
+        deadline_misses: args.paced.then_some(misses),
+        slowest,
+        planner,
     };
     println!(
         "{}: {} ticks at {} Hz, {} points at {} mm, in contact {:.0} % of ticks, max penetration {:.3} mm, up to {} points tested per tick",
@@ -288,11 +350,183 @@ fn main() -> anyhow::Result<()> {
             );
         }
     }
+    for t in &report.slowest {
+        println!(
+            "slow tick {}: {:.1} µs, level {}, {} points tested{}",
+            t.tick,
+            t.compute_us,
+            t.level,
+            t.points_tested,
+            if t.in_contact { ", in contact" } else { "" }
+        );
+    }
+    if let Some(m) = report.deadline_misses {
+        println!(
+            "deadline misses: {m} ({:.3} % of ticks)",
+            m as f64 / report.ticks.max(1) as f64 * 100.0
+        );
+    }
+    if let Some(p) = &report.planner {
+        println!(
+            "planner beside the ticks (`planner serve {}`): solved {}, {} nodes, {} iterations, read {:.0} fresh states/s",
+            p.args, p.solved, p.nodes, p.iterations, p.state_rate_hz
+        );
+    }
     if let Some(p) = &args.json {
         std::fs::write(p, serde_json::to_string_pretty(&report)? + "\n")
             .with_context(|| format!("cannot write {}", p.display()))?;
     }
     Ok(())
+}
+
+/// Runs the ticks of `tick` (paced on the wall clock with `--paced`, else back to back)
+/// and measures each.
+fn run_ticks<G: GuidanceSource, S: StateSink>(
+    mut tick: Tick<SimulatedArm, G, S>,
+    args: &Args,
+    ticks: u64,
+    period_ns: u64,
+) -> anyhow::Result<Measured> {
+    let mut hist = Histogram::<u64>::new_with_bounds(1, 1_000_000_000, 3).context("histogram")?;
+    let mut cpu_hist = hist.clone();
+    let mut in_contact = 0u64;
+    let mut tested_max = 0u32;
+    let mut at_level = [0u64; LEVELS];
+    // Held while the ticks run (the CPU latency request lives as long as the report).
+    let rt = args.paced.then(|| {
+        let r = rt::setup_current_thread(&rt::RtOptions::default());
+        for w in &r.warnings {
+            eprintln!("tick-budget: {w}");
+        }
+        println!(
+            "paced like the loop: SCHED_FIFO {}, memory locked {}, CPU wake-up latency request {}",
+            r.fifo,
+            r.memory_locked,
+            r.cpu_latency
+                .as_ref()
+                .map_or("none".to_owned(), |c| format!("{} µs", c.us))
+        );
+        r
+    });
+    // Paced ticks are stamped with their wake-up on CLOCK_MONOTONIC and count their
+    // deadline misses as the loop's RT thread does (`haptic_loop::runner`): the planner's
+    // guidance samples carry that clock and the tick ages them by it.
+    let mut deadline_ns = if args.paced { rt::monotonic_ns() } else { 0 } + period_ns;
+    let mut misses = 0u64;
+    let mut slowest: Vec<SlowTick> = Vec::with_capacity(args.slowest + 1);
+    for i in 1..=ticks {
+        let now_ns = if args.paced {
+            rt::sleep_until(deadline_ns, 0)
+        } else {
+            deadline_ns
+        };
+        let c0 = if args.cpu_time { thread_cpu_ns() } else { 0 };
+        let t0 = Instant::now();
+        let prev = PrevTiming {
+            deadline_misses: misses,
+            ..PrevTiming::default()
+        };
+        let s = *tick.step(now_ns, prev);
+        let compute_ns = (t0.elapsed().as_nanos() as u64).max(1);
+        hist.saturating_record(compute_ns);
+        if args.cpu_time {
+            cpu_hist.saturating_record(thread_cpu_ns().saturating_sub(c0).max(1));
+        }
+        let next_ns = deadline_ns + period_ns;
+        let end_ns = if args.paced { rt::monotonic_ns() } else { 0 };
+        // Overran: skip the deadlines already past, as the loop does.
+        let missed = match end_ns > next_ns {
+            true => (end_ns - next_ns) / period_ns + 1,
+            false => 0,
+        };
+        misses += missed;
+        deadline_ns = next_ns + missed * period_ns;
+        in_contact += u64::from(s.contact == ContactCode::CONTACT);
+        if let Some(c) = tick.contact() {
+            tested_max = tested_max.max(c.last_points_tested());
+            at_level[c.level()] += 1;
+        }
+        let compute_us = compute_ns as f64 / 1000.0;
+        if args.slowest > 0
+            && slowest.last().is_none_or(|l: &SlowTick| {
+                slowest.len() < args.slowest || compute_us > l.compute_us
+            })
+        {
+            let c = tick.contact();
+            let at = slowest.partition_point(|t| t.compute_us >= compute_us);
+            slowest.insert(
+                at,
+                SlowTick {
+                    tick: i,
+                    compute_us,
+                    level: c.map_or(0, |c| c.level()),
+                    points_tested: c.map_or(0, |c| c.last_points_tested()),
+                    in_contact: s.contact == ContactCode::CONTACT,
+                },
+            );
+            slowest.truncate(args.slowest);
+        }
+    }
+    drop(rt);
+    Ok(Measured {
+        slowest,
+        misses,
+        hist,
+        cpu_hist,
+        in_contact,
+        tested_max,
+        at_level,
+        max_penetration_m: tick.max_penetration_m(),
+    })
+}
+
+/// Runs `ticks` with a `planner serve` process beside them, as a live session does: the
+/// scene `name` without its route is written into `dir` for it, the ticks get the loop's
+/// guidance relay and state writer on a namespace of their own, and the planner's report
+/// is read when it has stopped.
+fn with_planner<T>(
+    args: &Args,
+    name: &str,
+    planner_args: &str,
+    dir: &Path,
+    ticks: impl FnOnce(haptic_loop::relay::RelayOutput, services::StateWriter) -> anyhow::Result<T>,
+) -> anyhow::Result<(T, PlannerFigures)> {
+    let scene_file = lab::live::write_without_route(name, dir)
+        .with_context(|| format!("--planner: cannot write {name} without its route"))?;
+    let ns = format!("tick_budget_{}", std::process::id());
+    let (node, _) = services::create_node(&format!("tick_budget_{}", std::process::id()))?;
+    let writer = services::state_writer(&node, &ns)?;
+    let (relay, guidance) = Relay::spawn(&ns, Duration::from_millis(1))?;
+    let report = dir.join("planner.json");
+    let mut extra = vec![
+        "--seed".to_owned(),
+        args.seed.to_string(),
+        "--json".to_owned(),
+        report.display().to_string(),
+    ];
+    extra.extend(planner_args.split_whitespace().map(str::to_owned));
+    let mut child = PlannerChild::spawn_on(&ns, &scene_file.display().to_string(), &extra)?;
+    let measured = ticks(guidance, writer);
+    child.stop();
+    drop(relay);
+    let measured = measured?;
+    let text = std::fs::read_to_string(&report).with_context(|| {
+        format!(
+            "the planner wrote no report ({}): check `planner serve {}` on its own",
+            report.display(),
+            planner_args.trim()
+        )
+    })?;
+    let v: serde_json::Value = serde_json::from_str(&text)
+        .with_context(|| format!("the planner's report {}", report.display()))?;
+    let figures = PlannerFigures {
+        args: planner_args.trim().to_owned(),
+        solved: v["solved"].as_bool().unwrap_or(false),
+        nodes: v["nodes"].as_u64().unwrap_or(0),
+        iterations: v["iterations"].as_u64().unwrap_or(0),
+        state_rate_hz: v["state_rate_hz"].as_f64().unwrap_or(0.0),
+    };
+    Ok((measured, figures))
 }
 
 /// CPU time of the calling thread, ns.
