@@ -226,7 +226,7 @@ pub(crate) fn scripted_arm(
 pub fn wall_loop(ns: &str, run: &WallLoop) -> Result<RunningLoop, BenchError> {
     let (node, _) = services::create_node(&format!("harness_loop_{}", std::process::id()))?;
     let writer = services::state_writer(&node, ns)?;
-    let (relay, guidance) = Relay::spawn(ns, Duration::from_millis(1))?;
+    let (relay, guidance) = Relay::spawn(ns, Relay::LOOP_POLL)?;
     let (arm, config, contact) =
         wall_setup(run.rate_hz, run.ticks as f64 / run.rate_hz, run.voxel_m)?;
     let mut tick = Tick::new(arm, &config, guidance, writer)?;

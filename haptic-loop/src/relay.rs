@@ -45,6 +45,10 @@ pub struct Relay {
 }
 
 impl Relay {
+    /// How often the haptic loop's relay polls for guidance: a sample waits at most this
+    /// long before the RT thread can render it.
+    pub const LOOP_POLL: Duration = Duration::from_millis(1);
+
     /// Starts the relay thread on `namespace`. Fails if the iceoryx2 subscriber cannot be
     /// created (the error names the service).
     pub fn spawn(namespace: &str, poll: Duration) -> Result<(Relay, RelayOutput), Error> {

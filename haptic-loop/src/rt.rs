@@ -5,6 +5,17 @@
 
 pub use ipc_types::monotonic_ns;
 
+/// Deadlines missed by a tick that ended at `end_ns` when the next was due at `next_ns`
+/// (ns, `period_ns` apart): the loop skips them rather than bursting to catch up.
+#[inline]
+pub fn missed_deadlines(end_ns: u64, next_ns: u64, period_ns: u64) -> u64 {
+    if end_ns > next_ns {
+        (end_ns - next_ns) / period_ns + 1
+    } else {
+        0
+    }
+}
+
 /// Sleeps until `CLOCK_MONOTONIC` reaches `deadline_ns` (absolute, so no drift
 /// accumulates), then spins for the last `spin_ns` if non-zero. Returns the wake-up time.
 #[inline]
@@ -176,6 +187,15 @@ pub fn allowed_cpus() -> std::io::Result<Vec<usize>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn missed_deadlines_count_every_deadline_already_past() {
+        let period = 1_000_000;
+        assert_eq!(missed_deadlines(999_999, 1_000_000, period), 0);
+        assert_eq!(missed_deadlines(1_000_000, 1_000_000, period), 0);
+        assert_eq!(missed_deadlines(1_000_001, 1_000_000, period), 1);
+        assert_eq!(missed_deadlines(3_500_000, 1_000_000, period), 3);
+    }
 
     #[test]
     fn sleep_until_never_wakes_early() {

@@ -278,11 +278,7 @@ where
         let end = rt::monotonic_ns();
 
         let next = deadline + period_ns;
-        let missed = if end > next {
-            (end - next) / period_ns + 1
-        } else {
-            0
-        };
+        let missed = rt::missed_deadlines(end, next, period_ns);
         let sample = TickSample {
             wake_latency_ns: wake - deadline,
             compute_ns: end - wake,

@@ -44,7 +44,7 @@ use ipc_types::ContactCode;
 use ipc_types::services;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 /// Tick compute budget with contact rendering (lockstep, simulated arm).
 #[derive(Debug, Parser)]
@@ -279,16 +279,6 @@ fn main() -> anyhow::Result<()> {
             (m, Some(figures))
         }
     };
-    let Measured {
-        slowest,
-        misses,
-        hist,
-        cpu_hist,
-        in_contact,
-        tested_max,
-        at_level,
-        max_penetration_m,
-    } = m;
     let percentiles = |h: &Histogram<u64>| {
         let us = |q: f64| h.value_at_quantile(q) as f64 / 1000.0;
         Percentiles {
@@ -307,14 +297,18 @@ fn main() -> anyhow::Result<()> {
         points,
         voxel_mm: args.voxel_mm,
         resolution: format!("{resolution:?}"),
-        level_fraction: at_level.iter().map(|&n| n as f64 / ticks as f64).collect(),
-        contact_fraction: in_contact as f64 / ticks as f64,
-        max_penetration_mm: max_penetration_m * 1e3,
-        compute_us: percentiles(&hist),
-        cpu_us: args.cpu_time.then(|| percentiles(&cpu_hist)),
-        points_tested_max: tested_max,
-        deadline_misses: args.paced.then_some(misses),
-        slowest,
+        level_fraction: m
+            .at_level
+            .iter()
+            .map(|&n| n as f64 / ticks as f64)
+            .collect(),
+        contact_fraction: m.in_contact as f64 / ticks as f64,
+        max_penetration_mm: m.max_penetration_m * 1e3,
+        compute_us: percentiles(&m.hist),
+        cpu_us: args.cpu_time.then(|| percentiles(&m.cpu_hist)),
+        points_tested_max: m.tested_max,
+        deadline_misses: args.paced.then_some(m.misses),
+        slowest: m.slowest,
         planner,
     };
     println!(
@@ -435,33 +429,30 @@ fn run_ticks<G: GuidanceSource, S: StateSink>(
         let next_ns = deadline_ns + period_ns;
         let end_ns = if args.paced { rt::monotonic_ns() } else { 0 };
         // Overran: skip the deadlines already past, as the loop does.
-        let missed = match end_ns > next_ns {
-            true => (end_ns - next_ns) / period_ns + 1,
-            false => 0,
-        };
+        let missed = rt::missed_deadlines(end_ns, next_ns, period_ns);
         misses += missed;
         deadline_ns = next_ns + missed * period_ns;
-        in_contact += u64::from(s.contact == ContactCode::CONTACT);
-        if let Some(c) = tick.contact() {
-            tested_max = tested_max.max(c.last_points_tested());
-            at_level[c.level()] += 1;
+        let touching = s.contact == ContactCode::CONTACT;
+        in_contact += u64::from(touching);
+        let (level, points_tested) = tick
+            .contact()
+            .map_or((0, 0), |c| (c.level(), c.last_points_tested()));
+        if tick.contact().is_some() {
+            tested_max = tested_max.max(points_tested);
+            at_level[level] += 1;
         }
         let compute_us = compute_ns as f64 / 1000.0;
-        if args.slowest > 0
-            && slowest.last().is_none_or(|l: &SlowTick| {
-                slowest.len() < args.slowest || compute_us > l.compute_us
-            })
+        if slowest.len() < args.slowest || slowest.last().is_some_and(|l| compute_us > l.compute_us)
         {
-            let c = tick.contact();
             let at = slowest.partition_point(|t| t.compute_us >= compute_us);
             slowest.insert(
                 at,
                 SlowTick {
                     tick: i,
                     compute_us,
-                    level: c.map_or(0, |c| c.level()),
-                    points_tested: c.map_or(0, |c| c.last_points_tested()),
-                    in_contact: s.contact == ContactCode::CONTACT,
+                    level,
+                    points_tested,
+                    in_contact: touching,
                 },
             );
             slowest.truncate(args.slowest);
@@ -494,9 +485,9 @@ fn with_planner<T>(
     let scene_file = lab::live::write_without_route(name, dir)
         .with_context(|| format!("--planner: cannot write {name} without its route"))?;
     let ns = format!("tick_budget_{}", std::process::id());
-    let (node, _) = services::create_node(&format!("tick_budget_{}", std::process::id()))?;
+    let (node, _) = services::create_node(&ns)?;
     let writer = services::state_writer(&node, &ns)?;
-    let (relay, guidance) = Relay::spawn(&ns, Duration::from_millis(1))?;
+    let (relay, guidance) = Relay::spawn(&ns, Relay::LOOP_POLL)?;
     let report = dir.join("planner.json");
     let mut extra = vec![
         "--seed".to_owned(),

@@ -243,7 +243,7 @@ pub fn run(
             },
             other => Error::Ipc(other),
         })?;
-    let (relay, guidance_source) = Relay::spawn(&setup.namespace, Duration::from_millis(1))?;
+    let (relay, guidance_source) = Relay::spawn(&setup.namespace, Relay::LOOP_POLL)?;
     let progress = Progress {
         guidance: relay.observer(),
         state: services::state_reader(&node, &setup.namespace)?,

@@ -26,7 +26,7 @@ fn rt_thread_allocates_nothing_over_6000_ticks_with_ipc_and_contact() {
     let (node, _) = services::create_node("it_alloc_loop").unwrap();
     let state_writer = services::state_writer(&node, &ns).unwrap();
     let (_relay, guidance_source) =
-        haptic_loop::relay::Relay::spawn(&ns, Duration::from_millis(1)).unwrap();
+        haptic_loop::relay::Relay::spawn(&ns, haptic_loop::relay::Relay::LOOP_POLL).unwrap();
 
     // A "planner" on another node and thread: reads every state, writes guidance at 200 Hz.
     let stop = Arc::new(AtomicBool::new(false));
