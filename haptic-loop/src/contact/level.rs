@@ -19,8 +19,15 @@
 //!   patch keeps growing, and the factor 2 between the thresholds keeps a contact near one
 //!   from switching back and forth. If a blend no longer fits, it ends at the coarser of
 //!   its two levels at once.
-//! * If the points grow past the whole budget in one tick (an object slammed flat onto a
+//! * A level not searched for a while has all its motion budgets used up, and its first
+//!   tick would check every cluster and look up every point near the surface (a tick of
+//!   150–280 µs on the crossing planes). So a blend starts only once its new level is up to
+//!   date: a capped share of that work is done in each tick before it ([`Levels`]).
+//! * If the points grow past twice the budget in one tick (an object slammed flat onto a
 //!   face), the stage goes to the level that fits at once: being on time matters more.
+//!   Between once and twice the budget it stays, over budget, at the level in use
+//!   (searched every tick, so cheaper than a stale one) until the coarser level is up to
+//!   date, then goes there at once.
 //!   With nothing near, nothing is rendered and the level returns to the finest at once.
 //!
 //! [`ShellColumns::near_clusters`]: super::near::ShellColumns::near_clusters
@@ -134,6 +141,58 @@ impl Plan {
 const COARSEN: f64 = 0.5;
 /// Finer when the finer level's near points are at most this share of it.
 const REFINE: f64 = 0.25;
+/// Clearance checks a level's near pass may make in a tick while it is brought up to date
+/// for a blend ([`Levels::near_within`]): about 35 ns each on the crossing planes (a stale
+/// level-1 pass, 1 000 checks in 35 µs), so at most about 9 µs a tick.
+pub(super) const WARM_CHECKS: u32 = 256;
+/// Points whose budgets a level about to be blended in may renew in a tick, as a share of
+/// the budget ([`Levels::renew_points`]).
+const WARM_SHARE: f64 = 0.25;
+/// Ticks of renewing points after which a blend starts even if its level still has more
+/// due points than a share: points within reach are due every tick, and a level with more
+/// of them than a share will never have fewer.
+const WARM_TICKS: u32 = 8;
+/// Over this multiple of the budget the level changes at once, up to date or not (an object
+/// slammed flat onto a face); under it, a level in use stays while the coarser one is
+/// brought up to date.
+const SLAM: f64 = 2.0;
+
+/// What [`LevelChooser::plan`] asks of the search about level `l`. Each level's near pass
+/// runs at most once a tick, whichever asks first.
+///
+/// A level not searched for a while has every motion budget used up: its first near pass
+/// checks every group and the clusters of the near ones, and its first search looks at
+/// every point of its near clusters. At the start of a blend that was a tick of 150–280
+/// µs (a coarsening blend on the crossing planes, against 10–60 µs for the ticks around
+/// it). So the chooser brings the level up to date over the ticks before a blend, within
+/// a capped share of each ([`Self::near_within`], [`Self::renew_points`]), and starts the
+/// blend once it is.
+pub(super) trait Levels {
+    /// The points in level `l`'s near clusters: its whole near pass.
+    fn near(&mut self, l: usize) -> u32;
+    /// The same from a near pass of at most [`WARM_CHECKS`] clearance checks; `None`
+    /// while that did not get through the level (the next call goes on from there).
+    fn near_within(&mut self, l: usize) -> Option<u32>;
+    /// After a whole near pass at `l` this tick: renews the budgets of at most `max` of
+    /// the points its search would look at, starting `skip` places into them, and returns
+    /// how many were due.
+    fn renew_points(&mut self, l: usize, skip: u32, max: u32) -> u32;
+}
+
+/// Counts per level alone, every level up to date (tests, and nothing near).
+impl<F: FnMut(usize) -> u32> Levels for F {
+    fn near(&mut self, l: usize) -> u32 {
+        self(l)
+    }
+
+    fn near_within(&mut self, l: usize) -> Option<u32> {
+        Some(self(l))
+    }
+
+    fn renew_points(&mut self, _: usize, _: u32, _: u32) -> u32 {
+        0
+    }
+}
 
 /// The level in use and a blend in progress (see the module docs).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -141,6 +200,9 @@ pub(super) struct LevelChooser {
     current: usize,
     /// Target level and ticks of the blend done.
     blend: Option<(usize, u32)>,
+    /// A level being brought up to date for a blend, and the ticks of renewing its points
+    /// so far.
+    warming: Option<(usize, u32)>,
 }
 
 impl LevelChooser {
@@ -149,6 +211,7 @@ impl LevelChooser {
         Self {
             current: level,
             blend: None,
+            warming: None,
         }
     }
 
@@ -160,29 +223,35 @@ impl LevelChooser {
         })
     }
 
+    /// Whether a change of level is being blended.
+    pub fn blending(&self) -> bool {
+        self.blend.is_some()
+    }
+
     /// The level rendered (the blend's target while blending).
     pub fn level(&self) -> usize {
         self.blend.map_or(self.current, |(to, _)| to)
     }
 
-    /// The plan for a tick whose near clusters hold `near(l)` points at level `l` (which
-    /// runs level l's near pass: asked for the level in use, a blend's target, the next
-    /// finer level when this one holds few points, and the coarser ones a jump passes),
-    /// with `budget` points, levels up to `coarsest`, and blends of `blend_ticks` ticks. A
-    /// jump goes to the finest level whose counted points fit ([`fitting`]).
+    /// The plan for a tick whose near clusters hold `levels.near(l)` points at level `l`
+    /// (asked for the level in use, a blend's target, the next finer level when this one
+    /// holds few points, and the coarser ones a jump passes), with `budget` points, levels
+    /// up to `coarsest`, and blends of `blend_ticks` ticks. A blend starts once its new
+    /// level is up to date ([`Levels`]); a jump goes at once to the finest level whose
+    /// counted points fit ([`fitting`]).
     pub fn plan(
         &mut self,
-        mut near: impl FnMut(usize) -> u32,
+        levels: &mut dyn Levels,
         budget: f64,
         coarsest: usize,
         blend_ticks: u32,
     ) -> Plan {
         if let Some((to, done)) = self.blend {
-            if f64::from(near(self.current)) + f64::from(near(to)) > budget {
+            if f64::from(levels.near(self.current)) + f64::from(levels.near(to)) > budget {
                 // Both no longer fit: settle at the coarser of the two, or coarser still
                 // if that alone does not fit either.
                 self.blend = None;
-                self.current = fitting(&mut near, self.current.max(to), budget, coarsest);
+                self.current = fitting(levels, self.current.max(to), budget, coarsest);
                 return Plan::at(self.current);
             }
             let done = done + 1;
@@ -199,25 +268,42 @@ impl LevelChooser {
             };
         }
         let c = self.current.min(coarsest);
-        let n = f64::from(near(c));
+        let n = f64::from(levels.near(c));
         if n == 0.0 {
             // Nothing rendered: the finest level costs nothing either.
             self.current = 0;
+            self.warming = None;
             return Plan::at(0);
         }
         if n > budget {
+            if c < coarsest && n <= SLAM * budget && !self.warmed(levels, c + 1, budget) {
+                // A little over budget at a level in use costs less than the first tick
+                // at one not searched for a while: stay while the coarser one is brought
+                // up to date.
+                return Plan::at(c);
+            }
             // Over budget now: no time to blend.
-            self.current = fitting(&mut near, c, budget, coarsest);
+            self.warming = None;
+            self.current = fitting(levels, c, budget, coarsest);
             return Plan::at(self.current);
         }
         self.current = c;
         let to = if c < coarsest && n > COARSEN * budget {
             c + 1
-        } else if c > 0 && n <= REFINE * budget && f64::from(near(c - 1)) <= REFINE * budget {
+        } else if c > 0
+            && n <= REFINE * budget
+            && levels
+                .near_within(c - 1)
+                .is_some_and(|m| f64::from(m) <= REFINE * budget)
+        {
             c - 1
         } else {
+            self.warming = None;
             return Plan::at(c);
         };
+        if !self.warmed(levels, to, budget) {
+            return Plan::at(c);
+        }
         if blend_ticks <= 1 {
             self.current = to;
             return Plan::at(to);
@@ -229,20 +315,37 @@ impl LevelChooser {
             alpha: 1.0 / f64::from(blend_ticks),
         }
     }
+
+    /// Whether level `to` is up to date for a blend into it: its near pass got through,
+    /// and its due points fit one [`WARM_SHARE`] of the budget, or have been renewed a share
+    /// a tick for [`WARM_TICKS`] ticks. Renews a share of them otherwise.
+    fn warmed(&mut self, levels: &mut dyn Levels, to: usize, budget: f64) -> bool {
+        let ticks = match self.warming {
+            Some((l, ticks)) if l == to => ticks,
+            _ => 0,
+        };
+        self.warming = Some((to, ticks));
+        if levels.near_within(to).is_none() {
+            return false;
+        }
+        let share = (WARM_SHARE * budget).max(1.0) as u32;
+        let due = levels.renew_points(to, ticks * share, share);
+        if due <= share || ticks + 1 >= WARM_TICKS {
+            self.warming = None;
+            return true;
+        }
+        self.warming = Some((to, ticks + 1));
+        false
+    }
 }
 
 /// The finest level from `level` up to `coarsest` whose near points fit `budget`, by their
 /// counts (each level's near pass; a quarter per level holds on a flat patch, not near
 /// edges and corners, where a level can hold half of the finer one's points or more, and
 /// a tick rendered at a guess could search twice the budget); `coarsest` if none fits.
-fn fitting(
-    near: &mut impl FnMut(usize) -> u32,
-    level: usize,
-    budget: f64,
-    coarsest: usize,
-) -> usize {
+fn fitting(levels: &mut dyn Levels, level: usize, budget: f64, coarsest: usize) -> usize {
     (level..coarsest)
-        .find(|&l| f64::from(near(l)) <= budget)
+        .find(|&l| f64::from(levels.near(l)) <= budget)
         .unwrap_or(coarsest.max(level))
 }
 
@@ -268,7 +371,7 @@ mod tests {
             .collect();
         for &size in &sizes {
             let near = patch(size);
-            let p = c.plan(|l| near[l], budget, 3, 20);
+            let p = c.plan(&mut |l| near[l], budget, 3, 20);
             // Never over budget (both levels while blending), except where even the
             // coarsest level does not fit.
             let cost = f64::from(near[p.from])
@@ -310,13 +413,16 @@ mod tests {
     #[test]
     fn a_patch_over_budget_at_once_jumps_to_the_level_that_fits() {
         let mut c = LevelChooser::default();
-        let p = c.plan(|l| patch(30_000)[l], 4000.0, 3, 20);
+        let p = c.plan(&mut |l| patch(30_000)[l], 4000.0, 3, 20);
         assert_eq!(p, Plan::at(2));
         // The coarsest allowed level caps it.
         let mut c = LevelChooser::default();
-        assert_eq!(c.plan(|l| patch(1_000_000)[l], 4000.0, 2, 20), Plan::at(2));
+        assert_eq!(
+            c.plan(&mut |l| patch(1_000_000)[l], 4000.0, 2, 20),
+            Plan::at(2)
+        );
         // Leaving contact returns to the finest level at once.
-        assert_eq!(c.plan(|_| 0, 4000.0, 2, 20), Plan::at(0));
+        assert_eq!(c.plan(&mut |_| 0, 4000.0, 2, 20), Plan::at(0));
     }
 
     #[test]
@@ -324,19 +430,122 @@ mod tests {
         // Near an edge each level holds half of the finer one's points: 30 000, 15 000,
         // 7 500, 3 750. A guess of a quarter per level would render level 2 (7 500 points,
         // nearly twice the budget); the counts say level 3.
-        let edge = |l: usize| 30_000u32 >> l;
+        let mut edge = |l: usize| 30_000u32 >> l;
         let mut c = LevelChooser::default();
-        assert_eq!(c.plan(edge, 4000.0, 3, 20), Plan::at(3));
+        assert_eq!(c.plan(&mut edge, 4000.0, 3, 20), Plan::at(3));
         // A blend that no longer fits settles where the points fit.
         let mut c = LevelChooser::at(1);
-        let small = |l: usize| [800u32, 200, 50, 12][l];
-        let p = c.plan(small, 4000.0, 3, 20);
+        let mut small = |l: usize| [800u32, 200, 50, 12][l];
+        let p = c.plan(&mut small, 4000.0, 3, 20);
         assert_eq!((p.from, p.to), (1, 0), "refining starts a blend");
-        let grown = |l: usize| [20_000u32, 10_000, 5_000, 2_500][l];
-        assert_eq!(c.plan(grown, 4000.0, 3, 20), Plan::at(3));
+        let mut grown = |l: usize| [20_000u32, 10_000, 5_000, 2_500][l];
+        assert_eq!(c.plan(&mut grown, 4000.0, 3, 20), Plan::at(3));
         // Nothing fits: the coarsest allowed level.
         let mut c = LevelChooser::default();
-        assert_eq!(c.plan(|l| 90_000u32 >> l, 4000.0, 2, 20), Plan::at(2));
+        assert_eq!(c.plan(&mut |l| 90_000u32 >> l, 4000.0, 2, 20), Plan::at(2));
+    }
+
+    /// Levels not searched for a while: level l's near pass gets through only after
+    /// `passes[l]` capped passes (a whole one brings it up to date at once), and its due
+    /// points fall by what each renewal looks at, down to those within reach (due every
+    /// tick).
+    struct Stale {
+        counts: [u32; LEVELS],
+        passes: [u32; LEVELS],
+        due: [u32; LEVELS],
+        in_reach: [u32; LEVELS],
+    }
+
+    impl Stale {
+        fn new(counts: [u32; LEVELS]) -> Self {
+            Self {
+                counts,
+                passes: [0; LEVELS],
+                due: [0; LEVELS],
+                in_reach: [0; LEVELS],
+            }
+        }
+    }
+
+    impl Levels for Stale {
+        fn near(&mut self, l: usize) -> u32 {
+            self.passes[l] = 0;
+            self.counts[l]
+        }
+
+        fn near_within(&mut self, l: usize) -> Option<u32> {
+            if self.passes[l] > 0 {
+                self.passes[l] -= 1;
+                return None;
+            }
+            Some(self.counts[l])
+        }
+
+        fn renew_points(&mut self, l: usize, _skip: u32, max: u32) -> u32 {
+            assert_eq!(self.passes[l], 0, "points renewed before a whole near pass");
+            let due = self.due[l];
+            self.due[l] = (due - due.min(max)).max(self.in_reach[l]);
+            due
+        }
+    }
+
+    #[test]
+    fn a_blend_starts_once_its_level_is_up_to_date() {
+        // Level 0 holds 2 400 near points, over half the budget: coarser. Level 1's near
+        // pass needs 3 capped passes, then 2 500 due points at 1 000 a tick (a quarter of
+        // the budget) leave 500, a share: the blend starts in the 6th tick.
+        let mut levels = Stale::new([2400, 700, 200, 50]);
+        levels.passes[1] = 3;
+        levels.due[1] = 2500;
+        levels.in_reach[1] = 300;
+        let mut c = LevelChooser::default();
+        let plans: Vec<Plan> = (0..6).map(|_| c.plan(&mut levels, 4000.0, 3, 20)).collect();
+        assert_eq!(plans[..5], [Plan::at(0); 5]);
+        assert_eq!(
+            plans[5],
+            Plan {
+                from: 0,
+                to: 1,
+                alpha: 0.05
+            }
+        );
+        // Refining waits for the finer level's near pass too.
+        let mut levels = Stale::new([3000, 900, 200, 50]);
+        levels.passes[1] = 2;
+        let mut c = LevelChooser::at(2);
+        assert_eq!(c.plan(&mut levels, 4000.0, 3, 20), Plan::at(2));
+        assert_eq!(c.plan(&mut levels, 4000.0, 3, 20), Plan::at(2));
+        assert_eq!(c.plan(&mut levels, 4000.0, 3, 20).to, 1);
+    }
+
+    #[test]
+    fn a_level_with_more_points_within_reach_than_a_share_blends_after_a_few_ticks() {
+        let mut levels = Stale::new([2400, 1800, 500, 100]);
+        levels.due[1] = 1800;
+        levels.in_reach[1] = 1500;
+        let mut c = LevelChooser::default();
+        let waited = (0..100)
+            .take_while(|_| c.plan(&mut levels, 4000.0, 3, 20) == Plan::at(0))
+            .count();
+        assert_eq!(waited as u32, WARM_TICKS - 1);
+        assert_eq!(c.level(), 1);
+    }
+
+    #[test]
+    fn a_little_over_budget_waits_for_the_coarser_level_a_slam_does_not() {
+        // 5 000 points against 4 000: level 0 stays while level 1's near pass gets
+        // through (2 ticks), then the stage goes to level 1 at once.
+        let mut levels = Stale::new([5000, 1300, 330, 80]);
+        levels.passes[1] = 2;
+        let mut c = LevelChooser::default();
+        assert_eq!(c.plan(&mut levels, 4000.0, 3, 20), Plan::at(0));
+        assert_eq!(c.plan(&mut levels, 4000.0, 3, 20), Plan::at(0));
+        assert_eq!(c.plan(&mut levels, 4000.0, 3, 20), Plan::at(1));
+        // 9 000 points (over twice the budget): level 2 (2 200 points) at once.
+        let mut levels = Stale::new([9000, 4500, 2200, 550]);
+        levels.passes = [0, 5, 5, 5];
+        let mut c = LevelChooser::default();
+        assert_eq!(c.plan(&mut levels, 4000.0, 3, 20), Plan::at(2));
     }
 
     #[test]
@@ -345,7 +554,7 @@ mod tests {
         for _ in 0..100 {
             // Level 1 holds 1 500 points (≤ 0.5 · 4 000), level 0 would hold 6 000
             // (> 0.25 · 4 000): stay.
-            assert_eq!(c.plan(|l| patch(6000)[l], 4000.0, 3, 20), Plan::at(1));
+            assert_eq!(c.plan(&mut |l| patch(6000)[l], 4000.0, 3, 20), Plan::at(1));
         }
     }
 

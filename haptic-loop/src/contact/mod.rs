@@ -112,7 +112,7 @@ pub struct ContactOutput {
     /// Points that penetrate.
     pub contacts: u32,
     /// Points tested against the voxmap (after cluster culling), over both levels while
-    /// a change of level is blended.
+    /// a change of level is blended, and those of a level being brought up to date for one.
     pub points_tested: u32,
     /// Level of detail rendered (0 = every point; the new level while blending).
     pub level: u8,

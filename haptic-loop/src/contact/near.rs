@@ -195,10 +195,44 @@ impl ShellColumns {
         vox: &Voxmap,
         scratch: &mut Scratch,
     ) -> u32 {
+        self.near_clusters_within(group_budgets, cluster_budgets, k, vox, scratch, u32::MAX)
+            .0
+    }
+
+    /// [`Self::near_clusters`] stopping after `max_checks` clearance checks: the near
+    /// points listed so far, and whether the pass got through every group (only then is
+    /// the list whole). What it checked keeps its renewed budget, so the next call skips it
+    /// by a compare and goes on where this one stopped: a level not searched for a while
+    /// (every budget used up) is brought up to date over several ticks instead of in one.
+    pub(super) fn near_clusters_within(
+        &self,
+        group_budgets: &mut [ClusterBudget],
+        cluster_budgets: &mut [ClusterBudget],
+        k: &SearchParams,
+        vox: &Voxmap,
+        scratch: &mut Scratch,
+        max_checks: u32,
+    ) -> (u32, bool) {
         let mut points = 0;
         let mut count = 0;
-        for (g, (group, budget)) in self.groups.iter().zip(group_budgets.iter_mut()).enumerate() {
-            if !renew(budget, g, &group.centre, group.radius_m, k, vox) {
+        let mut checks = 0;
+        let mut whole = true;
+        'groups: for (g, (group, budget)) in
+            self.groups.iter().zip(group_budgets.iter_mut()).enumerate()
+        {
+            if checks >= max_checks {
+                whole = false;
+                break;
+            }
+            if !renew(
+                budget,
+                g,
+                &group.centre,
+                group.radius_m,
+                k,
+                vox,
+                &mut checks,
+            ) {
                 continue;
             }
             let range = group.start as usize..group.end as usize;
@@ -206,7 +240,11 @@ impl ShellColumns {
                 .iter()
                 .zip(&mut cluster_budgets[range.clone()]);
             for (index, (cl, budget)) in range.zip(members) {
-                if renew(budget, index, &cl.centre, cl.radius_m, k, vox) {
+                if checks >= max_checks {
+                    whole = false;
+                    break 'groups;
+                }
+                if renew(budget, index, &cl.centre, cl.radius_m, k, vox, &mut checks) {
                     scratch.near[count] = index as u32;
                     count += 1;
                     points += cl.end - cl.start;
@@ -214,7 +252,7 @@ impl ShellColumns {
             }
         }
         scratch.near_count = count;
-        points
+        (points, whole)
     }
 
     /// The search and the force pass over the near clusters [`Self::near_clusters`] listed
@@ -231,8 +269,53 @@ impl ShellColumns {
         scratch: &mut Scratch,
     ) -> Found {
         let count = self.candidates(point_budgets, k, scratch);
+        self.look_up(count, point_budgets, k, pass, vox, scratch)
+    }
+
+    /// Renews the budgets of at most `max` of the points [`Self::search`] would look at
+    /// (those of the near clusters a whole near pass listed in `scratch`), starting `skip`
+    /// places into their list (cyclically, so that calls with a growing `skip` reach every
+    /// one), and returns how many were due. What they would render is dropped: this brings
+    /// a level about to be blended in up to date, so that its first search looks at the
+    /// points within reach and not at every point of its near clusters (see `LevelChooser`).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn renew_points(
+        &self,
+        point_budgets: &mut [f64],
+        k: &SearchParams,
+        pass: &PassParams,
+        vox: &Voxmap,
+        scratch: &mut Scratch,
+        skip: u32,
+        max: u32,
+    ) -> u32 {
+        let due = self.candidates(point_budgets, k, scratch);
+        let count = due.min(max as usize);
+        if count < due {
+            scratch.candidates[..due].rotate_left(skip as usize % due);
+        }
+        self.look_up(count, point_budgets, k, pass, vox, scratch);
+        due as u32
+    }
+
+    /// Steps 2 and 3 over the first `count` candidates in `scratch`, the list padded to
+    /// whole chunks with copies of its first entry.
+    fn look_up(
+        &self,
+        count: usize,
+        point_budgets: &mut [f64],
+        k: &SearchParams,
+        pass: &PassParams,
+        vox: &Voxmap,
+        scratch: &mut Scratch,
+    ) -> Found {
+        // Padding lanes repeat the first candidate's look-up bit for bit (so they store
+        // its budget again) and are never kept (it would count twice).
+        let padded = count.div_ceil(LANES) * LANES;
+        let filler = scratch.candidates.first().copied().unwrap_or(0);
+        scratch.candidates[count..padded].fill(filler);
         let chunks = Chunks {
-            candidates: &scratch.candidates[..count.div_ceil(LANES) * LANES],
+            candidates: &scratch.candidates[..padded],
             count,
             weight: &self.weight,
             search: k,
@@ -255,9 +338,8 @@ impl ShellColumns {
         }
     }
 
-    /// Step 1b: lists the points of the near clusters in `scratch` whose budget is used up,
-    /// pads the list to whole chunks with copies of its first entry, and returns the number
-    /// of real candidates.
+    /// Step 1b: lists the points of the near clusters in `scratch` whose budget is used up
+    /// and returns their number.
     fn candidates(&self, point_budgets: &[f64], k: &SearchParams, scratch: &mut Scratch) -> usize {
         let moved = k.moved_m;
         let mut count = 0;
@@ -271,11 +353,6 @@ impl ShellColumns {
                 count += usize::from(moved >= *budget);
             }
         }
-        // Padding lanes repeat the first candidate's look-up bit for bit (so they store
-        // its budget again) and are never kept (it would count twice).
-        let padded = count.div_ceil(LANES) * LANES;
-        let filler = scratch.candidates.first().copied().unwrap_or(0);
-        scratch.candidates[count..padded].fill(filler);
         count
     }
 
@@ -353,8 +430,8 @@ impl ShellColumns {
 }
 
 /// Whether a sphere of `radius_m` about `centre` (object frame) may be within reach, by its
-/// `budget`: when the budget is used up, checked against the voxmap's clearance and the
-/// budget renewed. A near sphere is checked again only after moving between half a reach
+/// `budget`: when the budget is used up, checked against the voxmap's clearance (counted in
+/// `checks`) and the budget renewed. A near sphere is checked again only after moving between half a reach
 /// and a reach, staggered by its `index` so that the near spheres of a sliding contact,
 /// found together, are not all checked again in one tick: what a near sphere holds carries
 /// its own budgets, so any check interval costs compares, never a missed contact.
@@ -366,9 +443,11 @@ fn renew(
     radius_m: f64,
     k: &SearchParams,
     vox: &Voxmap,
+    checks: &mut u32,
 ) -> bool {
     let moved = k.moved_m;
     if moved >= budget.check_at {
+        *checks += 1;
         let centre = k.rotation * centre + k.translation;
         let slack = vox.clearance(&centre) - radius_m - k.reach_m;
         budget.near = slack <= 0.0;

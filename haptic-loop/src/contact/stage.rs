@@ -2,7 +2,8 @@
 //! module docs of `contact` for the force model).
 
 use super::coherence::Coherence;
-use super::level::{LevelChooser, Plan};
+use super::coherence::LevelCache;
+use super::level::{LevelChooser, Levels, Plan, WARM_CHECKS};
 use super::near::{Found, PassParams, SearchParams, Totals};
 use super::{
     Anchor, ContactConfig, ContactError, ContactModel, ContactOutput, Coupling, LEVELS, Probe,
@@ -96,7 +97,8 @@ impl ContactStage {
         &self.coupling
     }
 
-    /// Pointshell points tested against the voxmap in the last step (after culling).
+    /// Pointshell points tested against the voxmap in the last step (after culling),
+    /// those looked up to bring a level up to date for a blend included.
     pub fn last_points_tested(&self) -> u32 {
         self.last_tested
     }
@@ -114,6 +116,11 @@ impl ContactStage {
     /// Level of detail rendered in the last step (the new one while a change is blended).
     pub fn level(&self) -> usize {
         self.levels.level()
+    }
+
+    /// Whether a change of level is being blended.
+    pub fn blending(&self) -> bool {
+        self.levels.blending()
     }
 
     /// How many times the rendered level has changed since the stage was made.
@@ -254,7 +261,7 @@ impl ContactStage {
         velocity: &Vector3<f64>,
         angular_velocity: &Vector3<f64>,
         cache: &mut Coherence,
-        plan: impl FnOnce(&mut dyn FnMut(usize) -> u32) -> Plan,
+        plan: impl FnOnce(&mut dyn Levels) -> Plan,
     ) -> Found {
         let model = &*self.model;
         let vox = &model.voxmap;
@@ -291,29 +298,25 @@ impl ContactStage {
             proximity_m: prox,
             release_m: release,
         };
-        // Each level's near pass at most once, and only for the levels asked for.
-        let mut counts = [None; LEVELS];
-        let levels = &mut cache.levels;
-        let mut near = |l: usize| {
-            *counts[l].get_or_insert_with(|| {
-                let c = &mut levels[l];
-                model.columns[l].near_clusters(
-                    &mut c.groups,
-                    &mut c.clusters,
-                    &k,
-                    vox,
-                    &mut c.scratch,
-                )
-            })
+        let mut levels = StageLevels {
+            model,
+            cache: &mut cache.levels,
+            counts: [None; LEVELS],
+            renewed: 0,
+            k: &k,
+            pass: &pass,
         };
-        let plan = plan(&mut near);
-        near(plan.from);
-        near(plan.to);
+        let plan = plan(&mut levels);
+        levels.near(plan.from);
+        levels.near(plan.to);
+        let renewed = levels.renewed;
+        let levels = levels.cache;
         let mut search = |l: usize| {
             let c = &mut levels[l];
             model.columns[l].search(&mut c.points, &k, &pass, vox, &mut c.scratch)
         };
-        let from = search(plan.from);
+        let mut from = search(plan.from);
+        from.tested += renewed;
         if plan.to == plan.from {
             return from;
         }
@@ -529,6 +532,67 @@ impl ContactStage {
             points_tested: found.tested,
             level: self.levels.level() as u8,
         }
+    }
+}
+
+/// The levels' near passes and point budgets as one step's level chooser asks for them
+/// ([`Levels`]): each level's near pass at most once, and only for the levels asked for.
+struct StageLevels<'a> {
+    model: &'a ContactModel,
+    cache: &'a mut [LevelCache],
+    /// Near points per level, once its near pass got through this step.
+    counts: [Option<u32>; LEVELS],
+    /// Points looked up only to renew their budgets this step.
+    renewed: u32,
+    k: &'a SearchParams,
+    pass: &'a PassParams,
+}
+
+impl Levels for StageLevels<'_> {
+    fn near(&mut self, l: usize) -> u32 {
+        *self.counts[l].get_or_insert_with(|| {
+            let c = &mut self.cache[l];
+            self.model.columns[l].near_clusters(
+                &mut c.groups,
+                &mut c.clusters,
+                self.k,
+                &self.model.voxmap,
+                &mut c.scratch,
+            )
+        })
+    }
+
+    fn near_within(&mut self, l: usize) -> Option<u32> {
+        if self.counts[l].is_none() {
+            let c = &mut self.cache[l];
+            let (points, whole) = self.model.columns[l].near_clusters_within(
+                &mut c.groups,
+                &mut c.clusters,
+                self.k,
+                &self.model.voxmap,
+                &mut c.scratch,
+                WARM_CHECKS,
+            );
+            self.counts[l] = whole.then_some(points);
+        }
+        self.counts[l]
+    }
+
+    fn renew_points(&mut self, l: usize, skip: u32, max: u32) -> u32 {
+        // The near list in the scratch must be this step's whole one.
+        self.near(l);
+        let c = &mut self.cache[l];
+        let due = self.model.columns[l].renew_points(
+            &mut c.points,
+            self.k,
+            self.pass,
+            &self.model.voxmap,
+            &mut c.scratch,
+            skip,
+            max,
+        );
+        self.renewed += due.min(max);
+        due
     }
 }
 
