@@ -87,9 +87,9 @@ struct Args {
     /// Run each tick at its time on the wall clock, as the loop's RT thread does: set up
     /// as the loop sets it up (SCHED_FIFO 80, memory locked, CPU wake-up latency request
     /// 0 µs, where permitted; the report says what was) and sleeping to each absolute
-    /// deadline between ticks. The run then takes --seconds of wall time. A thread that
-    /// sleeps finds its caches cooled by whatever ran meanwhile, which back-to-back ticks
-    /// never see.
+    /// deadline between ticks, each tick taking its wake-up as its time. The run then takes
+    /// --seconds of wall time, and the newcomer's trajectory and level changes are those
+    /// a live session has (back to back they differ).
     #[arg(long)]
     paced: bool,
     /// With --newcomer --paced: run `planner serve` (from the same target directory) beside

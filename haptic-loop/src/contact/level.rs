@@ -58,8 +58,8 @@ impl Resolution {
     /// The default budget: 4 000 points per millisecond, down to 4 mm spacing. First
     /// chosen at 6 000 from `tick-budget --scene` on a 2-core VM (about 11 ns per point
     /// looked at, AVX2, ticks back to back: 6 000 points about 70 µs); lowered when the
-    /// ticks were paced as the loop paces them (a sleeping thread's caches are cold) with
-    /// the newcomer pressing on the crossing planes for a minute: compute p99.9 123 µs at
+    /// ticks were paced as the loop paces them (their level changes are a live session's)
+    /// with the newcomer pressing on the crossing planes for a minute: compute p99.9 123 µs at
     /// 6 000, 87 µs at 4 000 (`tick-budget --scene crossing-planes --newcomer --paced`),
     /// and 4 of 80 live sessions of the issue-32 sweep above 100 µs at 6 000.
     pub const DEFAULT: Self = Self::budget(4000.0);
