@@ -129,6 +129,16 @@ pub(super) struct Scratch {
 }
 
 impl Scratch {
+    /// Pads the first `count` candidates to whole chunks with copies of the first one and
+    /// returns the padded length. Padding lanes repeat the first candidate's look-up bit
+    /// for bit (so they store its budget again) and are never kept (it would count twice).
+    fn pad(&mut self, count: usize) -> usize {
+        let padded = count.div_ceil(LANES) * LANES;
+        let filler = self.candidates.first().copied().unwrap_or(0);
+        self.candidates[count..padded].fill(filler);
+        padded
+    }
+
     /// Room for `clusters` clusters and `points` points.
     pub(super) fn with_capacity(clusters: usize, points: usize) -> Self {
         Self {
@@ -185,26 +195,13 @@ impl ShellColumns {
     /// Step 1a: the groups, then the clusters of near groups, whose budgets in
     /// `group_budgets` and `cluster_budgets` are used up are checked against the voxmap's
     /// clearance and their budgets renewed; the clusters that may be within reach are
-    /// listed in `scratch`. Returns their number of points: what the search looks at, at
-    /// most.
+    /// listed in `scratch`. Returns their number of points (what the search looks at, at
+    /// most), and whether the pass got through every group: it stops after `max_checks`
+    /// clearance checks, and only a whole pass lists every near cluster. What it checked
+    /// keeps its renewed budget, so the next call skips it by a compare and goes on where
+    /// this one stopped: a level not searched for a while (every budget used up) is brought
+    /// up to date over several ticks instead of in one.
     pub(super) fn near_clusters(
-        &self,
-        group_budgets: &mut [ClusterBudget],
-        cluster_budgets: &mut [ClusterBudget],
-        k: &SearchParams,
-        vox: &Voxmap,
-        scratch: &mut Scratch,
-    ) -> u32 {
-        self.near_clusters_within(group_budgets, cluster_budgets, k, vox, scratch, u32::MAX)
-            .0
-    }
-
-    /// [`Self::near_clusters`] stopping after `max_checks` clearance checks: the near
-    /// points listed so far, and whether the pass got through every group (only then is
-    /// the list whole). What it checked keeps its renewed budget, so the next call skips it
-    /// by a compare and goes on where this one stopped: a level not searched for a while
-    /// (every budget used up) is brought up to date over several ticks instead of in one.
-    pub(super) fn near_clusters_within(
         &self,
         group_budgets: &mut [ClusterBudget],
         cluster_budgets: &mut [ClusterBudget],
@@ -298,8 +295,8 @@ impl ShellColumns {
         due as u32
     }
 
-    /// Steps 2 and 3 over the first `count` candidates in `scratch`, the list padded to
-    /// whole chunks with copies of its first entry.
+    /// Steps 2 and 3 over the first `count` candidates in `scratch` (padded to whole
+    /// chunks here).
     fn look_up(
         &self,
         count: usize,
@@ -309,11 +306,7 @@ impl ShellColumns {
         vox: &Voxmap,
         scratch: &mut Scratch,
     ) -> Found {
-        // Padding lanes repeat the first candidate's look-up bit for bit (so they store
-        // its budget again) and are never kept (it would count twice).
-        let padded = count.div_ceil(LANES) * LANES;
-        let filler = scratch.candidates.first().copied().unwrap_or(0);
-        scratch.candidates[count..padded].fill(filler);
+        let padded = scratch.pad(count);
         let chunks = Chunks {
             candidates: &scratch.candidates[..padded],
             count,
@@ -719,10 +712,11 @@ mod tests {
             let mut groups = vec![ClusterBudget::default(); shell.groups.len()];
             let mut clusters = vec![ClusterBudget::default(); shell.clusters.len()];
             let mut budgets = vec![0.0; points];
-            shell.near_clusters(&mut groups, &mut clusters, &k, &vox, &mut scratch);
+            shell.near_clusters(&mut groups, &mut clusters, &k, &vox, &mut scratch, u32::MAX);
             let count = shell.candidates(&budgets, &k, &mut scratch);
+            let padded = scratch.pad(count);
             let chunks = Chunks {
-                candidates: &scratch.candidates[..count.div_ceil(LANES) * LANES],
+                candidates: &scratch.candidates[..padded],
                 count,
                 weight: &shell.weight,
                 search: &k,

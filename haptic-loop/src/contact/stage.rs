@@ -552,20 +552,23 @@ impl Levels for StageLevels<'_> {
     fn near(&mut self, l: usize) -> u32 {
         *self.counts[l].get_or_insert_with(|| {
             let c = &mut self.cache[l];
-            self.model.columns[l].near_clusters(
-                &mut c.groups,
-                &mut c.clusters,
-                self.k,
-                &self.model.voxmap,
-                &mut c.scratch,
-            )
+            self.model.columns[l]
+                .near_clusters(
+                    &mut c.groups,
+                    &mut c.clusters,
+                    self.k,
+                    &self.model.voxmap,
+                    &mut c.scratch,
+                    u32::MAX,
+                )
+                .0
         })
     }
 
     fn near_within(&mut self, l: usize) -> Option<u32> {
         if self.counts[l].is_none() {
             let c = &mut self.cache[l];
-            let (points, whole) = self.model.columns[l].near_clusters_within(
+            let (points, whole) = self.model.columns[l].near_clusters(
                 &mut c.groups,
                 &mut c.clusters,
                 self.k,

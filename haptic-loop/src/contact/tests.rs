@@ -606,46 +606,18 @@ fn coherent_search_finds_exactly_what_a_full_search_finds() {
 
 #[test]
 fn levels_brought_up_to_date_for_a_blend_find_what_a_full_search_finds() {
-    // A 40 mm cube turned flat onto the plate and up again under budgets that take it
-    // through levels 1 and 2: a level about to be blended in is brought up to date over
-    // several ticks (capped near passes, budgets renewed a share at a time), and whatever
-    // it then skips cannot be within reach: outside blends, penetration and contact count
-    // equal a full search's at the level in use, tick by tick.
-    let cube = vec![(Pose::IDENTITY, SharedShape::cuboid(0.02, 0.02, 0.02))];
+    // The cube of `cube_turning_flat`, also sliding, under budgets that take it through
+    // levels 1 and 2: a level about to be blended in is brought up to date over several
+    // ticks (capped near passes, budgets renewed a share at a time), and whatever it then
+    // skips cannot be within reach: outside blends, penetration and contact count equal a
+    // full search's at the level in use, tick by tick.
     for points_per_ms in [3000.0, 1000.0] {
-        let config = ContactConfig {
-            resolution: Resolution::budget(points_per_ms),
-            ..ContactConfig::with_voxel_m(MM)
-        };
-        let spec = SimulatedArmConfig::default().spec();
-        let mut st = ContactStage::from_shapes(&plane(), &cube, config, &spec, 1.0).unwrap();
-        let tilt = |t: f64| {
-            let a = 20f64.to_radians() * ((t - 1.0).abs() - 0.4).max(0.0) / 0.6;
-            UnitQuaternion::from_axis_angle(&Vector3::x_axis(), a)
-        };
-        let lowest = |r: &UnitQuaternion<f64>| {
-            let corner = |sx: f64, sy: f64| (r * Vector3::new(sx, sy, -1.0) * 0.02).z;
-            [-1.0, 1.0]
-                .iter()
-                .flat_map(|&x| [-1.0, 1.0].map(|y| corner(x, y)))
-                .fold(f64::INFINITY, f64::min)
-        };
-        let r0 = tilt(0.0);
-        st.place(iso(Vector3::new(0.0, 0.0, 0.001 - lowest(&r0)), r0));
+        let (mut st, anchor) = cube_turning_flat(Resolution::budget(points_per_ms), 0.01);
         let (mut compared, mut changes) = (0, 0);
         for i in 0..2000 {
-            let t = i as f64 * 0.001;
-            let anchor = Anchor {
-                pose: iso(
-                    Vector3::new(0.01 * t, 0.0, -0.003 - lowest(&tilt(t))),
-                    tilt(t),
-                ),
-                linear_velocity: Vector3::zeros(),
-                angular_velocity: Vector3::zeros(),
-            };
             let (level, blending) = (st.level(), st.blending());
             let full = st.probe(st.pose());
-            let out = st.step(&anchor, 0.001);
+            let out = st.step(&anchor(i), 0.001);
             if usize::from(out.level) != level {
                 changes += 1;
             } else if !blending && !st.blending() {
@@ -832,11 +804,13 @@ fn an_object_with_a_mesh_among_its_parts_has_the_mass_properties_of_their_union(
     assert!((c - expected).norm() < 1e-9, "{c} against {expected}");
 }
 
-/// Issue 21: a cube turned from one edge down to flat on the plate and back while the
-/// hand presses it down, rendered once at level 0 and once with a point budget that makes
-/// the stage coarsen and refine on the way. Returns per tick the device force (N), the
-/// penetration (m) and the level rendered.
-fn turn_a_cube_flat(resolution: Resolution) -> (Vec<Vector3<f64>>, Vec<f64>, Vec<usize>) {
+/// A 40 mm cube at `resolution` above the plate, and the anchor for each 1 ms tick that
+/// turns it from one edge down to flat on the plate and back in 2 s while the hand presses
+/// it down (and slides it along x at `slide_m_per_s`).
+fn cube_turning_flat(
+    resolution: Resolution,
+    slide_m_per_s: f64,
+) -> (ContactStage, impl Fn(usize) -> Anchor) {
     let cube = vec![(Pose::IDENTITY, SharedShape::cuboid(0.02, 0.02, 0.02))];
     let config = ContactConfig {
         resolution,
@@ -849,28 +823,38 @@ fn turn_a_cube_flat(resolution: Resolution) -> (Vec<Vector3<f64>>, Vec<f64>, Vec
         let a = 20f64.to_radians() * ((t - 1.0).abs() - 0.4).max(0.0) / 0.6;
         UnitQuaternion::from_axis_angle(&Vector3::x_axis(), a)
     };
-    // The cube's lowest point 1 mm above the plate at the start, the anchor 3 mm lower.
     let lowest = |r: &UnitQuaternion<f64>| {
-        let corner = |sx: f64, sy: f64, sz: f64| (r * Vector3::new(sx, sy, sz) * 0.02).z;
+        let corner = |sx: f64, sy: f64| (r * Vector3::new(sx, sy, -1.0) * 0.02).z;
         [-1.0, 1.0]
             .iter()
-            .flat_map(|&x| [-1.0, 1.0].map(|y| corner(x, y, -1.0)))
+            .flat_map(|&x| [-1.0, 1.0].map(|y| corner(x, y)))
             .fold(f64::INFINITY, f64::min)
     };
+    // The cube's lowest point 1 mm above the plate at the start, the anchor 3 mm lower.
     let r0 = tilt(0.0);
     st.place(iso(Vector3::new(0.0, 0.0, 0.001 - lowest(&r0)), r0));
+    let anchor = move |i: usize| {
+        let t = i as f64 * 0.001;
+        let r = tilt(t);
+        Anchor {
+            pose: iso(Vector3::new(slide_m_per_s * t, 0.0, -0.003 - lowest(&r)), r),
+            linear_velocity: Vector3::zeros(),
+            angular_velocity: Vector3::zeros(),
+        }
+    };
+    (st, anchor)
+}
+
+/// Issue 21: [`cube_turning_flat`] rendered once at level 0 and once with a point budget
+/// that makes the stage coarsen and refine on the way. Returns per tick the device force
+/// (N), the penetration (m) and the level rendered.
+fn turn_a_cube_flat(resolution: Resolution) -> (Vec<Vector3<f64>>, Vec<f64>, Vec<usize>) {
+    let (mut st, anchor) = cube_turning_flat(resolution, 0.0);
     let mut forces = Vec::new();
     let mut contact = Vec::new();
     let mut levels = Vec::new();
     for i in 0..2000 {
-        let t = i as f64 * 0.001;
-        let r = tilt(t);
-        let anchor = Anchor {
-            pose: iso(Vector3::new(0.0, 0.0, -0.003 - lowest(&r)), r),
-            linear_velocity: Vector3::zeros(),
-            angular_velocity: Vector3::zeros(),
-        };
-        let out = st.step(&anchor, 0.001);
+        let out = st.step(&anchor(i), 0.001);
         forces.push(out.device_force_n);
         contact.push(out.penetration_m);
         levels.push(usize::from(out.level));
