@@ -423,11 +423,12 @@ impl ShellColumns {
 }
 
 /// Whether a sphere of `radius_m` about `centre` (object frame) may be within reach, by its
-/// `budget`: when the budget is used up, checked against the voxmap's clearance (counted in
-/// `checks`) and the budget renewed. A near sphere is checked again only after moving between half a reach
-/// and a reach, staggered by its `index` so that the near spheres of a sliding contact,
-/// found together, are not all checked again in one tick: what a near sphere holds carries
-/// its own budgets, so any check interval costs compares, never a missed contact.
+/// `budget`: when the budget is used up, checked against the voxmap's clearance (counted
+/// in `checks`) and the budget renewed. A near sphere is checked again only after moving
+/// between half a reach and a reach, staggered by its `index` so that the near spheres of
+/// a sliding contact, found together, are not all checked again in one tick: what a near
+/// sphere holds carries its own budgets, so any check interval costs compares, never a
+/// missed contact.
 #[inline(always)]
 fn renew(
     budget: &mut ClusterBudget,

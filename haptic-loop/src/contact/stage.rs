@@ -548,24 +548,10 @@ struct StageLevels<'a> {
     pass: &'a PassParams,
 }
 
-impl Levels for StageLevels<'_> {
-    fn near(&mut self, l: usize) -> u32 {
-        *self.counts[l].get_or_insert_with(|| {
-            let c = &mut self.cache[l];
-            self.model.columns[l]
-                .near_clusters(
-                    &mut c.groups,
-                    &mut c.clusters,
-                    self.k,
-                    &self.model.voxmap,
-                    &mut c.scratch,
-                    u32::MAX,
-                )
-                .0
-        })
-    }
-
-    fn near_within(&mut self, l: usize) -> Option<u32> {
+impl StageLevels<'_> {
+    /// Level `l`'s near pass this step, of at most `max_checks` clearance checks unless a
+    /// whole one already ran: its near points once it got through.
+    fn near_pass(&mut self, l: usize, max_checks: u32) -> Option<u32> {
         if self.counts[l].is_none() {
             let c = &mut self.cache[l];
             let (points, whole) = self.model.columns[l].near_clusters(
@@ -574,11 +560,22 @@ impl Levels for StageLevels<'_> {
                 self.k,
                 &self.model.voxmap,
                 &mut c.scratch,
-                WARM_CHECKS,
+                max_checks,
             );
             self.counts[l] = whole.then_some(points);
         }
         self.counts[l]
+    }
+}
+
+impl Levels for StageLevels<'_> {
+    fn near(&mut self, l: usize) -> u32 {
+        // An uncapped pass always gets through.
+        self.near_pass(l, u32::MAX).unwrap_or(0)
+    }
+
+    fn near_within(&mut self, l: usize) -> Option<u32> {
+        self.near_pass(l, WARM_CHECKS)
     }
 
     fn renew_points(&mut self, l: usize, skip: u32, max: u32) -> u32 {
