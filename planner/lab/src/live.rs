@@ -8,7 +8,10 @@
 
 mod report;
 
-pub use report::{LiveSummary, from_csv, plot, summarize, to_csv, to_markdown};
+pub use report::{
+    LiveSummary, MIN_SEEDS_FOR_INTERVAL, RunTimes, from_csv, plot, seed_interval, summarize,
+    to_csv, to_markdown,
+};
 
 use crate::LabError;
 use scene::Scene;

@@ -1,12 +1,16 @@
 //! Reports of a live sweep: runs as CSV, a summary per (scene, method) as markdown, and a
 //! plot of every run's time to solve. Medians count an unsolved run at the time limit
 //! (a lower bound then), as the lockstep reports do; a scene run without its route is
-//! its own scene in the summaries (`tunnels (no route)`).
+//! its own scene in the summaries (`tunnels (no route)`). The summary's ratios carry a
+//! 95 % interval over the seeds resampled ([`seed_interval`]), so that a ratio of medians
+//! over a handful of heavy-tailed times is not read as more than it is.
 
 use super::LiveRun;
 use crate::LabError;
 use crate::experiment::report::{median, register_font};
 use plotters::prelude::*;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -52,6 +56,20 @@ pub struct LiveSummary {
     pub median_compute_p999_us: f64,
     /// The largest.
     pub max_compute_p999_us: f64,
+    /// Each run's seed, time to solve and time to the goal, s (unsolved and unreached at
+    /// the limit): what the intervals of [`to_markdown`] resample.
+    pub per_run: Vec<RunTimes>,
+}
+
+/// One run's times as the summaries count them, s.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RunTimes {
+    /// The run's seed.
+    pub seed: u64,
+    /// Time to solve (unsolved: the limit).
+    pub solve_s: f64,
+    /// Time until the object reached the goal (not reached: the limit).
+    pub goal_s: f64,
 }
 
 /// The scene of `r` as summaries name it.
@@ -80,19 +98,22 @@ pub fn summarize(runs: &[LiveRun], limit_s: f64) -> Vec<LiveSummary> {
                 .filter(|r| scene_label(r) == scene && r.method == method)
                 .collect();
             let or_limit = |v: f64| if v.is_finite() { v } else { limit_s };
-            let mut t: Vec<f64> = g
+            let per_run: Vec<RunTimes> = g
                 .iter()
-                .map(|r| {
-                    if r.solved {
+                .map(|r| RunTimes {
+                    seed: r.seed,
+                    solve_s: if r.solved {
                         or_limit(r.time_to_solve_s)
                     } else {
                         limit_s
-                    }
+                    },
+                    goal_s: or_limit(r.time_to_goal_s),
                 })
                 .collect();
+            let mut t: Vec<f64> = per_run.iter().map(|r| r.solve_s).collect();
             let mut nodes: Vec<f64> = g.iter().map(|r| r.nodes as f64).collect();
             let mut edges: Vec<f64> = g.iter().map(|r| r.edges as f64).collect();
-            let mut goal: Vec<f64> = g.iter().map(|r| or_limit(r.time_to_goal_s)).collect();
+            let mut goal: Vec<f64> = per_run.iter().map(|r| r.goal_s).collect();
             let mut after: Vec<f64> = g
                 .iter()
                 .filter(|r| r.solved && r.time_to_goal_s.is_finite())
@@ -127,11 +148,98 @@ pub fn summarize(runs: &[LiveRun], limit_s: f64) -> Vec<LiveSummary> {
                 max_penetration_voxels: voxels,
                 max_force_step_n: g.iter().map(|r| r.max_force_step_n).fold(0.0, f64::max),
                 miss_share: misses as f64 / ticks.max(1) as f64,
+                per_run,
                 scene,
                 method,
             }
         })
         .collect()
+}
+
+/// Draws behind each interval of [`to_markdown`].
+const RESAMPLES: usize = 4000;
+
+/// Fewest seeds for which [`to_markdown`] gives an interval: below that the resamples
+/// are too few distinct sets to mean anything.
+pub const MIN_SEEDS_FOR_INTERVAL: usize = 5;
+
+/// The 95 % interval (2.5th and 97.5th percentiles) of a ratio of medians over the seeds
+/// resampled with replacement: a percentile bootstrap of [`RESAMPLES`] draws from a fixed
+/// stream, so that a report is reproducible. Each draw takes as many seeds as the groups
+/// hold (with repeats), every group's median of `value` over its runs on those seeds, and
+/// `ratio` of those medians (in the order of `groups`). Seeds are drawn rather than each
+/// group's runs apart because on one seed every method meets the same simulated operator:
+/// a seed's runs stay together, as in the sweep. `None` under
+/// [`MIN_SEEDS_FOR_INTERVAL`] seeds, or when most draws leave a group without runs.
+pub fn seed_interval(
+    groups: &[&LiveSummary],
+    value: fn(&RunTimes) -> f64,
+    ratio: impl Fn(&[f64]) -> f64,
+) -> Option<(f64, f64)> {
+    let mut seeds: Vec<u64> = groups
+        .iter()
+        .flat_map(|g| g.per_run.iter().map(|r| r.seed))
+        .collect();
+    seeds.sort_unstable();
+    seeds.dedup();
+    if seeds.len() < MIN_SEEDS_FOR_INTERVAL {
+        return None;
+    }
+    // by_seed[g][k]: group g's values on the k-th seed.
+    let by_seed: Vec<Vec<Vec<f64>>> = groups
+        .iter()
+        .map(|g| {
+            seeds
+                .iter()
+                .map(|s| {
+                    g.per_run
+                        .iter()
+                        .filter(|r| r.seed == *s)
+                        .map(value)
+                        .collect()
+                })
+                .collect()
+        })
+        .collect();
+    let mut rng = ChaCha8Rng::seed_from_u64(0);
+    let mut drawn = vec![0; seeds.len()];
+    let mut pool = Vec::new();
+    let mut medians = vec![0.0; groups.len()];
+    let mut ratios = Vec::with_capacity(RESAMPLES);
+    for _ in 0..RESAMPLES {
+        for d in &mut drawn {
+            *d = rng.random_range(0..seeds.len());
+        }
+        for (g, m) in by_seed.iter().zip(&mut medians) {
+            pool.clear();
+            for &k in &drawn {
+                pool.extend_from_slice(&g[k]);
+            }
+            *m = median(&mut pool);
+        }
+        // A group without runs on the seeds drawn has no median: no ratio either (f64::min
+        // would quietly drop it).
+        if medians.iter().all(|m| m.is_finite()) {
+            let r = ratio(&medians);
+            if r.is_finite() {
+                ratios.push(r);
+            }
+        }
+    }
+    if ratios.len() < RESAMPLES / 2 {
+        return None;
+    }
+    ratios.sort_by(f64::total_cmp);
+    let at = |p: f64| ratios[(p * (ratios.len() - 1) as f64).round() as usize];
+    Some((at(0.025), at(0.975)))
+}
+
+/// `text` with ` (lo–hi)` appended when there is an interval.
+fn with_interval(text: String, interval: Option<(f64, f64)>, decimals: usize) -> String {
+    match interval {
+        Some((lo, hi)) => format!("{text} ({lo:.decimals$}–{hi:.decimals$})"),
+        None => text,
+    }
 }
 
 fn num(v: f64, decimals: usize) -> String {
@@ -314,13 +422,18 @@ pub fn from_csv(text: &str, origin: &str) -> Result<Vec<LiveRun>, LabError> {
 /// The summaries as a markdown table, with each scene's speed-up of every method over
 /// automatic RRT-Connect (ratio of medians of the time to solve) when that was run, and
 /// each method's median time to the goal over the better of `operator-alone` and
-/// `rrt-connect` (the two alone) when both were run.
+/// `rrt-connect` (the two alone) when both were run; from [`MIN_SEEDS_FOR_INTERVAL`] seeds
+/// on, each ratio with its 95 % interval ([`seed_interval`]; in each draw the better alone
+/// is the one with the shorter median of that draw).
 pub fn to_markdown(summaries: &[LiveSummary], limit_s: f64) -> String {
     let mut out = format!(
         "Medians over seeds; unsolved runs count at the {limit_s} s limit, an object that \
          never reached the goal at the limit too. Speed-up: automatic RRT-Connect's median \
          time to solve over the method's, same scene. Goal vs alone: the method's median \
-         time to the goal over the shorter of operator-alone's and rrt-connect's.\n\n\
+         time to the goal over the shorter of operator-alone's and rrt-connect's. In \
+         brackets, from {MIN_SEEDS_FOR_INTERVAL} seeds on: the ratio's 95 % interval over the \
+         seeds resampled with replacement ({RESAMPLES} draws; a seed's runs stay together); \
+         an interval that holds 1 does not tell the two apart.\n\n\
          | scene | method | solved | median time to solve (s) | speed-up | nodes | edges | \
          object at goal (s) | goal vs alone | goal after solution (s) | in contact | blocks | \
          peak penetration (mm / voxels) | largest force step (N) | deadline misses | \
@@ -335,14 +448,24 @@ pub fn to_markdown(summaries: &[LiveSummary], limit_s: f64) -> String {
         };
         let speedup = match median_of("rrt-connect") {
             Some(a) if s.planner => {
-                format!("{:.1}×", a.median_time_s / s.median_time_s.max(1e-9))
+                let ratio = |m: &[f64]| m[0] / m[1].max(1e-9);
+                let text = format!("{:.1}×", ratio(&[a.median_time_s, s.median_time_s]));
+                // RRT-Connect against itself is 1 in every draw.
+                let interval = (a.method != s.method)
+                    .then(|| seed_interval(&[a, s], |r| r.solve_s, ratio))
+                    .flatten();
+                with_interval(text, interval, 1)
             }
             _ => String::new(),
         };
         let vs_alone = match (median_of("operator-alone"), median_of("rrt-connect")) {
             (Some(o), Some(r)) => {
-                let best = o.median_goal_s.min(r.median_goal_s);
-                format!("{:.2}", s.median_goal_s / best.max(1e-9))
+                let ratio = |m: &[f64]| m[0] / m[1].min(m[2]).max(1e-9);
+                let text = format!(
+                    "{:.2}",
+                    ratio(&[s.median_goal_s, o.median_goal_s, r.median_goal_s])
+                );
+                with_interval(text, seed_interval(&[s, o, r], |r| r.goal_s, ratio), 2)
             }
             _ => String::new(),
         };

@@ -281,6 +281,63 @@ fn the_operator_alone_is_its_own_row_and_goal_times_compare_with_both_alone() {
     assert_eq!(col("compute_p999_us"), "81.5");
 }
 
+/// A run of `method` on `seed` that solved after `solve_s` and reached the goal after
+/// `goal_s` (not at all: NaN).
+fn timed(method: &LiveMethod, seed: u64, solve_s: f64, goal_s: f64) -> LiveRun {
+    let mut r = run(method, seed, SUMMARY);
+    r.time_to_solve_s = solve_s;
+    r.time_to_goal_s = goal_s;
+    r
+}
+
+#[test]
+fn ratios_carry_an_interval_over_resampled_seeds_from_five_seeds_on() {
+    let alone = &LiveMethod::parse("operator-alone", &[], 0.5, "newcomer").unwrap()[0];
+    let auto = &LiveMethod::parse("rrt-connect", &[], 0.5, "newcomer").unwrap()[0];
+    let h = &LiveMethod::parse("hrrtc-adaptive", &[0.9], 0.5, "newcomer").unwrap()[0];
+    // Seed k: the pair solves after k s and is at the goal then, RRT-Connect takes twice
+    // and its operator three times as long, the operator alone never arrives. The times
+    // spread over the seeds; the ratios do not, so every draw that keeps a seed's runs
+    // together gives the same ratios (drawing each method's runs apart would not).
+    let sweep = |seeds: u64| {
+        let mut runs = Vec::new();
+        for k in 1..=seeds {
+            let t = k as f64;
+            runs.push(timed(alone, k, f64::NAN, f64::NAN));
+            runs.push(timed(auto, k, 2.0 * t, 3.0 * t));
+            runs.push(timed(h, k, t, t));
+        }
+        runs
+    };
+    let md = to_markdown(&summarize(&sweep(6), 60.0), 60.0);
+    assert!(md.contains("| 6/6 | 3.50 | 2.0× (2.0–2.0) |"), "{md}");
+    assert!(md.contains("| 3.50 (6/6) | 0.33 (0.33–0.33) |"), "{md}");
+    // RRT-Connect against itself has no interval; against the better alone (itself) it is 1.
+    assert!(md.contains("| 6/6 | 7.00 | 1.0× |"), "{md}");
+    assert!(md.contains("| 10.50 (6/6) | 1.00 (1.00–1.00) |"), "{md}");
+    // Under five seeds, the ratios alone.
+    let md = to_markdown(&summarize(&sweep(4), 60.0), 60.0);
+    assert!(md.contains("| 4/4 | 2.50 | 2.0× |"), "{md}");
+    assert!(md.contains("| 2.50 (4/4) | 0.33 |"), "{md}");
+
+    // Times that do not keep their order across seeds: the interval is wide and holds
+    // the ratio of the medians.
+    let mut runs = Vec::new();
+    for k in 1..=9u64 {
+        let t = k as f64;
+        runs.push(timed(auto, k, t, t));
+        runs.push(timed(h, k, 10.0 - t, 10.0 - t));
+    }
+    let s = summarize(&runs, 60.0);
+    let ratio = |m: &[f64]| m[0] / m[1];
+    let (lo, hi) = seed_interval(&[&s[0], &s[1]], |r| r.solve_s, ratio).unwrap();
+    assert!(lo < 0.8 && hi > 1.25 && lo <= 1.0 && 1.0 <= hi, "{lo} {hi}");
+    // Four seeds are too few.
+    assert!(seed_interval(&[&s[0]], |r| r.solve_s, |m: &[f64]| m[0]).is_some());
+    let few = summarize(&runs[..8], 60.0);
+    assert!(seed_interval(&[&few[0], &few[1]], |r| r.solve_s, ratio).is_none());
+}
+
 #[test]
 fn a_scene_without_its_route_is_written_with_its_meshes() {
     let dir = std::env::temp_dir().join(format!("lab-no-route-{}", std::process::id()));
