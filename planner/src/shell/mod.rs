@@ -26,7 +26,7 @@ mod error;
 pub use ipc_types::pacing;
 mod receiver;
 
-use crate::{Planner, PlannerParams, Scene, Se3};
+use crate::{IterReport, Planner, PlannerParams, Scene, Se3, Source};
 pub use error::ShellError;
 
 use convert::{operator_pose, to_wire_path, user_input};
@@ -138,6 +138,62 @@ pub struct ShellReport {
     pub roadmap_publish_mean_us: f64,
     /// Longest time the main thread spent on one roadmap increment, µs.
     pub roadmap_publish_max_us: f64,
+    /// The iterations until the solution by where their sample came from.
+    pub samples: SampleTally,
+}
+
+/// Iterations by where their sample came from ([`crate::Source`]), and what they added:
+/// how much of the trees each kind of sample grew (H-RRT-C's shares at work).
+#[derive(Debug, Clone, Copy, Serialize, Default, PartialEq)]
+pub struct SampleTally {
+    /// Samples without the operator: uniform (with the goal bias) and bridge tests.
+    pub machine: SourceTally,
+    /// The operator's in free space (q_device, or a stand-in near its travelled path).
+    pub operator: SourceTally,
+    /// HapticSampling on the contact plane.
+    pub contact: SourceTally,
+}
+
+/// What the iterations of one kind of sample did.
+#[derive(Debug, Clone, Copy, Serialize, Default, PartialEq)]
+pub struct SourceTally {
+    /// Iterations that drew such a sample.
+    pub iterations: u64,
+    /// Nodes they added to all trees (the extend towards the sample and the connect).
+    pub nodes_added: u64,
+    /// Iterations that added no node (the first step towards the sample collided).
+    pub barren: u64,
+    /// Iterations whose sample was new ground that a tree reached ([`IterReport::novel`]).
+    pub novel: u64,
+}
+
+impl SampleTally {
+    /// Counts one iteration; one that did no work (already solved) is not counted.
+    pub fn add(&mut self, r: &IterReport) {
+        if r.sample.is_none() {
+            return;
+        }
+        let t = match r.source {
+            Source::Uniform | Source::BridgeTest => &mut self.machine,
+            Source::User => &mut self.operator,
+            Source::Contact => &mut self.contact,
+        };
+        t.iterations += 1;
+        t.nodes_added += u64::from(r.nodes_added);
+        t.barren += u64::from(r.nodes_added == 0);
+        t.novel += u64::from(r.novel);
+    }
+
+    /// Shares of the iterations (machine, operator, contact), each in [0, 1].
+    pub fn shares(&self) -> [f64; 3] {
+        let all = (self.machine.iterations + self.operator.iterations + self.contact.iterations)
+            .max(1) as f64;
+        [
+            self.machine.iterations as f64 / all,
+            self.operator.iterations as f64 / all,
+            self.contact.iterations as f64 / all,
+        ]
+    }
 }
 
 /// Runs the planner process until `stop` is set or the duration elapses.
@@ -248,7 +304,7 @@ pub fn run_with_guidance_out(
             report.idle_s += t0.elapsed().as_secs_f64();
         } else if !planner.solved() {
             let input = op.state.filter(|_| fresh).and_then(|s| user_input(&s));
-            planner.iterate_input(input.as_ref());
+            report.samples.add(&planner.iterate_input(input.as_ref()));
             authority_log.update(&planner.authority());
             if planner.solved() {
                 let t = started.elapsed().as_secs_f64();
@@ -542,6 +598,68 @@ mod tests {
             duration_s: None,
             roadmap_rate_hz: 0.0,
         }
+    }
+
+    #[test]
+    fn the_tally_counts_each_iteration_by_its_samples_source() {
+        use crate::{Contact, Sampling, UserInput};
+        use nalgebra::Vector3;
+        let scene = Scene::wall_with_hole();
+        let params = PlannerParams {
+            sampling: Sampling::Hrrtc { alpha: 0.3 },
+            ..PlannerParams::default()
+        };
+        let mut planner = Planner::new(&scene, params, 1).expect("planner");
+        let mut tally = SampleTally::default();
+        // In free space: α = 0.3 machine samples, the rest the operator's.
+        let free = UserInput::free(Se3::from_xyz(-0.1, 0.1, 0.0));
+        for _ in 0..1000 {
+            tally.add(&planner.iterate_input(Some(&free)));
+        }
+        // In contact (the paper's fixed rule): HapticSampling only.
+        let contact = UserInput {
+            contact: Some(Contact {
+                point_m: Vector3::new(-0.01, 0.0, 0.0),
+                normal: -Vector3::x(),
+                force_n: Vector3::new(5.0, 0.0, 2.0),
+                displacement_m: Vector3::new(0.0, 0.0, 0.001),
+                proxy: Se3::from_xyz(-0.0605, 0.0, 0.0),
+            }),
+            ..UserInput::free(Se3::from_xyz(-0.05, 0.0, 0.0))
+        };
+        for _ in 0..1000 {
+            if planner.solved() {
+                break;
+            }
+            tally.add(&planner.iterate_input(Some(&contact)));
+        }
+        let s = planner.stats();
+        let t = &tally;
+        let sum = |f: fn(&SourceTally) -> u64| f(&t.machine) + f(&t.operator) + f(&t.contact);
+        assert_eq!(sum(|k| k.iterations), s.iterations);
+        // Every node but the two roots came from some iteration.
+        assert_eq!(sum(|k| k.nodes_added), s.nodes as u64 - 2);
+        assert!(
+            (250..350).contains(&t.machine.iterations),
+            "{}",
+            t.machine.iterations
+        );
+        assert!(t.operator.iterations > 600, "{t:?}");
+        assert!(t.contact.iterations > 0, "{t:?}");
+        for k in [&t.machine, &t.operator, &t.contact] {
+            assert!(k.novel <= k.iterations && k.barren <= k.iterations, "{k:?}");
+        }
+        let shares = t.shares();
+        assert!(
+            (shares.iter().sum::<f64>() - 1.0).abs() < 1e-12,
+            "{shares:?}"
+        );
+        // An iteration that did nothing (already solved: no sample) is not counted.
+        let mut idle = planner.iterate_input(Some(&free));
+        idle.sample = None;
+        let before = *t;
+        tally.add(&idle);
+        assert_eq!(tally, before);
     }
 
     /// The force and torque the loop renders from `g` (before its device bound), N, N·m.

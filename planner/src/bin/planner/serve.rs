@@ -203,6 +203,24 @@ pub fn run(args: &ServeArgs) -> anyhow::Result<i32> {
         report.nodes,
         report.state_rate_hz
     );
+    let t = &report.samples;
+    let kind = |name: &str, share: f64, k: &shell::SourceTally| {
+        let per = |v: u64| v as f64 / k.iterations.max(1) as f64;
+        format!(
+            "{name} {:.1} % ({:.3} nodes, {:.3} novel, {:.3} barren a sample)",
+            100.0 * share,
+            per(k.nodes_added),
+            per(k.novel),
+            per(k.barren)
+        )
+    };
+    let [m, o, c] = t.shares();
+    tracing::info!(
+        "planner samples until the solution: {}; {}; {}",
+        kind("machine", m, &t.machine),
+        kind("operator", o, &t.operator),
+        kind("contact", c, &t.contact)
+    );
     if let Some(p) = &args.json {
         crate::write_json(p, &report)?;
     }
