@@ -161,7 +161,8 @@ pub struct SourceTally {
     pub iterations: u64,
     /// Nodes they added to all trees (the extend towards the sample and the connect).
     pub nodes_added: u64,
-    /// Iterations that added no node (the first step towards the sample collided).
+    /// Iterations that added no node: the first step towards the sample collided, or
+    /// the sample already was a node of tree A and B's connect added none.
     pub barren: u64,
     /// Iterations whose sample was new ground that a tree reached ([`IterReport::novel`]).
     pub novel: u64,

@@ -332,7 +332,7 @@ fn ratios_carry_an_interval_over_resampled_seeds_from_five_seeds_on() {
     let ratio = |m: &[f64]| m[0] / m[1];
     let (lo, hi) = seed_interval(&[&s[0], &s[1]], |r| r.solve_s, ratio).unwrap();
     assert!(lo < 0.8 && hi > 1.25 && lo <= 1.0 && 1.0 <= hi, "{lo} {hi}");
-    // Four seeds are too few.
+    // One group is enough; four seeds are too few.
     assert!(seed_interval(&[&s[0]], |r| r.solve_s, |m: &[f64]| m[0]).is_some());
     let few = summarize(&runs[..8], 60.0);
     assert!(seed_interval(&[&few[0], &few[1]], |r| r.solve_s, ratio).is_none());
