@@ -1,5 +1,7 @@
-//! Criterion benches of the spine: one collision check of the default scene and one haptic
-//! tick without contact (simulated arm, no IPC). `cargo bench -p benches`.
+//! Criterion benches of the spine: one collision check of the default scene, one haptic
+//! tick without contact (simulated arm, no IPC), and the two clocks the RT thread reads
+//! each tick (`clock/*`: the monotonic clock is a vDSO read, the thread's CPU clock a
+//! system call). `cargo bench -p benches --bench spine`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use devices::sim::{SimulatedArm, SimulatedArmConfig};
@@ -41,5 +43,14 @@ fn tick(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, collision, tick);
+fn clock(c: &mut Criterion) {
+    c.bench_function("clock/monotonic", |b| {
+        b.iter(|| black_box(haptic_loop::rt::monotonic_ns()))
+    });
+    c.bench_function("clock/thread-cpu", |b| {
+        b.iter(|| black_box(haptic_loop::rt::thread_cpu_ns()))
+    });
+}
+
+criterion_group!(benches, collision, tick, clock);
 criterion_main!(benches);

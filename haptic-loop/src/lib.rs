@@ -28,5 +28,6 @@ pub mod session;
 pub mod sim_driver;
 pub mod stats;
 pub mod tick;
+pub mod work;
 
 pub use error::Error;

@@ -7,7 +7,7 @@
 
 use crate::alloc_count;
 use crate::rt::{self, RtOptions, RtSetupReport};
-use crate::stats::{Percentiles, SecondSummary, TickSample, TimingHistograms};
+use crate::stats::{Percentiles, SecondSummary, SlowestTick, TickSample, TimingHistograms};
 use crate::tick::{GuidanceSource, PrevTiming, StateSink, Tick};
 use devices::HapticDevice;
 use serde::Serialize;
@@ -36,6 +36,8 @@ pub struct LiveCounters {
     pub ticks: AtomicU64,
     /// Deadlines missed.
     pub deadline_misses: AtomicU64,
+    /// Of them, overruns: missed by ticks whose own CPU time passed the period.
+    pub overruns: AtomicU64,
     /// Samples dropped because the stats ring was full.
     pub dropped_samples: AtomicU64,
     /// Set when the RT thread has left its loop.
@@ -48,8 +50,14 @@ pub struct LoopReport {
     /// Ticks done.
     pub ticks: u64,
     /// Deadlines missed (a tick that ends after the next deadline misses it, and every
-    /// deadline it overran).
+    /// deadline it overran): `overruns + preempted`.
     pub deadline_misses: u64,
+    /// Deadlines missed by ticks whose own CPU time (`compute_cpu_us`) passed the period:
+    /// the loop's work did not fit.
+    pub overruns: u64,
+    /// Deadlines missed by ticks whose CPU time fit the period: the machine took the CPU
+    /// away from the thread or woke it late.
+    pub preempted: u64,
     /// Heap allocations made by the RT thread after set-up; `None` when the counting
     /// allocator is not installed in this process.
     pub rt_allocations: Option<u64>,
@@ -57,8 +65,12 @@ pub struct LoopReport {
     pub allocations_per_tick: Option<f64>,
     /// Wake-up latency, µs.
     pub wake_latency_us: Percentiles,
-    /// Compute time per tick, µs.
+    /// Compute time per tick by the wall clock (wake-up to the end of its work), µs.
     pub compute_us: Percentiles,
+    /// Compute time per tick by the RT thread's CPU clock, µs: what the tick itself used
+    /// (with its wake-up and, with `spin_ns`, its spin), not time the machine gave to
+    /// others.
+    pub compute_cpu_us: Percentiles,
     /// Period between wake-ups, µs.
     pub period_us: Percentiles,
     /// Guidance age at render time, µs.
@@ -77,6 +89,8 @@ pub struct LoopReport {
     /// The CPU wake-up latency requested from the kernel (PM QoS) while the loop ran, µs;
     /// `None` if none was requested or the request failed.
     pub cpu_latency_us: Option<u32>,
+    /// The tick that used the most CPU time and its work counts.
+    pub slowest_tick: SlowestTick,
     /// Guidance samples rejected as invalid.
     pub guidance_rejected: u64,
     /// Faults latched.
@@ -157,7 +171,9 @@ where
                             wake_p99_us: w.p99,
                             wake_max_us: w.max,
                             compute_p99_us: window.compute.percentiles_us().p99,
+                            compute_cpu_max_us: window.compute_cpu.percentiles_us().max,
                             deadline_misses_total: counters.deadline_misses.load(Ordering::Relaxed),
+                            overruns_total: counters.overruns.load(Ordering::Relaxed),
                             dropped_samples_total: counters.dropped_samples.load(Ordering::Relaxed),
                         });
                         window.reset();
@@ -212,15 +228,21 @@ impl<D, G, S> LoopHandle<D, G, S> {
             Err(p) => std::panic::resume_unwind(p),
         };
         let ticks = self.counters.ticks.load(Ordering::Relaxed);
+        let deadline_misses = self.counters.deadline_misses.load(Ordering::Relaxed);
+        let overruns = self.counters.overruns.load(Ordering::Relaxed);
         let report = LoopReport {
             ticks,
-            deadline_misses: self.counters.deadline_misses.load(Ordering::Relaxed),
+            deadline_misses,
+            overruns,
+            preempted: deadline_misses - overruns,
             rt_allocations: allocations,
             allocations_per_tick: allocations.map(|a| a as f64 / ticks.max(1) as f64),
             wake_latency_us: hist.wake.percentiles_us(),
             wake_latency_distribution: hist.wake.distribution_us(),
             compute_distribution: hist.compute.distribution_us(),
             compute_us: hist.compute.percentiles_us(),
+            compute_cpu_us: hist.compute_cpu.percentiles_us(),
+            slowest_tick: hist.slowest,
             period_us: hist.period.percentiles_us(),
             guidance_age_us: hist.guidance_age.percentiles_us(),
             guidance_latency_us: hist.guidance_latency.percentiles_us(),
@@ -264,6 +286,11 @@ where
     let mut last_wake = 0u64;
     let mut ticks = 0u64;
     let mut last_guidance_sequence = 0u64;
+    let mut overruns = 0u64;
+    // The CPU clock is read once a tick, at the end of its work: each tick's CPU time is
+    // the difference from the previous read (its wake-up and work, and the few
+    // instructions that push the previous sample).
+    let mut last_cpu = rt::thread_cpu_ns();
     while ticks < max_ticks && !stop.load(Ordering::Acquire) {
         let wake = rt::sleep_until(deadline, config.spin_ns);
         let rendered = tick.step(wake, prev).guidance_sequence;
@@ -276,16 +303,27 @@ where
         };
         last_guidance_sequence = rendered;
         let end = rt::monotonic_ns();
+        let cpu = rt::thread_cpu_ns();
+        let compute_cpu_ns = cpu.saturating_sub(last_cpu);
+        last_cpu = cpu;
 
         let next = deadline + period_ns;
         let missed = rt::missed_deadlines(end, next, period_ns);
+        let overran = compute_cpu_ns > period_ns;
+        if overran {
+            overruns += missed;
+        }
         let sample = TickSample {
+            tick: ticks + 1,
             wake_latency_ns: wake - deadline,
             compute_ns: end - wake,
+            compute_cpu_ns,
             period_ns: if last_wake == 0 { 0 } else { wake - last_wake },
             guidance_age_ns,
             guidance_latency_ns,
             missed,
+            overran,
+            work: *tick.last_work(),
         };
         if ring.push(sample).is_err() {
             counters.dropped_samples.fetch_add(1, Ordering::Relaxed);
@@ -304,6 +342,7 @@ where
         counters
             .deadline_misses
             .store(prev.deadline_misses, Ordering::Relaxed);
+        counters.overruns.store(overruns, Ordering::Relaxed);
     }
     alloc_count::count_this_thread(false);
     let allocations = counting.then(|| alloc_count::counted() - allocations_before);

@@ -4,13 +4,21 @@
 //! (`rtrb`); the stats thread drains it into HDR histograms (`hdrhistogram`), keeps a
 //! one-second window for progress lines, and hands the totals to the final report.
 
+use crate::work::TickWork;
+use serde::Serialize;
+
 /// Timing of one tick, as pushed by the RT thread.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct TickSample {
+    /// Tick number from 1.
+    pub tick: u64,
     /// Actual wake-up minus deadline, ns.
     pub wake_latency_ns: u64,
     /// Wake-up to end of the tick's work, ns.
     pub compute_ns: u64,
+    /// CPU time the RT thread used from the end of the previous tick's work to the end of
+    /// this one's, ns: the tick's work and its wake-up, not the time it was preempted.
+    pub compute_cpu_ns: u64,
     /// Wake-up minus previous wake-up, ns (0 for the first tick).
     pub period_ns: u64,
     /// Age of the guidance sample rendered, ns (0 if none).
@@ -20,6 +28,25 @@ pub struct TickSample {
     pub guidance_latency_ns: u64,
     /// Deadlines missed at the end of this tick (0 almost always).
     pub missed: u64,
+    /// True when those misses were the tick's own: its CPU time passed the period (an
+    /// overrun). Otherwise the machine took the CPU away (preempted, or woke it late).
+    pub overran: bool,
+    /// What the tick did.
+    pub work: TickWork,
+}
+
+/// The tick that used the most CPU time, and what it did: whether a slow tick was the
+/// loop's work (large counts) or the machine's (ordinary counts).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct SlowestTick {
+    /// Tick number from 1.
+    pub tick: u64,
+    /// Its CPU time, µs.
+    pub compute_cpu_us: f64,
+    /// Its wall-clock compute time, µs.
+    pub compute_us: f64,
+    /// Its work counts.
+    pub work: TickWork,
 }
 
 pub use ipc_types::latency::{NsHistogram, Percentiles};
@@ -31,6 +58,8 @@ pub struct TimingHistograms {
     pub wake: NsHistogram,
     /// Compute time.
     pub compute: NsHistogram,
+    /// Compute time by the thread's CPU clock.
+    pub compute_cpu: NsHistogram,
     /// Period.
     pub period: NsHistogram,
     /// Guidance age at render time.
@@ -41,6 +70,10 @@ pub struct TimingHistograms {
     pub ticks: u64,
     /// Deadlines missed.
     pub deadline_misses: u64,
+    /// Those of them missed by ticks whose CPU time passed the period.
+    pub overruns: u64,
+    /// The tick with the most CPU time.
+    pub slowest: SlowestTick,
 }
 
 impl TimingHistograms {
@@ -48,6 +81,16 @@ impl TimingHistograms {
     pub fn record(&mut self, s: &TickSample) {
         self.wake.record(s.wake_latency_ns);
         self.compute.record(s.compute_ns);
+        self.compute_cpu.record(s.compute_cpu_ns);
+        let cpu_us = s.compute_cpu_ns as f64 / 1000.0;
+        if self.ticks == 0 || cpu_us > self.slowest.compute_cpu_us {
+            self.slowest = SlowestTick {
+                tick: s.tick,
+                compute_cpu_us: cpu_us,
+                compute_us: s.compute_ns as f64 / 1000.0,
+                work: s.work,
+            };
+        }
         if s.period_ns > 0 {
             self.period.record(s.period_ns);
         }
@@ -59,6 +102,14 @@ impl TimingHistograms {
         }
         self.ticks += 1;
         self.deadline_misses += s.missed;
+        if s.overran {
+            self.overruns += s.missed;
+        }
+    }
+
+    /// Deadlines missed while the machine had the CPU (`deadline_misses − overruns`).
+    pub fn preempted(&self) -> u64 {
+        self.deadline_misses - self.overruns
     }
 
     /// Forgets everything.
@@ -80,8 +131,12 @@ pub struct SecondSummary {
     pub wake_max_us: f64,
     /// Compute time p99 in this window, µs.
     pub compute_p99_us: f64,
+    /// Compute time max by the thread's CPU clock in this window, µs.
+    pub compute_cpu_max_us: f64,
     /// Deadline misses since start.
     pub deadline_misses_total: u64,
+    /// Of them, overruns (the tick's own CPU time passed the period) since start.
+    pub overruns_total: u64,
     /// Samples the stats thread could not take in time (ring full) since start.
     pub dropped_samples_total: u64,
 }
@@ -116,6 +171,28 @@ mod tests {
         }
         assert_eq!(h.guidance_age.percentiles_us().count, 10);
         assert_eq!(h.guidance_latency.percentiles_us().count, 2);
+    }
+
+    #[test]
+    fn misses_are_overruns_only_when_the_tick_used_the_cpu_for_a_period() {
+        let mut h = TimingHistograms::default();
+        let tick = |cpu_us: u64, missed: u64, overran: bool| TickSample {
+            compute_ns: 1_500_000,
+            compute_cpu_ns: cpu_us * 1000,
+            missed,
+            overran,
+            ..TickSample::default()
+        };
+        h.record(&tick(20, 0, false));
+        h.record(&tick(30, 1, false));
+        h.record(&tick(1200, 2, true));
+        assert_eq!(h.deadline_misses, 3);
+        assert_eq!(h.overruns, 2);
+        assert_eq!(h.preempted(), 1);
+        assert_eq!(h.slowest.compute_cpu_us, 1200.0);
+        let cpu = h.compute_cpu.percentiles_us();
+        assert_eq!(cpu.count, 3);
+        assert!((cpu.max - 1200.0).abs() < 1.0, "{cpu:?}");
     }
 
     #[test]

@@ -10,6 +10,7 @@ use crate::contact::{Anchor, ContactOutput, ContactStage};
 use crate::guidance::{GuidanceConfig, GuidanceFilter, RenderedGuidance};
 use crate::mapping::{Mapping, MappingConfig};
 use crate::safety::{self, Plausibility, Safety, SafetyConfig};
+use crate::work::TickWork;
 use devices::{DeviceError, DeviceSpec, DeviceState, HapticDevice};
 use ipc_types::{ContactCode, FaultCode, Guidance, HapticState};
 use nalgebra::{Isometry3, Vector3};
@@ -145,6 +146,7 @@ pub struct Tick<D, G, S> {
     at_goal_ns: Option<u64>,
     last_force_n: Option<Vector3<f64>>,
     max_force_step_n: f64,
+    work: TickWork,
 }
 
 impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
@@ -180,6 +182,7 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
             at_goal_ns: None,
             last_force_n: None,
             max_force_step_n: 0.0,
+            work: TickWork::default(),
         })
     }
 
@@ -243,6 +246,11 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
         &self.state
     }
 
+    /// What the last [`Tick::step`] did, counted where it was done.
+    pub fn last_work(&self) -> &TickWork {
+        &self.work
+    }
+
     /// Age of the guidance sample rendered in the last tick, ns (0 if none).
     pub fn guidance_age_ns(&self) -> u64 {
         self.guidance_age_ns
@@ -266,9 +274,11 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
     /// One tick at `now_ns` (CLOCK_MONOTONIC, start of the tick). Allocation-free.
     pub fn step(&mut self, now_ns: u64, prev: PrevTiming) -> &HapticState {
         self.sequence += 1;
+        let mut work = TickWork::default();
 
         // 1. Device, checked for plausibility; while it fails, its last good state.
         let read = self.device.read(now_ns);
+        work.device_reads += 1;
         let (reading, fault) = self.plausibility.check(read, prev.deadline_misses);
         let device = reading.unwrap_or_else(|| self.plausibility.last_good());
         let still = self.safety.config().is_still(&device);
@@ -279,6 +289,9 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
         // 3. Contact: the proxy is pulled towards the user's pose by the virtual coupling
         //    and held out of the obstacles; the device gets the negated coupling wrench.
         let contact = self.render_contact(&user, &device);
+        if let Some(stage) = &self.contact {
+            work.contact = stage.last_work();
+        }
         let proxy = contact.as_ref().map_or(user, |c| c.proxy);
         let (device_force, device_torque) = contact
             .as_ref()
@@ -293,6 +306,7 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
         // 4. Guidance F_s = k·F_a, faded and bounded.
         let sample = self.guidance_source.latest();
         let g: RenderedGuidance = self.guidance.render(&sample, now_ns);
+        work.guidance_renders += 1;
         self.guidance_age_ns = g.age_ns;
 
         // 5. Sum in the scene frame, rotate to the device frame, apply safety.
@@ -311,6 +325,7 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
             (FaultCode::NONE, Err(_)) => FaultCode::DEVICE_WRITE,
             (f, _) => f,
         };
+        work.device_writes += 1;
 
         // 7. Count and publish.
         if let Some(c) = &contact {
@@ -346,6 +361,8 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
         };
         state_fill::fill(&mut self.state, &results);
         self.sink.publish(&self.state);
+        work.publishes += 1;
+        self.work = work;
         &self.state
     }
 

@@ -91,9 +91,15 @@ struct Floor {
 struct LoopFigures {
     ticks: u64,
     deadline_misses: u64,
+    /// Of them, missed by ticks whose own CPU time passed the period.
+    overruns: u64,
+    /// Of them, missed while the machine had the CPU.
+    preempted: u64,
     wake_latency_us: Percentiles,
     period_us: Percentiles,
     compute_us: Percentiles,
+    /// Compute time by the RT thread's CPU clock.
+    compute_cpu_us: Percentiles,
     guidance_age_us: Percentiles,
     fifo: bool,
     pinned: bool,
@@ -179,9 +185,12 @@ fn measure_round(
     let loop_ = LoopFigures {
         ticks: report.ticks,
         deadline_misses: report.deadline_misses,
+        overruns: report.overruns,
+        preempted: report.preempted,
         wake_latency_us: report.wake_latency_us,
         period_us: report.period_us,
         compute_us: report.compute_us,
+        compute_cpu_us: report.compute_cpu_us,
         guidance_age_us: report.guidance_age_us,
         fifo: report.fifo,
         pinned: report.pinned,
@@ -445,13 +454,15 @@ fn print_table(r: &Report) {
         )
     };
     println!(
-        "haptic loop at {} Hz, priority {}, contact {}, planner {}: {} ticks, {} deadline misses, allocations/tick {}",
+        "haptic loop at {} Hz, priority {}, contact {}, planner {}: {} ticks, {} deadline misses ({} overruns, {} preempted), allocations/tick {}",
         r.rate_hz,
         r.priority,
         r.loop_.contact,
         r.loop_.planner,
         r.loop_.ticks,
         r.loop_.deadline_misses,
+        r.loop_.overruns,
+        r.loop_.preempted,
         r.allocations_per_tick
             .map_or("n/a".into(), |a| a.to_string())
     );
@@ -474,6 +485,7 @@ fn print_table(r: &Report) {
     );
     row("loop period", &r.loop_.period_us);
     row("loop compute", &r.loop_.compute_us);
+    row("loop compute, thread CPU", &r.loop_.compute_cpu_us);
     row("guidance age", &r.loop_.guidance_age_us);
     println!("(wake-ups, period, compute: round {})", r.shown_round + 1);
     for (i, w) in r.round_ratios.iter().enumerate() {

@@ -39,6 +39,7 @@ use haptic_loop::contact::{LEVELS, Resolution};
 use haptic_loop::relay::Relay;
 use haptic_loop::rt;
 use haptic_loop::tick::{GuidanceSource, NoGuidance, NoSink, PrevTiming, StateSink, Tick};
+use haptic_loop::work::TickWork;
 use hdrhistogram::Histogram;
 use ipc_types::ContactCode;
 use ipc_types::services;
@@ -103,7 +104,8 @@ struct Args {
         requires_all = ["newcomer", "paced"]
     )]
     planner: Option<String>,
-    /// Also list the N slowest ticks (wall clock) with what each rendered.
+    /// Also list the N slowest ticks with what each rendered and did (its work counts),
+    /// ranked by the thread's CPU time with --cpu-time, else by the wall clock.
     #[arg(long, default_value_t = 0)]
     slowest: usize,
     /// Write the figures as JSON here.
@@ -129,6 +131,8 @@ struct Report {
     /// The same by the thread's CPU time (with `--cpu-time`).
     cpu_us: Option<Percentiles>,
     points_tested_max: u32,
+    /// The most of each kind of work any one tick did (each kind's own worst tick).
+    work_max: TickWork,
     /// The slowest ticks, slowest first (`--slowest`).
     slowest: Vec<SlowTick>,
     /// Deadlines missed, counted as the loop counts them (with `--paced`).
@@ -154,6 +158,10 @@ struct SlowTick {
     /// Tick number from 1.
     tick: u64,
     compute_us: f64,
+    /// By the thread's CPU clock (with `--cpu-time`).
+    cpu_us: Option<f64>,
+    /// What it did, counted where it was done.
+    work: TickWork,
     /// Level of detail after the tick, and pointshell points the search looked at.
     level: usize,
     points_tested: u32,
@@ -170,6 +178,7 @@ struct Measured {
     cpu_hist: Histogram<u64>,
     in_contact: u64,
     tested_max: u32,
+    work_max: TickWork,
     at_level: [u64; LEVELS],
     max_penetration_m: f64,
 }
@@ -307,6 +316,7 @@ fn main() -> anyhow::Result<()> {
         compute_us: percentiles(&m.hist),
         cpu_us: args.cpu_time.then(|| percentiles(&m.cpu_hist)),
         points_tested_max: m.tested_max,
+        work_max: m.work_max,
         deadline_misses: args.paced.then_some(m.misses),
         slowest: m.slowest,
         planner,
@@ -344,14 +354,26 @@ fn main() -> anyhow::Result<()> {
             );
         }
     }
+    let w = &report.work_max.contact;
+    println!(
+        "most work in one tick, per kind: {} clearance checks, {} compares, {} look-ups, {} searches, {} near passes, {} solves",
+        w.checks, w.compares, w.look_ups, w.searches, w.near_passes, w.solves
+    );
     for t in &report.slowest {
+        let w = &t.work.contact;
         println!(
-            "slow tick {}: {:.1} µs, level {}, {} points tested{}",
+            "slow tick {}: {:.1} µs{}, level {}{}: {} checks, {} compares, {} look-ups, {} searches, {} near passes",
             t.tick,
             t.compute_us,
+            t.cpu_us
+                .map_or(String::new(), |c| format!(" ({c:.1} µs CPU)")),
             t.level,
-            t.points_tested,
-            if t.in_contact { ", in contact" } else { "" }
+            if t.in_contact { ", in contact" } else { "" },
+            w.checks,
+            w.compares,
+            w.look_ups,
+            w.searches,
+            w.near_passes
         );
     }
     if let Some(m) = report.deadline_misses {
@@ -385,6 +407,7 @@ fn run_ticks<G: GuidanceSource, S: StateSink>(
     let mut cpu_hist = hist.clone();
     let mut in_contact = 0u64;
     let mut tested_max = 0u32;
+    let mut work_max = TickWork::default();
     let mut at_level = [0u64; LEVELS];
     // Held while the ticks run (the CPU latency request lives as long as the report).
     let rt = args.paced.then(|| {
@@ -414,7 +437,11 @@ fn run_ticks<G: GuidanceSource, S: StateSink>(
         } else {
             deadline_ns
         };
-        let c0 = if args.cpu_time { thread_cpu_ns() } else { 0 };
+        let c0 = if args.cpu_time {
+            rt::thread_cpu_ns()
+        } else {
+            0
+        };
         let t0 = Instant::now();
         let prev = PrevTiming {
             deadline_misses: misses,
@@ -423,9 +450,14 @@ fn run_ticks<G: GuidanceSource, S: StateSink>(
         let s = *tick.step(now_ns, prev);
         let compute_ns = (t0.elapsed().as_nanos() as u64).max(1);
         hist.saturating_record(compute_ns);
-        if args.cpu_time {
-            cpu_hist.saturating_record(thread_cpu_ns().saturating_sub(c0).max(1));
+        let cpu_ns = args
+            .cpu_time
+            .then(|| rt::thread_cpu_ns().saturating_sub(c0).max(1));
+        if let Some(c) = cpu_ns {
+            cpu_hist.saturating_record(c);
         }
+        let work = *tick.last_work();
+        work_max = work_max.most_of_each(&work);
         let next_ns = deadline_ns + period_ns;
         let end_ns = if args.paced { rt::monotonic_ns() } else { 0 };
         // Overran: skip the deadlines already past, as the loop does.
@@ -442,19 +474,22 @@ fn run_ticks<G: GuidanceSource, S: StateSink>(
             at_level[level] += 1;
         }
         let compute_us = compute_ns as f64 / 1000.0;
-        if slowest.len() < args.slowest || slowest.last().is_some_and(|l| compute_us > l.compute_us)
-        {
-            let at = slowest.partition_point(|t| t.compute_us >= compute_us);
-            slowest.insert(
-                at,
-                SlowTick {
-                    tick: i,
-                    compute_us,
-                    level,
-                    points_tested,
-                    in_contact: touching,
-                },
-            );
+        let cpu_us = cpu_ns.map(|c| c as f64 / 1000.0);
+        // Ranked by CPU time when it is measured: the wall clock's slowest are mostly the
+        // machine's.
+        let rank = |t: &SlowTick| t.cpu_us.unwrap_or(t.compute_us);
+        let this = SlowTick {
+            tick: i,
+            compute_us,
+            cpu_us,
+            work,
+            level,
+            points_tested,
+            in_contact: touching,
+        };
+        if slowest.len() < args.slowest || slowest.last().is_some_and(|l| rank(&this) > rank(l)) {
+            let at = slowest.partition_point(|t| rank(t) >= rank(&this));
+            slowest.insert(at, this);
             slowest.truncate(args.slowest);
         }
     }
@@ -466,6 +501,7 @@ fn run_ticks<G: GuidanceSource, S: StateSink>(
         cpu_hist,
         in_contact,
         tested_max,
+        work_max,
         at_level,
         max_penetration_m: tick.max_penetration_m(),
     })
@@ -518,18 +554,4 @@ fn with_planner<T>(
         state_rate_hz: v["state_rate_hz"].as_f64().unwrap_or(0.0),
     };
     Ok((measured, figures))
-}
-
-/// CPU time of the calling thread, ns.
-fn thread_cpu_ns() -> u64 {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: `ts` is a valid timespec to write; the clock id is a constant Linux knows.
-    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    if rc != 0 {
-        return 0;
-    }
-    ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
 }

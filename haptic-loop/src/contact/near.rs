@@ -23,6 +23,7 @@
 use super::lanes::{LANES, Lanes, axes, lanes};
 use super::pointshell::{Cluster, ClusterGroup, Pointshell};
 use super::voxmap::Voxmap;
+use crate::work::ContactWork;
 
 /// Calls `$m!($args; i: a b, ...)` with the 21 pairs (a, b) of J's rows whose products
 /// JJᵀ's upper triangle sums, at their index i in [`JtJ`](super::jtj::JtJ)'s layout (see `PAIRS`): the
@@ -201,6 +202,7 @@ impl ShellColumns {
     /// keeps its renewed budget, so the next call skips it by a compare and goes on where
     /// this one stopped: a level not searched for a while (every budget used up) is brought
     /// up to date over several ticks instead of in one.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn near_clusters(
         &self,
         group_budgets: &mut [ClusterBudget],
@@ -209,10 +211,12 @@ impl ShellColumns {
         vox: &Voxmap,
         scratch: &mut Scratch,
         max_checks: u32,
+        work: &mut ContactWork,
     ) -> (u32, bool) {
         let mut points = 0;
         let mut count = 0;
         let mut checks = 0;
+        let mut visited = 0;
         let mut whole = true;
         'groups: for (g, (group, budget)) in
             self.groups.iter().zip(group_budgets.iter_mut()).enumerate()
@@ -221,6 +225,7 @@ impl ShellColumns {
                 whole = false;
                 break;
             }
+            visited += 1;
             if !renew(
                 budget,
                 g,
@@ -241,6 +246,7 @@ impl ShellColumns {
                     whole = false;
                     break 'groups;
                 }
+                visited += 1;
                 if renew(budget, index, &cl.centre, cl.radius_m, k, vox, &mut checks) {
                     scratch.near[count] = index as u32;
                     count += 1;
@@ -249,6 +255,9 @@ impl ShellColumns {
             }
         }
         scratch.near_count = count;
+        work.near_passes += 1;
+        work.checks += checks;
+        work.compares += visited - checks;
         (points, whole)
     }
 
@@ -264,9 +273,11 @@ impl ShellColumns {
         pass: &PassParams,
         vox: &Voxmap,
         scratch: &mut Scratch,
+        work: &mut ContactWork,
     ) -> Found {
-        let count = self.candidates(point_budgets, k, scratch);
-        self.look_up(count, point_budgets, k, pass, vox, scratch)
+        let count = self.candidates(point_budgets, k, scratch, work);
+        work.searches += 1;
+        self.look_up(count, point_budgets, k, pass, vox, scratch, work)
     }
 
     /// Renews the budgets of at most `max` of the points [`Self::search`] would look at
@@ -285,18 +296,20 @@ impl ShellColumns {
         scratch: &mut Scratch,
         skip: u32,
         max: u32,
+        work: &mut ContactWork,
     ) -> u32 {
-        let due = self.candidates(point_budgets, k, scratch);
+        let due = self.candidates(point_budgets, k, scratch, work);
         let count = due.min(max as usize);
         if count < due {
             scratch.candidates[..due].rotate_left(skip as usize % due);
         }
-        self.look_up(count, point_budgets, k, pass, vox, scratch);
+        self.look_up(count, point_budgets, k, pass, vox, scratch, work);
         due as u32
     }
 
     /// Steps 2 and 3 over the first `count` candidates in `scratch` (padded to whole
     /// chunks here).
+    #[allow(clippy::too_many_arguments)]
     fn look_up(
         &self,
         count: usize,
@@ -305,8 +318,10 @@ impl ShellColumns {
         pass: &PassParams,
         vox: &Voxmap,
         scratch: &mut Scratch,
+        work: &mut ContactWork,
     ) -> Found {
         let padded = scratch.pad(count);
+        work.look_ups += padded as u32;
         let chunks = Chunks {
             candidates: &scratch.candidates[..padded],
             count,
@@ -333,11 +348,18 @@ impl ShellColumns {
 
     /// Step 1b: lists the points of the near clusters in `scratch` whose budget is used up
     /// and returns their number.
-    fn candidates(&self, point_budgets: &[f64], k: &SearchParams, scratch: &mut Scratch) -> usize {
+    fn candidates(
+        &self,
+        point_budgets: &[f64],
+        k: &SearchParams,
+        scratch: &mut Scratch,
+        work: &mut ContactWork,
+    ) -> usize {
         let moved = k.moved_m;
         let mut count = 0;
         for &c in &scratch.near[..scratch.near_count] {
             let cl = &self.clusters[c as usize];
+            work.compares += cl.end - cl.start;
             // Branch-free: every index is written, and kept by advancing `count`
             // (`count` ≤ the points seen so far, so the write stays in the list).
             let budgets = &point_budgets[cl.start as usize..cl.end as usize];
@@ -713,8 +735,17 @@ mod tests {
             let mut groups = vec![ClusterBudget::default(); shell.groups.len()];
             let mut clusters = vec![ClusterBudget::default(); shell.clusters.len()];
             let mut budgets = vec![0.0; points];
-            shell.near_clusters(&mut groups, &mut clusters, &k, &vox, &mut scratch, u32::MAX);
-            let count = shell.candidates(&budgets, &k, &mut scratch);
+            let work = &mut ContactWork::default();
+            shell.near_clusters(
+                &mut groups,
+                &mut clusters,
+                &k,
+                &vox,
+                &mut scratch,
+                u32::MAX,
+                work,
+            );
+            let count = shell.candidates(&budgets, &k, &mut scratch, work);
             let padded = scratch.pad(count);
             let chunks = Chunks {
                 candidates: &scratch.candidates[..padded],

@@ -9,6 +9,7 @@ use super::{
     Anchor, ContactConfig, ContactError, ContactModel, ContactOutput, Coupling, LEVELS, Probe,
     Resolution, Sample,
 };
+use crate::work::ContactWork;
 use devices::DeviceSpec;
 use ipc_types::ContactCode;
 use nalgebra::{
@@ -50,6 +51,8 @@ pub struct ContactStage {
     /// Changes of the rendered level so far.
     level_changes: u64,
     cache: Coherence,
+    /// What the last step did.
+    work: ContactWork,
 }
 
 impl ContactStage {
@@ -75,6 +78,7 @@ impl ContactStage {
             previous_contacts: 0,
             previous_braking: 0,
             last_tested: 0,
+            work: ContactWork::default(),
         }
     }
 
@@ -101,6 +105,11 @@ impl ContactStage {
     /// those looked up to bring a level up to date for a blend included.
     pub fn last_points_tested(&self) -> u32 {
         self.last_tested
+    }
+
+    /// What the last step did, counted where it was done.
+    pub fn last_work(&self) -> ContactWork {
+        self.work
     }
 
     /// Renders at `resolution` from the next step on (a fixed level starts at once, a
@@ -206,6 +215,7 @@ impl ContactStage {
                 &Vector3::zeros(),
                 &mut cache,
                 |_| Plan::at(level),
+                &mut ContactWork::default(),
             )
             .totals;
         let force: Vector3<f64> = s.wrench.fixed_rows::<3>(0).into_owned();
@@ -262,6 +272,7 @@ impl ContactStage {
         angular_velocity: &Vector3<f64>,
         cache: &mut Coherence,
         plan: impl FnOnce(&mut dyn Levels) -> Plan,
+        work: &mut ContactWork,
     ) -> Found {
         let model = &*self.model;
         let vox = &model.voxmap;
@@ -276,6 +287,7 @@ impl ContactStage {
             plan(&mut |_| 0);
             return Found::default();
         }
+        work.checks += 1;
         cache.object = moved + vox.clearance(&com) - model.radius_m - reach;
         if moved < cache.object {
             plan(&mut |_| 0);
@@ -305,15 +317,16 @@ impl ContactStage {
             renewed: 0,
             k: &k,
             pass: &pass,
+            work,
         };
         let plan = plan(&mut levels);
         levels.near(plan.from);
         levels.near(plan.to);
         let renewed = levels.renewed;
-        let levels = levels.cache;
+        let (levels, work) = (levels.cache, levels.work);
         let mut search = |l: usize| {
             let c = &mut levels[l];
-            model.columns[l].search(&mut c.points, &k, &pass, vox, &mut c.scratch)
+            model.columns[l].search(&mut c.points, &k, &pass, vox, &mut c.scratch, work)
         };
         let mut from = search(plan.from);
         from.tested += renewed;
@@ -356,6 +369,7 @@ impl ContactStage {
         cache.advance(&self.pose, &self.model.com_local, self.model.radius_m);
         let mut levels = self.levels;
         let (resolution, coarsest) = (self.config.resolution, self.coarsest_level);
+        let mut work = ContactWork::default();
         let found = self.sum_contacts(
             &self.pose,
             &self.velocity,
@@ -370,7 +384,9 @@ impl ContactStage {
                     (Resolution::BLEND_S / dt_s).round().max(1.0) as u32,
                 ),
             },
+            &mut work,
         );
+        self.work = work;
         self.level_changes += u64::from(levels.level() != self.levels.level());
         self.levels = levels;
         self.cache = cache;
@@ -406,7 +422,7 @@ impl ContactStage {
     /// Step 3: linearly implicit Euler, `(M + dt·D + dt²·K) u' = (M + dt·D) u + dt·F`, where
     /// F already holds the damping forces at u; zero velocities when the solve fails
     /// (only with non-finite input: stop rather than explode).
-    fn implicit_velocity(&self, s: &Totals, pull: &Pull, dt_s: f64) -> Vector6<f64> {
+    fn implicit_velocity(&mut self, s: &Totals, pull: &Pull, dt_s: f64) -> Vector6<f64> {
         let c = self.coupling;
         let mut force = s.wrench;
         force += stack(&pull.force_n, &pull.torque_nm);
@@ -424,6 +440,7 @@ impl ContactStage {
         let u = stack(&self.velocity, &self.angular_velocity);
         let lhs = mass + damping * dt_s + stiffness * (dt_s * dt_s);
         let rhs = (mass + damping * dt_s) * u + force * dt_s;
+        self.work.solves += 1;
         let u_next = match lhs.cholesky() {
             Some(ch) => ch.solve(&rhs),
             None => Vector6::zeros(),
@@ -546,6 +563,7 @@ struct StageLevels<'a> {
     renewed: u32,
     k: &'a SearchParams,
     pass: &'a PassParams,
+    work: &'a mut ContactWork,
 }
 
 impl StageLevels<'_> {
@@ -561,6 +579,7 @@ impl StageLevels<'_> {
                 &self.model.voxmap,
                 &mut c.scratch,
                 max_checks,
+                self.work,
             );
             self.counts[l] = whole.then_some(points);
         }
@@ -590,6 +609,7 @@ impl Levels for StageLevels<'_> {
             &mut c.scratch,
             skip,
             max,
+            self.work,
         );
         self.renewed += due.min(max);
         due

@@ -178,12 +178,14 @@ impl Progress {
             ""
         };
         format!(
-            "[{:>5.1} s] {planner} | object ({x:.3}, {y:.3}, {z:.3}) m{touching} | F_s {fs:.2} N ({}) | loop: {} ticks/s, wake p99 {:.0} µs, misses {}, fault {}",
+            "[{:>5.1} s] {planner} | object ({x:.3}, {y:.3}, {z:.3}) m{touching} | F_s {fs:.2} N ({}) | loop: {} ticks/s, wake p99 {:.0} µs, cpu max {:.0} µs, misses {} ({} overruns), fault {}",
             s.elapsed_s,
             st.guidance_freshness.name(),
             s.ticks,
             s.wake_p99_us,
+            s.compute_cpu_max_us,
             s.deadline_misses_total,
+            s.overruns_total,
             st.fault.name()
         )
     }

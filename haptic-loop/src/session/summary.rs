@@ -204,7 +204,30 @@ impl fmt::Display for Summary {
             "compute µs:        p50 {:.1}  p99 {:.1}  p99.9 {:.1}  max {:.1}",
             c.p50, c.p99, c.p999, c.max
         )?;
-        writeln!(f, "deadline misses:   {}", self.deadline_misses)?;
+        let cpu = &self.loop_report.compute_cpu_us;
+        writeln!(
+            f,
+            "compute CPU µs:    p50 {:.1}  p99 {:.1}  p99.9 {:.1}  max {:.1}",
+            cpu.p50, cpu.p99, cpu.p999, cpu.max
+        )?;
+        let slow = &self.loop_report.slowest_tick;
+        let w = &slow.work.contact;
+        writeln!(
+            f,
+            "slowest tick:      #{} {:.1} µs CPU ({:.1} µs wall): {} clearance checks, {} compares, {} look-ups, {} levels searched",
+            slow.tick,
+            slow.compute_cpu_us,
+            slow.compute_us,
+            w.checks,
+            w.compares,
+            w.look_ups,
+            w.searches
+        )?;
+        writeln!(
+            f,
+            "deadline misses:   {} ({} overruns: the tick's own CPU time passed the period; {} preempted: the machine's)",
+            self.deadline_misses, self.loop_report.overruns, self.loop_report.preempted
+        )?;
         match &self.contact {
             Some(c) => writeln!(
                 f,
