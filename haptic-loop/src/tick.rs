@@ -10,7 +10,7 @@ use crate::contact::{Anchor, ContactOutput, ContactStage};
 use crate::guidance::{GuidanceConfig, GuidanceFilter, RenderedGuidance};
 use crate::mapping::{Mapping, MappingConfig};
 use crate::safety::{self, Plausibility, Safety, SafetyConfig};
-use crate::work::TickWork;
+use crate::work::{TickWork, WorkCaps};
 use devices::{DeviceError, DeviceSpec, DeviceState, HapticDevice};
 use ipc_types::{ContactCode, FaultCode, Guidance, HapticState};
 use nalgebra::{Isometry3, Vector3};
@@ -244,6 +244,19 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
     /// The state published by the last [`Tick::step`].
     pub fn state(&self) -> &HapticState {
         &self.state
+    }
+
+    /// The most work of each kind one [`Tick::step`] does (see ARCHITECTURE.md, "The
+    /// bounded tick"): once each for the stages that run once, the contact stage's caps at
+    /// this period.
+    pub fn caps(&self) -> WorkCaps {
+        WorkCaps {
+            contact: self
+                .contact
+                .as_ref()
+                .map_or(WorkCaps::WITHOUT_CONTACT.contact, |c| c.caps(self.period_s)),
+            ..WorkCaps::WITHOUT_CONTACT
+        }
     }
 
     /// What the last [`Tick::step`] did, counted where it was done.

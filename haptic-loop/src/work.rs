@@ -69,3 +69,96 @@ impl TickWork {
         }
     }
 }
+
+/// What remains of a tick's caps on the contact search's work while it runs: each near
+/// pass, scan and look-up draws on it, and stops (leaving the rest for later ticks) when
+/// its kind is used up.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Allowance {
+    /// Clearance checks.
+    pub checks: u32,
+    /// Compares.
+    pub compares: u32,
+    /// Look-up lanes.
+    pub look_ups: u32,
+}
+
+impl Allowance {
+    /// No limit (diagnostics and tests of the search alone).
+    pub fn uncapped() -> Self {
+        Self {
+            checks: u32::MAX,
+            compares: u32::MAX,
+            look_ups: u32::MAX,
+        }
+    }
+
+    /// A whole step's allowance under the contact stage's `caps`.
+    pub fn of(caps: &ContactWork) -> Self {
+        Self {
+            checks: caps.checks,
+            compares: caps.compares,
+            look_ups: caps.look_ups,
+        }
+    }
+}
+
+/// The most work of each kind one tick may do (see ARCHITECTURE.md, "The bounded tick").
+/// The contact search keeps to its caps by construction (it stops and leaves the rest to
+/// later ticks, holding the proxy back meanwhile); the other stages run once a tick. Tests
+/// hold every tick's counted work ([`TickWork`]) to these.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct WorkCaps {
+    /// The contact stage's.
+    pub contact: ContactWork,
+    /// Device reads.
+    pub device_reads: u32,
+    /// Guidance renders.
+    pub guidance_renders: u32,
+    /// Device writes.
+    pub device_writes: u32,
+    /// States published.
+    pub publishes: u32,
+}
+
+impl WorkCaps {
+    /// A tick without contact rendering.
+    pub const WITHOUT_CONTACT: Self = Self {
+        contact: ContactWork {
+            checks: 0,
+            compares: 0,
+            look_ups: 0,
+            searches: 0,
+            near_passes: 0,
+            solves: 0,
+        },
+        device_reads: 1,
+        guidance_renders: 1,
+        device_writes: 1,
+        publishes: 1,
+    };
+
+    /// The first kind of work in `work` over its cap, as `(kind, done, cap)`; `None` when
+    /// every count is within its cap.
+    pub fn excess(&self, work: &TickWork) -> Option<(&'static str, u32, u32)> {
+        let (c, w) = (&self.contact, &work.contact);
+        [
+            ("clearance checks", w.checks, c.checks),
+            ("compares", w.compares, c.compares),
+            ("look-ups", w.look_ups, c.look_ups),
+            ("searches", w.searches, c.searches),
+            ("near passes", w.near_passes, c.near_passes),
+            ("solves", w.solves, c.solves),
+            ("device reads", work.device_reads, self.device_reads),
+            (
+                "guidance renders",
+                work.guidance_renders,
+                self.guidance_renders,
+            ),
+            ("device writes", work.device_writes, self.device_writes),
+            ("publishes", work.publishes, self.publishes),
+        ]
+        .into_iter()
+        .find(|(_, done, cap)| done > cap)
+    }
+}

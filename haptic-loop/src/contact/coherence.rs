@@ -21,6 +21,8 @@ pub(super) struct Coherence {
     pub(super) last: Option<Isometry3<f64>>,
     pub(super) object: f64,
     pub(super) levels: Vec<LevelCache>,
+    /// Nothing was recorded since it was made or reset: a reset has nothing to forget.
+    pub(super) fresh: bool,
 }
 
 /// One level of detail's budgets (see [`Coherence`]) and the search's scratch.
@@ -44,20 +46,27 @@ impl Coherence {
                     groups: vec![ClusterBudget::default(); s.groups().len()],
                     clusters: vec![ClusterBudget::default(); s.clusters().len()],
                     points: vec![0.0; s.len()],
-                    scratch: Scratch::with_capacity(s.clusters().len(), s.len()),
+                    scratch: Scratch::with_capacity(s.groups().len(), s.clusters().len(), s.len()),
                 })
                 .collect(),
+            fresh: true,
         }
     }
 
-    /// Forget everything (the object jumped).
+    /// Forget everything (the object jumped). O(points) unless nothing was recorded yet:
+    /// the stage's first step places its proxy and resets a fresh cache, on the RT thread.
     pub(super) fn reset(&mut self) {
+        if self.fresh {
+            return;
+        }
+        self.fresh = true;
         self.motion_m = 0.0;
         self.last = None;
         self.object = 0.0;
         for l in &mut self.levels {
             l.groups.fill(ClusterBudget::default());
             l.clusters.fill(ClusterBudget::default());
+            l.scratch.reset();
             l.points.fill(0.0);
         }
     }
@@ -70,6 +79,7 @@ impl Coherence {
         com_local: &Vector3<f64>,
         radius_m: f64,
     ) {
+        self.fresh = false;
         if let Some(last) = self.last {
             let c0 = last.transform_point(&Point3::from(*com_local));
             let c1 = pose.transform_point(&Point3::from(*com_local));

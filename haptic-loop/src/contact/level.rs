@@ -23,16 +23,18 @@
 //!   tick would check every cluster and look up every point near the surface (a tick of
 //!   150–280 µs on the crossing planes). So a blend starts only once its new level is up to
 //!   date: a capped share of that work is done in each tick before it ([`Levels`]).
-//! * If the points grow past twice the budget in one tick (an object slammed flat onto a
+//! * If the points grow past [`SLAM`] times the budget in one tick (an object slammed flat onto a
 //!   face), the stage goes to the level that fits at once: being on time matters more.
-//!   Between once and twice the budget it stays, over budget, at the level in use
+//!   Between once and SLAM times the budget it stays, over budget, at the level in use
 //!   (searched every tick, so cheaper than a stale one) until the coarser level is up to
 //!   date, then goes there at once.
 //!   With nothing near, nothing is rendered and the level returns to the finest at once.
 //!
 //! [`ShellColumns::near_clusters`]: super::near::ShellColumns::near_clusters
 
+use super::lanes::LANES;
 use super::pointshell::LEVELS;
+use crate::work::ContactWork;
 
 /// How finely the stage renders contact.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -55,14 +57,14 @@ impl Resolution {
     /// How long a change of level is blended, s.
     pub const BLEND_S: f64 = 0.02;
 
-    /// The default budget: 4 000 points per millisecond, down to 4 mm spacing. First
-    /// chosen at 6 000 from `tick-budget --scene` on a 2-core VM (about 11 ns per point
-    /// looked at, AVX2, ticks back to back: 6 000 points about 70 µs); lowered when the
-    /// ticks were paced as the loop paces them (their level changes are a live session's)
-    /// with the newcomer pressing on the crossing planes for a minute: compute p99.9 123 µs at
-    /// 6 000, 87 µs at 4 000 (`tick-budget --scene crossing-planes --newcomer --paced`),
-    /// and 4 of 80 live sessions of the issue-32 sweep above 100 µs at 6 000.
-    pub const DEFAULT: Self = Self::budget(4000.0);
+    /// The default budget: 3 000 points per millisecond, down to 4 mm spacing. It sets the
+    /// tick's caps ([`caps`]), and 3 000 is what keeps their bound within 250 µs at 1 kHz
+    /// with the costs measured with the caches emptied before each tick (ARCHITECTURE.md,
+    /// "The bounded tick"; docs/benchmarks.md). It was 6 000 at first (about 11 ns per
+    /// point looked at, ticks back to back), then 4 000 from the p99.9 of ticks paced as
+    /// the loop paces them (`tick-budget --scene crossing-planes --newcomer --paced`:
+    /// 123 µs at 6 000, 87 µs at 4 000), before the tick's worst case was bounded.
+    pub const DEFAULT: Self = Self::budget(3000.0);
 
     /// The coarsest spacing a budget goes down to by default, m: a few times the features
     /// the built-in scenes' clearances are made of, and where the torque test still holds.
@@ -146,16 +148,17 @@ const REFINE: f64 = 0.25;
 /// level-1 pass, 1 000 checks in 35 µs), so at most about 9 µs a tick.
 pub(super) const WARM_CHECKS: u32 = 256;
 /// Points whose budgets a level about to be blended in may renew in a tick, as a share of
-/// the budget ([`Levels::renew_points`]).
-const WARM_SHARE: f64 = 0.25;
+/// the budget ([`Levels::renew_points`]): a sixteenth, so that renewing fits the look-up
+/// cap beside a level in use at up to [`SLAM`] times the budget.
+const WARM_SHARE: f64 = 1.0 / 16.0;
 /// Ticks of renewing points after which a blend starts even if its level still has more
 /// due points than a share: points within reach are due every tick, and a level with more
 /// of them than a share will never have fewer.
 const WARM_TICKS: u32 = 8;
 /// Over this multiple of the budget the level changes at once, up to date or not (an object
 /// slammed flat onto a face); under it, a level in use stays while the coarser one is
-/// brought up to date.
-const SLAM: f64 = 2.0;
+/// brought up to date. With [`WARM_SHARE`] it sets the look-up cap ([`caps`]).
+pub(super) const SLAM: f64 = 1.25;
 
 /// What [`LevelChooser::plan`] asks of the search about level `l`. Each level's near pass
 /// runs at most once a tick, whichever asks first.
@@ -244,6 +247,7 @@ impl LevelChooser {
         levels: &mut dyn Levels,
         budget: f64,
         coarsest: usize,
+        last_resort: usize,
         blend_ticks: u32,
     ) -> Plan {
         if let Some((to, done)) = self.blend {
@@ -251,7 +255,7 @@ impl LevelChooser {
                 // Both no longer fit: settle at the coarser of the two, or coarser still
                 // if that alone does not fit either.
                 self.blend = None;
-                self.current = fitting(levels, self.current.max(to), budget, coarsest);
+                self.current = fitting(levels, self.current.max(to), budget, coarsest, last_resort);
                 return Plan::at(self.current);
             }
             let done = done + 1;
@@ -267,7 +271,7 @@ impl LevelChooser {
                 alpha: f64::from(done) / f64::from(blend_ticks),
             };
         }
-        let c = self.current.min(coarsest);
+        let c = self.current.min(last_resort.max(coarsest));
         let n = f64::from(levels.near(c));
         if n == 0.0 {
             // Nothing rendered: the finest level costs nothing either.
@@ -284,12 +288,19 @@ impl LevelChooser {
             }
             // Over budget now: no time to blend.
             self.warming = None;
-            self.current = fitting(levels, c, budget, coarsest);
+            self.current = fitting(levels, c, budget, coarsest, last_resort);
             return Plan::at(self.current);
         }
         self.current = c;
         let to = if c < coarsest && n > COARSEN * budget {
             c + 1
+        } else if c > coarsest
+            && levels
+                .near_within(c - 1)
+                .is_some_and(|m| f64::from(m) <= budget)
+        {
+            // Back from the last resort as soon as the spacing's coarsest fits.
+            c - 1
         } else if c > 0
             && n <= REFINE * budget
             && levels
@@ -342,11 +353,57 @@ impl LevelChooser {
 /// The finest level from `level` up to `coarsest` whose near points fit `budget`, by their
 /// counts (each level's near pass; a quarter per level holds on a flat patch, not near
 /// edges and corners, where a level can hold half of the finer one's points or more, and
-/// a tick rendered at a guess could search twice the budget); `coarsest` if none fits.
-fn fitting(levels: &mut dyn Levels, level: usize, budget: f64, coarsest: usize) -> usize {
-    (level..coarsest)
-        .find(|&l| f64::from(levels.near(l)) <= budget)
-        .unwrap_or(coarsest.max(level))
+/// a tick rendered at a guess could search twice the budget). If none fits, `coarsest`
+/// while its points stay within [`SLAM`] times the budget (what a level in use may hold,
+/// see [`caps`]), else `last_resort`: the coarsest level whose points all fit that, past
+/// the spacing `coarsest` keeps to, so that a tick's look-ups stay within their cap
+/// whatever touches.
+fn fitting(
+    levels: &mut dyn Levels,
+    level: usize,
+    budget: f64,
+    coarsest: usize,
+    last_resort: usize,
+) -> usize {
+    if let Some(l) = (level..coarsest).find(|&l| f64::from(levels.near(l)) <= budget) {
+        return l;
+    }
+    let c = coarsest.max(level);
+    if c >= last_resort || f64::from(levels.near(c)) <= SLAM * budget {
+        c
+    } else {
+        last_resort
+    }
+}
+
+/// Clearance checks a tick may make, per point of its budget: 251 at 1 kHz (3 000 points,
+/// with the object's own check).
+const CHECKS_PER_POINT: f64 = 1.0 / 12.0;
+/// Compares a tick may make, per point of its budget: 12 000 at 1 kHz.
+const COMPARES_PER_POINT: f64 = 4.0;
+
+/// The contact stage's caps for a tick of `budget` points (the point budget times the
+/// period; see ARCHITECTURE.md, "The bounded tick"):
+///
+/// * look-ups: a level in use may hold up to [`SLAM`] times the budget while a coarser one
+///   is brought up to date, which renews up to [`WARM_SHARE`] of the budget a tick (a blend
+///   holds at most the budget in both levels, [`fitting`]'s level at most the budget or,
+///   past the spacing's coarsest, SLAM times it), plus the padding of three searches'
+///   last chunks;
+/// * clearance checks and compares: a share of the budget, so that they too scale with the
+///   period;
+/// * two searches (a blend), two near passes a level (a capped one, then the rest), one
+///   solve.
+pub(super) fn caps(budget: f64) -> ContactWork {
+    let budget = budget.max(1.0);
+    ContactWork {
+        checks: (budget * CHECKS_PER_POINT).ceil() as u32 + 1,
+        compares: (budget * COMPARES_PER_POINT).ceil() as u32,
+        look_ups: (SLAM * budget) as u32 + (WARM_SHARE * budget).max(1.0) as u32 + 3 * LANES as u32,
+        searches: 2,
+        near_passes: 2 * LEVELS as u32,
+        solves: 1,
+    }
 }
 
 #[cfg(test)]
@@ -371,7 +428,7 @@ mod tests {
             .collect();
         for &size in &sizes {
             let near = patch(size);
-            let p = c.plan(&mut |l| near[l], budget, 3, 20);
+            let p = c.plan(&mut |l| near[l], budget, 3, 3, 20);
             // Never over budget (both levels while blending), except where even the
             // coarsest level does not fit.
             let cost = f64::from(near[p.from])
@@ -413,16 +470,16 @@ mod tests {
     #[test]
     fn a_patch_over_budget_at_once_jumps_to_the_level_that_fits() {
         let mut c = LevelChooser::default();
-        let p = c.plan(&mut |l| patch(30_000)[l], 4000.0, 3, 20);
+        let p = c.plan(&mut |l| patch(30_000)[l], 4000.0, 3, 3, 20);
         assert_eq!(p, Plan::at(2));
         // The coarsest allowed level caps it.
         let mut c = LevelChooser::default();
         assert_eq!(
-            c.plan(&mut |l| patch(1_000_000)[l], 4000.0, 2, 20),
+            c.plan(&mut |l| patch(1_000_000)[l], 4000.0, 2, 2, 20),
             Plan::at(2)
         );
         // Leaving contact returns to the finest level at once.
-        assert_eq!(c.plan(&mut |_| 0, 4000.0, 2, 20), Plan::at(0));
+        assert_eq!(c.plan(&mut |_| 0, 4000.0, 2, 2, 20), Plan::at(0));
     }
 
     #[test]
@@ -432,17 +489,48 @@ mod tests {
         // nearly twice the budget); the counts say level 3.
         let mut edge = |l: usize| 30_000u32 >> l;
         let mut c = LevelChooser::default();
-        assert_eq!(c.plan(&mut edge, 4000.0, 3, 20), Plan::at(3));
+        assert_eq!(c.plan(&mut edge, 4000.0, 3, 3, 20), Plan::at(3));
         // A blend that no longer fits settles where the points fit.
         let mut c = LevelChooser::at(1);
         let mut small = |l: usize| [800u32, 200, 50, 12][l];
-        let p = c.plan(&mut small, 4000.0, 3, 20);
+        let p = c.plan(&mut small, 4000.0, 3, 3, 20);
         assert_eq!((p.from, p.to), (1, 0), "refining starts a blend");
         let mut grown = |l: usize| [20_000u32, 10_000, 5_000, 2_500][l];
-        assert_eq!(c.plan(&mut grown, 4000.0, 3, 20), Plan::at(3));
+        assert_eq!(c.plan(&mut grown, 4000.0, 3, 3, 20), Plan::at(3));
         // Nothing fits: the coarsest allowed level.
         let mut c = LevelChooser::default();
-        assert_eq!(c.plan(&mut |l| 90_000u32 >> l, 4000.0, 2, 20), Plan::at(2));
+        assert_eq!(
+            c.plan(&mut |l| 90_000u32 >> l, 4000.0, 2, 2, 20),
+            Plan::at(2)
+        );
+    }
+
+    #[test]
+    fn past_twice_the_budget_at_the_coarsest_spacing_the_last_resort_keeps_the_cap() {
+        // A big part pressed flat: 256 000 near points at level 0, 16 000 at level 2 (the
+        // coarsest the spacing allows), 4 000 at level 3. SLAM times the budget is 5 000:
+        // level 2 would break the look-up cap, so the last resort (level 3) renders it.
+        let big = |l: usize| patch(256_000)[l];
+        let mut c = LevelChooser::default();
+        assert_eq!(c.plan(&mut |l| big(l), 4000.0, 2, 3, 20), Plan::at(3));
+        // Staying there while it holds; back to level 2 as soon as level 2 fits the budget.
+        assert_eq!(c.plan(&mut |l| big(l), 4000.0, 2, 3, 20), Plan::at(3));
+        let smaller = |l: usize| patch(200_000)[l];
+        assert_eq!(c.plan(&mut |l| smaller(l), 4000.0, 2, 3, 20), Plan::at(3));
+        let fits = |l: usize| patch(60_000)[l];
+        let p = c.plan(&mut |l| fits(l), 4000.0, 2, 3, 20);
+        assert_eq!(
+            (p.from, p.to),
+            (3, 2),
+            "a blend back to the spacing's coarsest: {p:?}"
+        );
+        // Between the budget and SLAM times it at the coarsest, it stays there (over
+        // budget).
+        let mut c = LevelChooser::at(2);
+        assert_eq!(
+            c.plan(&mut |l| patch(76_000)[l], 4000.0, 2, 3, 20),
+            Plan::at(2)
+        );
     }
 
     /// Levels not searched for a while: level l's near pass gets through only after
@@ -492,17 +580,19 @@ mod tests {
     #[test]
     fn a_blend_starts_once_its_level_is_up_to_date() {
         // Level 0 holds 2 400 near points, over half the budget: coarser. Level 1's near
-        // pass needs 3 capped passes, then 2 500 due points at 1 000 a tick (a quarter of
-        // the budget) leave 500, a share: the blend starts in the 6th tick.
+        // pass needs 3 capped passes, then 1 000 due points at 250 a tick (a sixteenth of
+        // the budget) leave 250, a share, after 3 ticks: the blend starts in the 7th tick.
         let mut levels = Stale::new([2400, 700, 200, 50]);
         levels.passes[1] = 3;
-        levels.due[1] = 2500;
-        levels.in_reach[1] = 300;
+        levels.due[1] = 1000;
+        levels.in_reach[1] = 100;
         let mut c = LevelChooser::default();
-        let plans: Vec<Plan> = (0..6).map(|_| c.plan(&mut levels, 4000.0, 3, 20)).collect();
-        assert_eq!(plans[..5], [Plan::at(0); 5]);
+        let plans: Vec<Plan> = (0..7)
+            .map(|_| c.plan(&mut levels, 4000.0, 3, 3, 20))
+            .collect();
+        assert_eq!(plans[..6], [Plan::at(0); 6]);
         assert_eq!(
-            plans[5],
+            plans[6],
             Plan {
                 from: 0,
                 to: 1,
@@ -513,9 +603,9 @@ mod tests {
         let mut levels = Stale::new([3000, 900, 200, 50]);
         levels.passes[1] = 2;
         let mut c = LevelChooser::at(2);
-        assert_eq!(c.plan(&mut levels, 4000.0, 3, 20), Plan::at(2));
-        assert_eq!(c.plan(&mut levels, 4000.0, 3, 20), Plan::at(2));
-        assert_eq!(c.plan(&mut levels, 4000.0, 3, 20).to, 1);
+        assert_eq!(c.plan(&mut levels, 4000.0, 3, 3, 20), Plan::at(2));
+        assert_eq!(c.plan(&mut levels, 4000.0, 3, 3, 20), Plan::at(2));
+        assert_eq!(c.plan(&mut levels, 4000.0, 3, 3, 20).to, 1);
     }
 
     #[test]
@@ -525,7 +615,7 @@ mod tests {
         levels.in_reach[1] = 1500;
         let mut c = LevelChooser::default();
         let waited = (0..100)
-            .take_while(|_| c.plan(&mut levels, 4000.0, 3, 20) == Plan::at(0))
+            .take_while(|_| c.plan(&mut levels, 4000.0, 3, 3, 20) == Plan::at(0))
             .count();
         assert_eq!(waited as u32, WARM_TICKS - 1);
         assert_eq!(c.level(), 1);
@@ -538,14 +628,14 @@ mod tests {
         let mut levels = Stale::new([5000, 1300, 330, 80]);
         levels.passes[1] = 2;
         let mut c = LevelChooser::default();
-        assert_eq!(c.plan(&mut levels, 4000.0, 3, 20), Plan::at(0));
-        assert_eq!(c.plan(&mut levels, 4000.0, 3, 20), Plan::at(0));
-        assert_eq!(c.plan(&mut levels, 4000.0, 3, 20), Plan::at(1));
-        // 9 000 points (over twice the budget): level 2 (2 200 points) at once.
+        assert_eq!(c.plan(&mut levels, 4000.0, 3, 3, 20), Plan::at(0));
+        assert_eq!(c.plan(&mut levels, 4000.0, 3, 3, 20), Plan::at(0));
+        assert_eq!(c.plan(&mut levels, 4000.0, 3, 3, 20), Plan::at(1));
+        // 9 000 points (over SLAM times the budget): level 2 (2 200 points) at once.
         let mut levels = Stale::new([9000, 4500, 2200, 550]);
         levels.passes = [0, 5, 5, 5];
         let mut c = LevelChooser::default();
-        assert_eq!(c.plan(&mut levels, 4000.0, 3, 20), Plan::at(2));
+        assert_eq!(c.plan(&mut levels, 4000.0, 3, 3, 20), Plan::at(2));
     }
 
     #[test]
@@ -554,7 +644,10 @@ mod tests {
         for _ in 0..100 {
             // Level 1 holds 1 500 points (≤ 0.5 · 4 000), level 0 would hold 6 000
             // (> 0.25 · 4 000): stay.
-            assert_eq!(c.plan(&mut |l| patch(6000)[l], 4000.0, 3, 20), Plan::at(1));
+            assert_eq!(
+                c.plan(&mut |l| patch(6000)[l], 4000.0, 3, 3, 20),
+                Plan::at(1)
+            );
         }
     }
 

@@ -23,7 +23,7 @@
 use super::lanes::{LANES, Lanes, axes, lanes};
 use super::pointshell::{Cluster, ClusterGroup, Pointshell};
 use super::voxmap::Voxmap;
-use crate::work::ContactWork;
+use crate::work::{Allowance, ContactWork};
 
 /// Calls `$m!($args; i: a b, ...)` with the 21 pairs (a, b) of J's rows whose products
 /// JJᵀ's upper triangle sums, at their index i in [`JtJ`](super::jtj::JtJ)'s layout (see `PAIRS`): the
@@ -120,13 +120,35 @@ pub(super) struct ClusterBudget {
     pub near: bool,
 }
 
-/// The search's scratch: the near clusters' and the candidate points' indices. Room for
-/// every cluster and point of the shell, allocated once, so the search never allocates.
+/// The search's scratch: the near clusters' and the candidate points' indices, and what a
+/// near pass keeps for the next (its list and each group's part of it). Room for every
+/// group, cluster and point of the shell, allocated once, so the search never allocates.
 #[derive(Debug, Clone, Default)]
 pub(super) struct Scratch {
     near: Vec<u32>,
     near_count: usize,
+    /// The previous near pass's list (swapped with `near` at each pass).
+    previous: Vec<u32>,
+    /// Per group: where its near clusters are in the list of the pass that wrote it.
+    spans: Vec<Span>,
+    /// Per group: the least budget (`check_at`, m) of its clusters at its last visit of
+    /// them: until the motion total reaches it, none of them is due, and its near clusters
+    /// are the ones it listed then.
+    members_check_at: Vec<f64>,
+    /// Near passes run on this level (their number stamps the spans they write).
+    passes: u32,
     candidates: Vec<u32>,
+}
+
+/// A group's near clusters in a near pass's list.
+#[derive(Debug, Clone, Copy, Default)]
+struct Span {
+    /// The pass that wrote it; only the previous pass's spans index `Scratch::previous`.
+    pass: u32,
+    start: u32,
+    len: u32,
+    /// Points of those clusters.
+    points: u32,
 }
 
 impl Scratch {
@@ -140,13 +162,23 @@ impl Scratch {
         padded
     }
 
-    /// Room for `clusters` clusters and `points` points.
-    pub(super) fn with_capacity(clusters: usize, points: usize) -> Self {
+    /// Room for `groups` groups, `clusters` clusters and `points` points.
+    pub(super) fn with_capacity(groups: usize, clusters: usize, points: usize) -> Self {
         Self {
             near: vec![0; clusters],
             near_count: 0,
+            previous: vec![0; clusters],
+            spans: vec![Span::default(); groups],
+            members_check_at: vec![0.0; groups],
+            passes: 0,
             candidates: vec![0; points.div_ceil(LANES) * LANES],
         }
+    }
+
+    /// Forgets what the passes kept (the budgets were reset: every member is due).
+    pub(super) fn reset(&mut self) {
+        self.near_count = 0;
+        self.members_check_at.fill(0.0);
     }
 }
 
@@ -168,6 +200,11 @@ pub(super) struct Found {
     pub tested: u32,
     /// Points within reach of a surface they face.
     pub near: u32,
+    /// How far past their budgets the object has moved for the points the search and its
+    /// near pass left undone (see [`NearPass::overdue_m`]): 0 when nothing was, infinite
+    /// when near points may have been (a near cluster not scanned, a due point not looked
+    /// up).
+    pub overdue_m: f64,
 }
 
 impl ShellColumns {
@@ -196,12 +233,16 @@ impl ShellColumns {
     /// Step 1a: the groups, then the clusters of near groups, whose budgets in
     /// `group_budgets` and `cluster_budgets` are used up are checked against the voxmap's
     /// clearance and their budgets renewed; the clusters that may be within reach are
-    /// listed in `scratch`. Returns their number of points (what the search looks at, at
-    /// most), and whether the pass got through every group: it stops after `max_checks`
-    /// clearance checks, and only a whole pass lists every near cluster. What it checked
-    /// keeps its renewed budget, so the next call skips it by a compare and goes on where
-    /// this one stopped: a level not searched for a while (every budget used up) is brought
-    /// up to date over several ticks instead of in one.
+    /// listed in `scratch`.
+    ///
+    /// The pass draws on the tick's `allow`ance: at most `max_checks` clearance checks
+    /// (and what the allowance has left), a compare per group and cluster it visits. Past
+    /// the checks it goes on visiting without checking: a due group or cluster then keeps
+    /// what its last check found, and the pass says how far past its budget the object has
+    /// moved ([`NearPass::overdue_m`]); one that was near stays listed. Past the compares
+    /// it stops, and nothing is known of the rest. What it checked keeps its renewed
+    /// budget, so the next call skips it by a compare: a level not searched for a while
+    /// (every budget used up) is brought up to date over several ticks instead of in one.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn near_clusters(
         &self,
@@ -211,61 +252,114 @@ impl ShellColumns {
         vox: &Voxmap,
         scratch: &mut Scratch,
         max_checks: u32,
+        allow: &mut Allowance,
         work: &mut ContactWork,
-    ) -> (u32, bool) {
+    ) -> NearPass {
         let mut points = 0;
         let mut count = 0;
-        let mut checks = 0;
-        let mut visited = 0;
-        let mut whole = true;
+        let mut visit = Visit {
+            max_checks: max_checks.min(allow.checks),
+            checks: 0,
+            compares: 0,
+            max_compares: allow.compares,
+            unchecked: false,
+            overdue_m: 0.0,
+        };
+        // The last pass's list becomes `previous`; this pass writes `near`.
+        std::mem::swap(&mut scratch.near, &mut scratch.previous);
+        scratch.passes = scratch.passes.wrapping_add(1);
+        let (pass, moved) = (scratch.passes, k.moved_m);
+        let mut stopped = false;
         'groups: for (g, (group, budget)) in
             self.groups.iter().zip(group_budgets.iter_mut()).enumerate()
         {
-            if checks >= max_checks {
-                whole = false;
+            let Some(near) = visit.sphere(budget, g, &group.centre, group.radius_m, k, vox) else {
+                stopped = true;
                 break;
+            };
+            let start = count as u32;
+            if !near {
+                // Its members are not visited while it is far: when it is near again they
+                // are, whatever their budgets.
+                scratch.members_check_at[g] = f64::NEG_INFINITY;
+                scratch.spans[g] = Span {
+                    pass,
+                    start,
+                    len: 0,
+                    points: 0,
+                };
+                continue;
             }
-            visited += 1;
-            if !renew(
-                budget,
-                g,
-                &group.centre,
-                group.radius_m,
-                k,
-                vox,
-                &mut checks,
-            ) {
+            let last = scratch.spans[g];
+            if last.pass == pass.wrapping_sub(1) && moved < scratch.members_check_at[g] {
+                // No member is due: its near clusters are those the last pass listed.
+                let from = last.start as usize..(last.start + last.len) as usize;
+                if !visit.compare(last.len) {
+                    stopped = true;
+                    break;
+                }
+                scratch.near[count..count + from.len()].copy_from_slice(&scratch.previous[from]);
+                count += last.len as usize;
+                points += last.points;
+                scratch.spans[g] = Span {
+                    pass,
+                    start,
+                    ..last
+                };
                 continue;
             }
             let range = group.start as usize..group.end as usize;
             let members = self.clusters[range.clone()]
                 .iter()
                 .zip(&mut cluster_budgets[range.clone()]);
+            let mut members_check_at = f64::INFINITY;
+            let mut span_points = 0;
             for (index, (cl, budget)) in range.zip(members) {
-                if checks >= max_checks {
-                    whole = false;
+                let Some(near) = visit.sphere(budget, index, &cl.centre, cl.radius_m, k, vox)
+                else {
+                    stopped = true;
                     break 'groups;
-                }
-                visited += 1;
-                if renew(budget, index, &cl.centre, cl.radius_m, k, vox, &mut checks) {
+                };
+                members_check_at = members_check_at.min(budget.check_at);
+                if near {
                     scratch.near[count] = index as u32;
                     count += 1;
-                    points += cl.end - cl.start;
+                    span_points += cl.end - cl.start;
                 }
             }
+            points += span_points;
+            scratch.members_check_at[g] = members_check_at;
+            scratch.spans[g] = Span {
+                pass,
+                start,
+                len: count as u32 - start,
+                points: span_points,
+            };
         }
         scratch.near_count = count;
         work.near_passes += 1;
-        work.checks += checks;
-        work.compares += visited - checks;
-        (points, whole)
+        work.checks += visit.checks;
+        work.compares += visit.compares;
+        allow.checks -= visit.checks;
+        allow.compares -= visit.compares;
+        NearPass {
+            points,
+            whole: !stopped && !visit.unchecked,
+            overdue_m: if stopped {
+                f64::INFINITY
+            } else {
+                visit.overdue_m
+            },
+        }
     }
 
     /// The search and the force pass over the near clusters [`Self::near_clusters`] listed
     /// in `scratch`: their points whose own budget (`point_budgets`) is used up are looked
     /// up in the voxmap and their budgets renewed; those within reach of a surface they
     /// face go through the force pass ([`force_chunk`]) in the same chunk, with their
-    /// weights.
+    /// weights. Draws on `allow` (a compare per point of the near clusters, a look-up per
+    /// lane); what it leaves undone makes [`Found::overdue_m`] infinite.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn search(
         &self,
         point_budgets: &mut [f64],
@@ -273,11 +367,17 @@ impl ShellColumns {
         pass: &PassParams,
         vox: &Voxmap,
         scratch: &mut Scratch,
+        allow: &mut Allowance,
         work: &mut ContactWork,
     ) -> Found {
-        let count = self.candidates(point_budgets, k, scratch, work);
+        let (due, scanned) = self.candidates(point_budgets, k, scratch, allow, work);
         work.searches += 1;
-        self.look_up(count, point_budgets, k, pass, vox, scratch, work)
+        let count = due.min(lanes_within(allow.look_ups));
+        let mut found = self.look_up(count, point_budgets, k, pass, vox, scratch, allow, work);
+        if !scanned || count < due {
+            found.overdue_m = f64::INFINITY;
+        }
+        found
     }
 
     /// Renews the budgets of at most `max` of the points [`Self::search`] would look at
@@ -286,6 +386,7 @@ impl ShellColumns {
     /// one), and returns how many were due. What they would render is dropped: this brings
     /// a level about to be blended in up to date, so that its first search looks at the
     /// points within reach and not at every point of its near clusters (see `LevelChooser`).
+    /// Draws on `allow` as the search does.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn renew_points(
         &self,
@@ -296,19 +397,20 @@ impl ShellColumns {
         scratch: &mut Scratch,
         skip: u32,
         max: u32,
+        allow: &mut Allowance,
         work: &mut ContactWork,
     ) -> u32 {
-        let due = self.candidates(point_budgets, k, scratch, work);
-        let count = due.min(max as usize);
+        let (due, _) = self.candidates(point_budgets, k, scratch, allow, work);
+        let count = due.min(max as usize).min(lanes_within(allow.look_ups));
         if count < due {
             scratch.candidates[..due].rotate_left(skip as usize % due);
         }
-        self.look_up(count, point_budgets, k, pass, vox, scratch, work);
+        self.look_up(count, point_budgets, k, pass, vox, scratch, allow, work);
         due as u32
     }
 
     /// Steps 2 and 3 over the first `count` candidates in `scratch` (padded to whole
-    /// chunks here).
+    /// chunks here; `count` leaves room for the padding in `allow`).
     #[allow(clippy::too_many_arguments)]
     fn look_up(
         &self,
@@ -318,10 +420,12 @@ impl ShellColumns {
         pass: &PassParams,
         vox: &Voxmap,
         scratch: &mut Scratch,
+        allow: &mut Allowance,
         work: &mut ContactWork,
     ) -> Found {
         let padded = scratch.pad(count);
         work.look_ups += padded as u32;
+        allow.look_ups -= padded as u32;
         let chunks = Chunks {
             candidates: &scratch.candidates[..padded],
             count,
@@ -343,23 +447,33 @@ impl ShellColumns {
             totals: acc.reduce(pass),
             tested: count as u32,
             near: kept,
+            overdue_m: 0.0,
         }
     }
 
     /// Step 1b: lists the points of the near clusters in `scratch` whose budget is used up
-    /// and returns their number.
+    /// and returns their number, and whether every near cluster was scanned: a compare per
+    /// point, while `allow` has them.
     fn candidates(
         &self,
         point_budgets: &[f64],
         k: &SearchParams,
         scratch: &mut Scratch,
+        allow: &mut Allowance,
         work: &mut ContactWork,
-    ) -> usize {
+    ) -> (usize, bool) {
         let moved = k.moved_m;
         let mut count = 0;
+        let mut scanned = 0;
+        let mut whole = true;
         for &c in &scratch.near[..scratch.near_count] {
             let cl = &self.clusters[c as usize];
-            work.compares += cl.end - cl.start;
+            let n = cl.end - cl.start;
+            if scanned + n > allow.compares {
+                whole = false;
+                break;
+            }
+            scanned += n;
             // Branch-free: every index is written, and kept by advancing `count`
             // (`count` ≤ the points seen so far, so the write stays in the list).
             let budgets = &point_budgets[cl.start as usize..cl.end as usize];
@@ -368,7 +482,9 @@ impl ShellColumns {
                 count += usize::from(moved >= *budget);
             }
         }
-        count
+        work.compares += scanned;
+        allow.compares -= scanned;
+        (count, whole)
     }
 
     /// Steps 2 and 3, lane by lane (see the module docs); [`avx2::chunks`] is the same in
@@ -444,26 +560,82 @@ impl ShellColumns {
     }
 }
 
-/// Whether a sphere of `radius_m` about `centre` (object frame) may be within reach, by its
-/// `budget`: when the budget is used up, checked against the voxmap's clearance (counted
-/// in `checks`) and the budget renewed. A near sphere is checked again only after moving
-/// between half a reach and a reach, staggered by its `index` so that the near spheres of
-/// a sliding contact, found together, are not all checked again in one tick: what a near
-/// sphere holds carries its own budgets, so any check interval costs compares, never a
-/// missed contact.
-#[inline(always)]
-fn renew(
-    budget: &mut ClusterBudget,
-    index: usize,
-    centre: &Vector3<f64>,
-    radius_m: f64,
-    k: &SearchParams,
-    vox: &Voxmap,
-    checks: &mut u32,
-) -> bool {
-    let moved = k.moved_m;
-    if moved >= budget.check_at {
-        *checks += 1;
+/// The most points whole chunks of lanes can hold within `look_ups` lanes.
+fn lanes_within(look_ups: u32) -> usize {
+    look_ups as usize / LANES * LANES
+}
+
+/// What one near pass found (see [`ShellColumns::near_clusters`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct NearPass {
+    /// Points of the clusters it listed.
+    pub points: u32,
+    /// Whether it checked every group and cluster whose budget was used up: only then does
+    /// its list hold every cluster that may be within reach.
+    pub whole: bool,
+    /// How far (m, in the budgets' measure of motion) the object has moved past the budget
+    /// of the farthest-overdue group or cluster it left unchecked that was not near at its
+    /// last check; infinite if it stopped before visiting them all. Every point of such a
+    /// group or cluster is at least the reach minus this from the surface (see
+    /// `ContactStage::bound_travel`).
+    pub overdue_m: f64,
+}
+
+/// A near pass's visits of groups and clusters, and what it drew from the allowance.
+struct Visit {
+    max_checks: u32,
+    checks: u32,
+    /// Visits without a check.
+    compares: u32,
+    max_compares: u32,
+    /// Some due group or cluster was left unchecked.
+    unchecked: bool,
+    overdue_m: f64,
+}
+
+impl Visit {
+    /// Draws `n` compares (copying a group's listed clusters), if they are left.
+    fn compare(&mut self, n: u32) -> bool {
+        if self.compares + n > self.max_compares {
+            return false;
+        }
+        self.compares += n;
+        true
+    }
+
+    /// Whether a sphere of `radius_m` about `centre` (object frame) may be within reach,
+    /// by its `budget`: when the budget is used up, checked against the voxmap's clearance
+    /// and the budget renewed, while checks are left; past them, what the last check found.
+    /// `None` once the compares are used up (the sphere is not visited). A near sphere is
+    /// checked again only after moving between half a reach and a reach, staggered by its
+    /// `index` so that the near spheres of a sliding contact, found together, are not all
+    /// checked again in one tick: what a near sphere holds carries its own budgets, so any
+    /// check interval costs compares, never a missed contact.
+    #[inline(always)]
+    fn sphere(
+        &mut self,
+        budget: &mut ClusterBudget,
+        index: usize,
+        centre: &Vector3<f64>,
+        radius_m: f64,
+        k: &SearchParams,
+        vox: &Voxmap,
+    ) -> Option<bool> {
+        let moved = k.moved_m;
+        if moved < budget.check_at || self.checks >= self.max_checks {
+            if self.compares >= self.max_compares {
+                return None;
+            }
+            self.compares += 1;
+            if moved >= budget.check_at {
+                self.unchecked = true;
+                if !budget.near {
+                    self.overdue_m = self.overdue_m.max(moved - budget.check_at);
+                }
+            }
+            return Some(budget.near);
+        }
+        self.checks += 1;
         let centre = k.rotation * centre + k.translation;
         let slack = vox.clearance(&centre) - radius_m - k.reach_m;
         budget.near = slack <= 0.0;
@@ -473,8 +645,8 @@ fn renew(
             } else {
                 slack
             };
+        Some(budget.near)
     }
-    budget.near
 }
 
 /// What steps 2 and 3 work on.
@@ -731,11 +903,13 @@ mod tests {
                 proximity_m: 0.002,
                 release_m: 0.0005,
             };
-            let mut scratch = Scratch::with_capacity(shell.clusters.len(), points);
+            let mut scratch =
+                Scratch::with_capacity(shell.groups.len(), shell.clusters.len(), points);
             let mut groups = vec![ClusterBudget::default(); shell.groups.len()];
             let mut clusters = vec![ClusterBudget::default(); shell.clusters.len()];
             let mut budgets = vec![0.0; points];
             let work = &mut ContactWork::default();
+            let allow = &mut Allowance::uncapped();
             shell.near_clusters(
                 &mut groups,
                 &mut clusters,
@@ -743,9 +917,10 @@ mod tests {
                 &vox,
                 &mut scratch,
                 u32::MAX,
+                allow,
                 work,
             );
-            let count = shell.candidates(&budgets, &k, &mut scratch, work);
+            let (count, _) = shell.candidates(&budgets, &k, &mut scratch, allow, work);
             let padded = scratch.pad(count);
             let chunks = Chunks {
                 candidates: &scratch.candidates[..padded],

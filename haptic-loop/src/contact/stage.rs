@@ -3,13 +3,13 @@
 
 use super::coherence::Coherence;
 use super::coherence::LevelCache;
-use super::level::{LevelChooser, Levels, Plan, WARM_CHECKS};
-use super::near::{Found, PassParams, SearchParams, Totals};
+use super::level::{self, LevelChooser, Levels, Plan, SLAM, WARM_CHECKS};
+use super::near::{Found, NearPass, PassParams, SearchParams, Totals};
 use super::{
     Anchor, ContactConfig, ContactError, ContactModel, ContactOutput, Coupling, LEVELS, Probe,
     Resolution, Sample,
 };
-use crate::work::ContactWork;
+use crate::work::{Allowance, ContactWork};
 use devices::DeviceSpec;
 use ipc_types::ContactCode;
 use nalgebra::{
@@ -53,6 +53,8 @@ pub struct ContactStage {
     cache: Coherence,
     /// What the last step did.
     work: ContactWork,
+    /// Steps whose caps left work on a rendered level for later steps.
+    deferred_steps: u64,
 }
 
 impl ContactStage {
@@ -79,6 +81,7 @@ impl ContactStage {
             previous_braking: 0,
             last_tested: 0,
             work: ContactWork::default(),
+            deferred_steps: 0,
         }
     }
 
@@ -110,6 +113,41 @@ impl ContactStage {
     /// What the last step did, counted where it was done.
     pub fn last_work(&self) -> ContactWork {
         self.work
+    }
+
+    /// Steps so far whose caps left work on a rendered level for later steps (a due
+    /// cluster unchecked, a near cluster unscanned, a due point not looked up): in them the
+    /// proxy travelled at most what keeps every point of that work out of the surface
+    /// (see `bound_travel`).
+    pub fn deferred_steps(&self) -> u64 {
+        self.deferred_steps
+    }
+
+    /// The most work of each kind one step of `dt_s` seconds does (see
+    /// ARCHITECTURE.md, "The bounded tick"): from the point budget at that period; none
+    /// with a fixed level of detail ([`Resolution::Level`] renders every point near the
+    /// surface, whatever it costs).
+    pub fn caps(&self, dt_s: f64) -> ContactWork {
+        match self.config.resolution {
+            Resolution::Level(_) => ContactWork {
+                checks: u32::MAX,
+                compares: u32::MAX,
+                look_ups: u32::MAX,
+                searches: 2,
+                near_passes: 2 * LEVELS as u32,
+                solves: 1,
+            },
+            Resolution::Budget { points_per_ms, .. } => level::caps(points_per_ms * dt_s * 1e3),
+        }
+    }
+
+    /// The coarsest level whose points all fit what a level in use may hold (`SLAM`
+    /// times `budget`), from the spacing's `coarsest` on: where a budget goes when even
+    /// that one holds more near points.
+    fn last_resort(&self, coarsest: usize, budget: f64) -> usize {
+        (coarsest..LEVELS)
+            .find(|&l| self.model.shells[l].len() as f64 <= SLAM * budget)
+            .unwrap_or(LEVELS - 1)
     }
 
     /// Renders at `resolution` from the next step on (a fixed level starts at once, a
@@ -215,6 +253,7 @@ impl ContactStage {
                 &Vector3::zeros(),
                 &mut cache,
                 |_| Plan::at(level),
+                &mut Allowance::uncapped(),
                 &mut ContactWork::default(),
             )
             .totals;
@@ -265,6 +304,7 @@ impl ContactStage {
     /// This is the hot loop of the tick: after the object-level check it runs in
     /// [`ShellColumns::near_clusters`] and [`ShellColumns::search`] (see the `near`
     /// module).
+    #[allow(clippy::too_many_arguments)]
     fn sum_contacts(
         &self,
         pose: &Isometry3<f64>,
@@ -272,6 +312,7 @@ impl ContactStage {
         angular_velocity: &Vector3<f64>,
         cache: &mut Coherence,
         plan: impl FnOnce(&mut dyn Levels) -> Plan,
+        allow: &mut Allowance,
         work: &mut ContactWork,
     ) -> Found {
         let model = &*self.model;
@@ -288,6 +329,7 @@ impl ContactStage {
             return Found::default();
         }
         work.checks += 1;
+        allow.checks = allow.checks.saturating_sub(1);
         cache.object = moved + vox.clearance(&com) - model.radius_m - reach;
         if moved < cache.object {
             plan(&mut |_| 0);
@@ -313,23 +355,29 @@ impl ContactStage {
         let mut levels = StageLevels {
             model,
             cache: &mut cache.levels,
-            counts: [None; LEVELS],
+            passes: [None; LEVELS],
+            runs: [0; LEVELS],
             renewed: 0,
             k: &k,
             pass: &pass,
+            allow,
             work,
         };
         let plan = plan(&mut levels);
         levels.near(plan.from);
         levels.near(plan.to);
+        // What the near passes of the rendered levels left unchecked.
+        let overdue = |p: &Option<NearPass>| p.map_or(0.0, |p| p.overdue_m);
+        let left = overdue(&levels.passes[plan.from]).max(overdue(&levels.passes[plan.to]));
         let renewed = levels.renewed;
-        let (levels, work) = (levels.cache, levels.work);
+        let (levels, allow, work) = (levels.cache, levels.allow, levels.work);
         let mut search = |l: usize| {
             let c = &mut levels[l];
-            model.columns[l].search(&mut c.points, &k, &pass, vox, &mut c.scratch, work)
+            model.columns[l].search(&mut c.points, &k, &pass, vox, &mut c.scratch, allow, work)
         };
         let mut from = search(plan.from);
         from.tested += renewed;
+        from.overdue_m = from.overdue_m.max(left);
         if plan.to == plan.from {
             return from;
         }
@@ -338,6 +386,7 @@ impl ContactStage {
             totals: from.totals.lerp(&to.totals, plan.alpha),
             tested: from.tested + to.tested,
             near: from.near.max(to.near),
+            overdue_m: from.overdue_m.max(to.overdue_m),
         }
     }
     /// One step of `dt_s` towards `anchor`. Allocation-free.
@@ -370,6 +419,13 @@ impl ContactStage {
         let mut levels = self.levels;
         let (resolution, coarsest) = (self.config.resolution, self.coarsest_level);
         let mut work = ContactWork::default();
+        let caps = self.caps(dt_s);
+        let mut allow = Allowance::of(&caps);
+        let budget = match resolution {
+            Resolution::Level(_) => 0.0,
+            Resolution::Budget { points_per_ms, .. } => points_per_ms * dt_s * 1e3,
+        };
+        let last_resort = self.last_resort(coarsest, budget);
         let found = self.sum_contacts(
             &self.pose,
             &self.velocity,
@@ -377,16 +433,19 @@ impl ContactStage {
             &mut cache,
             |near| match resolution {
                 Resolution::Level(_) => Plan::at(levels.level()),
-                Resolution::Budget { points_per_ms, .. } => levels.plan(
+                Resolution::Budget { .. } => levels.plan(
                     near,
-                    points_per_ms * dt_s * 1e3,
+                    budget,
                     coarsest,
+                    last_resort,
                     (Resolution::BLEND_S / dt_s).round().max(1.0) as u32,
                 ),
             },
+            &mut allow,
             &mut work,
         );
         self.work = work;
+        self.deferred_steps += u64::from(found.overdue_m > 0.0);
         self.level_changes += u64::from(levels.level() != self.levels.level());
         self.levels = levels;
         self.cache = cache;
@@ -467,6 +526,11 @@ impl ContactStage {
         } else {
             (self.cache.object - self.cache.motion_m).max(0.0) + self.reach_m() + bound
         };
+        // Work the caps left for later steps (see `NearPass::overdue_m`): its points are
+        // at least the reach less the overdue motion from the surface; travelling no more
+        // than that keeps them out of it. Infinite overdue (near points not looked at)
+        // holds the proxy still.
+        let limit_m = limit_m.min((self.reach_m() - found.overdue_m).max(0.0));
         let travel_m = (u_next.fixed_rows::<3>(0).norm()
             + u_next.fixed_rows::<3>(3).norm() * self.model.radius_m)
             * dt_s;
@@ -553,53 +617,66 @@ impl ContactStage {
 }
 
 /// The levels' near passes and point budgets as one step's level chooser asks for them
-/// ([`Levels`]): each level's near pass at most once, and only for the levels asked for.
+/// ([`Levels`]): each level's near pass once, or twice when a capped one did not get
+/// through and more is asked, and only for the levels asked for; all of them, and the
+/// searches after them, drawing on one allowance for the step.
 struct StageLevels<'a> {
     model: &'a ContactModel,
     cache: &'a mut [LevelCache],
-    /// Near points per level, once its near pass got through this step.
-    counts: [Option<u32>; LEVELS],
+    /// Each level's latest near pass this step.
+    passes: [Option<NearPass>; LEVELS],
+    /// Near passes run per level this step.
+    runs: [u8; LEVELS],
     /// Points looked up only to renew their budgets this step.
     renewed: u32,
     k: &'a SearchParams,
     pass: &'a PassParams,
+    allow: &'a mut Allowance,
     work: &'a mut ContactWork,
 }
 
 impl StageLevels<'_> {
-    /// Level `l`'s near pass this step, of at most `max_checks` clearance checks unless a
-    /// whole one already ran: its near points once it got through.
-    fn near_pass(&mut self, l: usize, max_checks: u32) -> Option<u32> {
-        if self.counts[l].is_none() {
-            let c = &mut self.cache[l];
-            let (points, whole) = self.model.columns[l].near_clusters(
-                &mut c.groups,
-                &mut c.clusters,
-                self.k,
-                &self.model.voxmap,
-                &mut c.scratch,
-                max_checks,
-                self.work,
-            );
-            self.counts[l] = whole.then_some(points);
+    /// Level `l`'s near pass this step, of at most `max_checks` clearance checks: run
+    /// again (going on where the last stopped) only when the last one did not get through,
+    /// checks are left, and it ran once.
+    fn near_pass(&mut self, l: usize, max_checks: u32) -> NearPass {
+        if let Some(p) = self.passes[l]
+            && (p.whole || self.runs[l] >= 2 || self.allow.checks == 0)
+        {
+            return p;
         }
-        self.counts[l]
+        let c = &mut self.cache[l];
+        let p = self.model.columns[l].near_clusters(
+            &mut c.groups,
+            &mut c.clusters,
+            self.k,
+            &self.model.voxmap,
+            &mut c.scratch,
+            max_checks,
+            self.allow,
+            self.work,
+        );
+        self.passes[l] = Some(p);
+        self.runs[l] += 1;
+        p
     }
 }
 
 impl Levels for StageLevels<'_> {
     fn near(&mut self, l: usize) -> u32 {
-        // An uncapped pass always gets through.
-        self.near_pass(l, u32::MAX).unwrap_or(0)
+        self.near_pass(l, u32::MAX).points
     }
 
     fn near_within(&mut self, l: usize) -> Option<u32> {
-        self.near_pass(l, WARM_CHECKS)
+        let p = self.near_pass(l, WARM_CHECKS);
+        p.whole.then_some(p.points)
     }
 
     fn renew_points(&mut self, l: usize, skip: u32, max: u32) -> u32 {
         // The near list in the scratch must be this step's whole one.
-        self.near(l);
+        if !self.near_pass(l, u32::MAX).whole {
+            return u32::MAX;
+        }
         let c = &mut self.cache[l];
         let due = self.model.columns[l].renew_points(
             &mut c.points,
@@ -609,6 +686,7 @@ impl Levels for StageLevels<'_> {
             &mut c.scratch,
             skip,
             max,
+            self.allow,
             self.work,
         );
         self.renewed += due.min(max);

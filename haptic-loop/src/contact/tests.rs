@@ -1037,3 +1037,49 @@ fn a_shell_has_the_mass_properties_of_a_thin_walled_box() {
         );
     }
 }
+
+#[test]
+fn issue_44_work_the_caps_leave_for_later_holds_the_proxy_back() {
+    // The cube turned flat onto the plate and pressed 3 mm past it, at budgets so small
+    // that the caps cut the near passes and the look-ups short on the way: every step keeps
+    // to its caps, steps leave work for later ones, and the proxy is held back meanwhile:
+    // by the exact geometry it never sinks further into the plate than the voxel the
+    // full search allows.
+    let cube = vec![(Pose::IDENTITY, SharedShape::cuboid(0.02, 0.02, 0.02))];
+    let exact = Exact::new(&plane(), &cube);
+    let depth = |st: &mut ContactStage, anchor: &dyn Fn(usize) -> Anchor, check: bool| {
+        let caps = st.caps(0.001);
+        let mut deepest = 0.0_f64;
+        for i in 0..2000 {
+            let out = st.step(&anchor(i), 0.001);
+            let w = st.last_work();
+            assert!(
+                !check
+                    || (w.checks <= caps.checks
+                        && w.compares <= caps.compares
+                        && w.look_ups <= caps.look_ups),
+                "step {i}: {w:?} over {caps:?}"
+            );
+            assert!(out.device_force_n.iter().all(|f| f.is_finite()));
+            if let Some((_, d)) = exact.contact(&out.proxy) {
+                deepest = deepest.max(d);
+            }
+        }
+        deepest
+    };
+    let (mut full, anchor) = cube_turning_flat(Resolution::Level(0), 0.0);
+    let full_depth = depth(&mut full, &anchor, false);
+    assert_eq!(full.deferred_steps(), 0);
+    for points_per_ms in [40.0, 300.0] {
+        let (mut st, anchor) = cube_turning_flat(Resolution::budget(points_per_ms), 0.0);
+        let deepest = depth(&mut st, &anchor, true);
+        eprintln!(
+            "{points_per_ms} points/ms: {} of 2000 steps left work for later, exact depth {:.3} mm (full search {:.3} mm)",
+            st.deferred_steps(),
+            deepest * 1e3,
+            full_depth * 1e3,
+        );
+        assert!(st.deferred_steps() > 0, "the caps never cut a step short");
+        assert!(deepest <= MM, "{points_per_ms} points/ms: {deepest} m deep");
+    }
+}

@@ -96,6 +96,9 @@ pub struct ContactSummary {
     pub level: usize,
     /// Changes of level of detail (the point budget at work).
     pub level_changes: u64,
+    /// Ticks whose work caps left contact work for later ticks (the proxy held back
+    /// meanwhile: see ARCHITECTURE.md, "The bounded tick").
+    pub deferred_ticks: u64,
 }
 
 impl ContactSummary {
@@ -117,6 +120,7 @@ impl ContactSummary {
             voxmap_build_s: report.build_time.as_secs_f64(),
             level: stage.level(),
             level_changes: stage.level_changes(),
+            deferred_ticks: stage.deferred_steps(),
         })
     }
 }
@@ -231,8 +235,14 @@ impl fmt::Display for Summary {
         match &self.contact {
             Some(c) => writeln!(
                 f,
-                "contact:           {:.2} s in contact, max penetration {:.3} mm ({} points, {} mm voxels; level of detail {} at the end, {} changes)",
-                c.contact_s, c.max_penetration_mm, c.points, c.voxel_mm, c.level, c.level_changes
+                "contact:           {:.2} s in contact, max penetration {:.3} mm ({} points, {} mm voxels; level of detail {} at the end, {} changes; {} ticks left work to later ones)",
+                c.contact_s,
+                c.max_penetration_mm,
+                c.points,
+                c.voxel_mm,
+                c.level,
+                c.level_changes,
+                c.deferred_ticks
             )?,
             None => writeln!(f, "contact:           off")?,
         }

@@ -428,6 +428,42 @@ impl Scene {
         }
     }
 
+    /// A generated stand-in for a CAD part as the moving object
+    /// ([`MeshData::cad_like_part`]: 20 040 triangles, open, several components, slivers),
+    /// which must pass a 150 × 120 mm hole in a 20 mm wall of four boxes: it starts yawed
+    /// 90° (160 mm across, so it does not fit) and ends at yaw 0. Not one of the built-in
+    /// scenes (it is not listed): the loop's worst-case tests and `tick-budget --cad-like`
+    /// use it.
+    pub fn cad_like_part_through_wall() -> Scene {
+        let wall = |h: [f64; 3], c: [f64; 3]| Part::axis_box(h, c);
+        Scene {
+            name: "cad-like-part".into(),
+            obstacles: vec![
+                wall([0.01, 0.35, 0.145], [0.0, 0.0, 0.205]),
+                wall([0.01, 0.35, 0.145], [0.0, 0.0, -0.205]),
+                wall([0.01, 0.1375, 0.06], [0.0, 0.2125, 0.0]),
+                wall([0.01, 0.1375, 0.06], [0.0, -0.2125, 0.0]),
+            ],
+            moving_object: vec![Part {
+                primitive: Primitive::Mesh {
+                    mesh: Arc::new(MeshData::cad_like_part()),
+                },
+                pose: Se3::identity(),
+            }],
+            bounds: Bounds {
+                min_m: Vector3::new(-0.3, -0.2, -0.2),
+                max_m: Vector3::new(0.3, 0.2, 0.2),
+            },
+            start: Se3::new(
+                Vector3::new(-0.2, 0.0, 0.0),
+                UnitQuaternion::from_euler_angles(0.0, 0.0, FRAC_PI_2),
+            ),
+            goal: Se3::from_xyz(0.2, 0.0, 0.0),
+            space: SpaceKind::Se3,
+            route: Vec::new(),
+        }
+    }
+
     /// An obstacle-free 0.4 m cube with a small sphere: a trivially easy scene for tests
     /// and for measuring planner overhead without collision cost.
     pub fn free() -> Scene {

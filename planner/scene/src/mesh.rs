@@ -206,6 +206,114 @@ impl MeshData {
     }
 }
 
+impl MeshData {
+    /// A stand-in for a CAD part as exported (for tests and benchmarks of the loop's
+    /// worst case): 20 040 triangles in open components, 160 × 83 × 80 mm about its
+    /// bounding box's centre, metres:
+    ///
+    /// * a housing: a 160 × 80 × 50 mm box without its top, each face cut into 2 mm
+    ///   squares (18 400 triangles, each face a grid of its own: welding on load joins
+    ///   what coincides);
+    /// * a boss under it: a tube of radius 15 mm and height 30 mm, no caps, in 200 facets
+    ///   of one band (slivers 0.47 mm wide and 30 mm long);
+    /// * a disc on its −y face: radius 20 mm, a fan of 600 slivers from its centre;
+    /// * a flange round the open top: two 2 mm wide strips along the long sides, each face
+    ///   of each strip its own component (a sheet exported double-sided, not closed).
+    pub fn cad_like_part() -> Self {
+        let mut v: Vec<Vector3<f64>> = Vec::new();
+        let mut t: Vec<[u32; 3]> = Vec::new();
+        // A grid of `nu` × `nv` squares spanning origin + u·[0, 1] + w·[0, 1], wound so its
+        // normal is u × w.
+        let mut grid =
+            |origin: Vector3<f64>, u: Vector3<f64>, w: Vector3<f64>, nu: u32, nv: u32| {
+                let base = v.len() as u32;
+                for j in 0..=nv {
+                    for i in 0..=nu {
+                        v.push(
+                            origin
+                                + u * (f64::from(i) / f64::from(nu))
+                                + w * (f64::from(j) / f64::from(nv)),
+                        );
+                    }
+                }
+                let at = |i: u32, j: u32| base + j * (nu + 1) + i;
+                for j in 0..nv {
+                    for i in 0..nu {
+                        t.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                        t.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+                    }
+                }
+            };
+        let (hx, hy, h) = (0.08, 0.04, 0.05);
+        let (x, y, z) = (Vector3::x(), Vector3::y(), Vector3::z());
+        // Housing: bottom at z = 0 (normal −z), four walls, open at z = h.
+        grid(
+            Vector3::new(-hx, -hy, 0.0),
+            y * 2.0 * hy,
+            x * 2.0 * hx,
+            40,
+            80,
+        );
+        grid(Vector3::new(-hx, -hy, 0.0), x * 2.0 * hx, z * h, 80, 25);
+        grid(Vector3::new(hx, hy, 0.0), -x * 2.0 * hx, z * h, 80, 25);
+        grid(Vector3::new(hx, -hy, 0.0), y * 2.0 * hy, z * h, 40, 25);
+        grid(Vector3::new(-hx, hy, 0.0), -y * 2.0 * hy, z * h, 40, 25);
+        // Flange strips along the long sides at the rim, top and bottom faces apart.
+        for side in [-1.0, 1.0] {
+            let inner = Vector3::new(-hx, side * hy, h);
+            let out = y * (side * 0.002);
+            grid(inner, x * 2.0 * hx, out, 80, 1);
+            grid(inner + out, x * 2.0 * hx, -out, 80, 1);
+        }
+        // Boss: an open tube below the bottom, one band of 200 facets.
+        let (r, hb, n) = (0.015, 0.03, 200u32);
+        let base = v.len() as u32;
+        for k in 0..n {
+            let a = std::f64::consts::TAU * f64::from(k) / f64::from(n);
+            v.push(Vector3::new(r * a.cos(), r * a.sin(), 0.0));
+            v.push(Vector3::new(r * a.cos(), r * a.sin(), -hb));
+        }
+        for k in 0..n {
+            let (a0, b0) = (base + 2 * k, base + 2 * k + 1);
+            let (a1, b1) = (base + 2 * ((k + 1) % n), base + 2 * ((k + 1) % n) + 1);
+            t.push([a0, b0, b1]);
+            t.push([a0, b1, a1]);
+        }
+        // Disc on the −y face, 1 mm off it: a fan of slivers.
+        let (rd, m) = (0.02, 600u32);
+        let centre = v.len() as u32;
+        v.push(Vector3::new(0.0, -hy - 0.001, 0.5 * h));
+        for k in 0..m {
+            let a = std::f64::consts::TAU * f64::from(k) / f64::from(m);
+            v.push(Vector3::new(
+                rd * a.cos(),
+                -hy - 0.001,
+                0.5 * h + rd * a.sin(),
+            ));
+        }
+        for k in 0..m {
+            t.push([centre, centre + 1 + (k + 1) % m, centre + 1 + k]);
+        }
+        // About the bounding box's centre (z from −30 to 50 mm, y from −41 to 42 mm).
+        let lo = v
+            .iter()
+            .fold(Vector3::repeat(f64::INFINITY), |a, p| a.inf(p));
+        let hi = v
+            .iter()
+            .fold(Vector3::repeat(f64::NEG_INFINITY), |a, p| a.sup(p));
+        let mid = (lo + hi) * 0.5;
+        for p in &mut v {
+            *p -= mid;
+        }
+        MeshData {
+            source: "cad-like-part (generated)".into(),
+            vertices_m: v,
+            triangles: t,
+            repair: None,
+        }
+    }
+}
+
 /// Vertices (file units) and triangles as read, before scaling and validation.
 type RawMesh = (Vec<Vector3<f64>>, Vec<[u32; 3]>);
 
