@@ -64,7 +64,10 @@ impl Resolution {
     /// point looked at, ticks back to back), then 4 000 from the p99.9 of ticks paced as
     /// the loop paces them (`tick-budget --scene crossing-planes --newcomer --paced`:
     /// 123 µs at 6 000, 87 µs at 4 000), before the tick's worst case was bounded.
-    pub const DEFAULT: Self = Self::budget(3000.0);
+    pub const DEFAULT: Self = Self::budget(Self::DEFAULT_POINTS_PER_MS);
+
+    /// The default budget's points per millisecond of tick period.
+    pub const DEFAULT_POINTS_PER_MS: f64 = 3000.0;
 
     /// The coarsest spacing a budget goes down to by default, m: a few times the features
     /// the built-in scenes' clearances are made of, and where the torque test still holds.

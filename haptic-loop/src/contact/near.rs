@@ -350,6 +350,7 @@ impl ShellColumns {
             } else {
                 visit.overdue_m
             },
+            compares: visit.compares,
         }
     }
 
@@ -579,6 +580,8 @@ pub(super) struct NearPass {
     /// group or cluster is at least the reach minus this from the surface (see
     /// `ContactStage::bound_travel`).
     pub overdue_m: f64,
+    /// Compares it drew.
+    pub compares: u32,
 }
 
 /// A near pass's visits of groups and clusters, and what it drew from the allowance.

@@ -637,11 +637,17 @@ struct StageLevels<'a> {
 
 impl StageLevels<'_> {
     /// Level `l`'s near pass this step, of at most `max_checks` clearance checks: run
-    /// again (going on where the last stopped) only when the last one did not get through,
-    /// checks are left, and it ran once.
+    /// again (checking what the last left unchecked) only when the last one visited
+    /// everything but left due groups or clusters unchecked, checks are left, compares
+    /// are left for as many visits, and it ran once: a second pass cut short by the
+    /// compares would list less than the first.
     fn near_pass(&mut self, l: usize, max_checks: u32) -> NearPass {
         if let Some(p) = self.passes[l]
-            && (p.whole || self.runs[l] >= 2 || self.allow.checks == 0)
+            && (p.whole
+                || !p.overdue_m.is_finite()
+                || self.runs[l] >= 2
+                || self.allow.checks == 0
+                || self.allow.compares < p.compares)
         {
             return p;
         }

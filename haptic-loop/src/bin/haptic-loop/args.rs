@@ -96,8 +96,9 @@ pub struct LoopArgs {
     pub voxmap_cache_dir: Option<PathBuf>,
     /// Contact point budget: points near the surface the contact stage may look at per
     /// millisecond of tick period; past it, contact is rendered from a coarser level of
-    /// detail of the object's points (down to 4 mm spacing).
-    #[arg(long, default_value_t = 4000.0)]
+    /// detail of the object's points (down to 4 mm spacing). It also sets the tick's caps
+    /// on contact work (ARCHITECTURE.md, "The bounded tick").
+    #[arg(long, default_value_t = Resolution::DEFAULT_POINTS_PER_MS)]
     pub contact_points_per_ms: f64,
     /// Render contact always at this level of detail (0 = every point, each level about
     /// twice the spacing of the one before), whatever it costs, instead of the budget.
