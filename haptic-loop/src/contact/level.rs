@@ -386,23 +386,28 @@ const CHECKS_PER_POINT: f64 = 1.0 / 12.0;
 const COMPARES_PER_POINT: f64 = 4.0;
 
 /// The contact stage's caps for a tick of `budget` points (the point budget times the
-/// period; see ARCHITECTURE.md, "The bounded tick"):
+/// period; see ARCHITECTURE.md, "The bounded tick") on an object whose coarsest level of
+/// detail has `coarsest_points` points:
 ///
 /// * look-ups: a level in use may hold up to [`SLAM`] times the budget while a coarser one
 ///   is brought up to date, which renews up to [`WARM_SHARE`] of the budget a tick (a blend
 ///   holds at most the budget in both levels, [`fitting`]'s level at most the budget or,
 ///   past the spacing's coarsest, SLAM times it), plus the padding of three searches'
-///   last chunks;
+///   last chunks; and at least the whole coarsest level with a renewal beside it, so that
+///   the last resort always fits (a big part at 4 kHz: the Panda link's 3 500 points at
+///   8 mm against 1 007);
 /// * clearance checks and compares: a share of the budget, so that they too scale with the
 ///   period;
 /// * two searches (a blend), two near passes a level (a capped one, then the rest), one
 ///   solve.
-pub(super) fn caps(budget: f64) -> ContactWork {
+pub(super) fn caps(budget: f64, coarsest_points: u32) -> ContactWork {
     let budget = budget.max(1.0);
+    let share = (WARM_SHARE * budget).max(1.0) as u32;
+    let padding = 3 * LANES as u32;
     ContactWork {
         checks: (budget * CHECKS_PER_POINT).ceil() as u32 + 1,
         compares: (budget * COMPARES_PER_POINT).ceil() as u32,
-        look_ups: (SLAM * budget) as u32 + (WARM_SHARE * budget).max(1.0) as u32 + 3 * LANES as u32,
+        look_ups: ((SLAM * budget) as u32).max(coarsest_points) + share + padding,
         searches: 2,
         near_passes: 2 * LEVELS as u32,
         solves: 1,
@@ -585,7 +590,7 @@ mod tests {
         // Level 0 holds 2 400 near points, over half the budget: coarser. Level 1's near
         // pass needs 3 capped passes, then 1 000 due points at 250 a tick (a sixteenth of
         // the budget) leave 250, a share, after 3 ticks: the blend starts in the 7th tick.
-        let mut levels = Stale::new([2400, 700, 200, 50]);
+        let mut levels = Stale::new([2400, 700, 200, 50, 12]);
         levels.passes[1] = 3;
         levels.due[1] = 1000;
         levels.in_reach[1] = 100;
@@ -603,7 +608,7 @@ mod tests {
             }
         );
         // Refining waits for the finer level's near pass too.
-        let mut levels = Stale::new([3000, 900, 200, 50]);
+        let mut levels = Stale::new([3000, 900, 200, 50, 12]);
         levels.passes[1] = 2;
         let mut c = LevelChooser::at(2);
         assert_eq!(c.plan(&mut levels, 4000.0, 3, 3, 20), Plan::at(2));
@@ -613,7 +618,7 @@ mod tests {
 
     #[test]
     fn a_level_with_more_points_within_reach_than_a_share_blends_after_a_few_ticks() {
-        let mut levels = Stale::new([2400, 1800, 500, 100]);
+        let mut levels = Stale::new([2400, 1800, 500, 100, 25]);
         levels.due[1] = 1800;
         levels.in_reach[1] = 1500;
         let mut c = LevelChooser::default();
@@ -628,15 +633,15 @@ mod tests {
     fn a_little_over_budget_waits_for_the_coarser_level_a_slam_does_not() {
         // 5 000 points against 4 000: level 0 stays while level 1's near pass gets
         // through (2 ticks), then the stage goes to level 1 at once.
-        let mut levels = Stale::new([5000, 1300, 330, 80]);
+        let mut levels = Stale::new([5000, 1300, 330, 80, 20]);
         levels.passes[1] = 2;
         let mut c = LevelChooser::default();
         assert_eq!(c.plan(&mut levels, 4000.0, 3, 3, 20), Plan::at(0));
         assert_eq!(c.plan(&mut levels, 4000.0, 3, 3, 20), Plan::at(0));
         assert_eq!(c.plan(&mut levels, 4000.0, 3, 3, 20), Plan::at(1));
         // 9 000 points (over SLAM times the budget): level 2 (2 200 points) at once.
-        let mut levels = Stale::new([9000, 4500, 2200, 550]);
-        levels.passes = [0, 5, 5, 5];
+        let mut levels = Stale::new([9000, 4500, 2200, 550, 137]);
+        levels.passes = [0, 5, 5, 5, 5];
         let mut c = LevelChooser::default();
         assert_eq!(c.plan(&mut levels, 4000.0, 3, 3, 20), Plan::at(2));
     }

@@ -50,7 +50,7 @@ const CLUSTER_CELLS: f64 = 3.0;
 const GROUP_CLUSTERS: i64 = 8;
 
 /// Number of levels of detail (level 0 is every point).
-pub const LEVELS: usize = 4;
+pub const LEVELS: usize = 5;
 
 /// Points whose normals differ by more than this (30°, as its cosine) are never grouped
 /// into one coarser point.
@@ -673,9 +673,15 @@ mod tests {
                     let i = finer.points().iter().position(|q| q == p).expect("nested");
                     assert_eq!(finer.normals()[i], *nrm);
                 }
-                // Faces make up the box: about a quarter of the points per level.
+                // Faces make up the box: about a quarter of the points per level, while
+                // its smallest face (20 mm) is two cells across or more (at 16 mm its
+                // edges and corners are most of the points).
                 let ratio = finer.len() as f64 / s.len() as f64;
-                assert!((2.5..=4.5).contains(&ratio), "level {level}: ratio {ratio}");
+                if 2.0 * s.spacing_m() <= 0.02 {
+                    assert!((2.5..=4.5).contains(&ratio), "level {level}: ratio {ratio}");
+                } else {
+                    assert!(ratio > 1.0, "level {level}: ratio {ratio}");
+                }
             }
         }
     }

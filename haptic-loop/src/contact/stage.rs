@@ -137,13 +137,17 @@ impl ContactStage {
                 near_passes: 2 * LEVELS as u32,
                 solves: 1,
             },
-            Resolution::Budget { points_per_ms, .. } => level::caps(points_per_ms * dt_s * 1e3),
+            Resolution::Budget { points_per_ms, .. } => level::caps(
+                points_per_ms * dt_s * 1e3,
+                self.model.shells[LEVELS - 1].len() as u32,
+            ),
         }
     }
 
     /// The coarsest level whose points all fit what a level in use may hold (`SLAM`
-    /// times `budget`), from the spacing's `coarsest` on: where a budget goes when even
-    /// that one holds more near points.
+    /// times `budget`), from the spacing's `coarsest` on, else the coarsest of all (whose
+    /// points the look-up cap holds: `level::caps`): where a budget goes when even the
+    /// spacing's coarsest holds more near points.
     fn last_resort(&self, coarsest: usize, budget: f64) -> usize {
         (coarsest..LEVELS)
             .find(|&l| self.model.shells[l].len() as f64 <= SLAM * budget)
