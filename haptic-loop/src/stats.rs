@@ -16,8 +16,8 @@ pub struct TickSample {
     pub wake_latency_ns: u64,
     /// Wake-up to end of the tick's work, ns.
     pub compute_ns: u64,
-    /// CPU time the RT thread used from the end of the previous tick's work to the end of
-    /// this one's, ns: the tick's work and its wake-up, not the time it was preempted.
+    /// CPU time the RT thread used from its wake-up to the end of the tick's work, ns: not
+    /// the time other threads had the CPU.
     pub compute_cpu_ns: u64,
     /// Wake-up minus previous wake-up, ns (0 for the first tick).
     pub period_ns: u64,
