@@ -28,9 +28,6 @@ pub struct TickSample {
     pub guidance_latency_ns: u64,
     /// Deadlines missed at the end of this tick (0 almost always).
     pub missed: u64,
-    /// True when those misses were the tick's own: its CPU time passed the period (an
-    /// overrun). Otherwise the machine took the CPU away (preempted, or woke it late).
-    pub overran: bool,
     /// What the tick did.
     pub work: TickWork,
 }
@@ -70,8 +67,6 @@ pub struct TimingHistograms {
     pub ticks: u64,
     /// Deadlines missed.
     pub deadline_misses: u64,
-    /// Those of them missed by ticks whose CPU time passed the period.
-    pub overruns: u64,
     /// The tick with the most CPU time.
     pub slowest: SlowestTick,
 }
@@ -102,14 +97,6 @@ impl TimingHistograms {
         }
         self.ticks += 1;
         self.deadline_misses += s.missed;
-        if s.overran {
-            self.overruns += s.missed;
-        }
-    }
-
-    /// Deadlines missed while the machine had the CPU (`deadline_misses − overruns`).
-    pub fn preempted(&self) -> u64 {
-        self.deadline_misses - self.overruns
     }
 
     /// Forgets everything.
@@ -174,21 +161,18 @@ mod tests {
     }
 
     #[test]
-    fn misses_are_overruns_only_when_the_tick_used_the_cpu_for_a_period() {
+    fn cpu_time_is_kept_beside_the_wall_clock_with_the_slowest_tick() {
         let mut h = TimingHistograms::default();
-        let tick = |cpu_us: u64, missed: u64, overran: bool| TickSample {
+        let tick = |cpu_us: u64, missed: u64| TickSample {
             compute_ns: 1_500_000,
             compute_cpu_ns: cpu_us * 1000,
             missed,
-            overran,
             ..TickSample::default()
         };
-        h.record(&tick(20, 0, false));
-        h.record(&tick(30, 1, false));
-        h.record(&tick(1200, 2, true));
+        h.record(&tick(20, 0));
+        h.record(&tick(30, 1));
+        h.record(&tick(1200, 2));
         assert_eq!(h.deadline_misses, 3);
-        assert_eq!(h.overruns, 2);
-        assert_eq!(h.preempted(), 1);
         assert_eq!(h.slowest.compute_cpu_us, 1200.0);
         let cpu = h.compute_cpu.percentiles_us();
         assert_eq!(cpu.count, 3);
