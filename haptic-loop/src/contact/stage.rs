@@ -128,8 +128,8 @@ impl ContactStage {
     /// with a fixed level of detail ([`Resolution::Level`] renders every point near the
     /// surface, whatever it costs).
     pub fn caps(&self, dt_s: f64) -> ContactWork {
-        match self.config.resolution {
-            Resolution::Level(_) => ContactWork {
+        match self.budget(dt_s) {
+            None => ContactWork {
                 checks: u32::MAX,
                 compares: u32::MAX,
                 look_ups: u32::MAX,
@@ -137,10 +137,16 @@ impl ContactStage {
                 near_passes: 2 * LEVELS as u32,
                 solves: 1,
             },
-            Resolution::Budget { points_per_ms, .. } => level::caps(
-                points_per_ms * dt_s * 1e3,
-                self.model.shells[LEVELS - 1].len() as u32,
-            ),
+            Some(budget) => level::caps(budget, self.model.shells[LEVELS - 1].len() as u32),
+        }
+    }
+
+    /// Points a step of `dt_s` seconds may render: the point budget times the period;
+    /// `None` with a fixed level of detail.
+    fn budget(&self, dt_s: f64) -> Option<f64> {
+        match self.config.resolution {
+            Resolution::Level(_) => None,
+            Resolution::Budget { points_per_ms, .. } => Some(points_per_ms * dt_s * 1e3),
         }
     }
 
@@ -421,23 +427,20 @@ impl ContactStage {
         let mut cache = std::mem::take(&mut self.cache);
         cache.advance(&self.pose, &self.model.com_local, self.model.radius_m);
         let mut levels = self.levels;
-        let (resolution, coarsest) = (self.config.resolution, self.coarsest_level);
+        let coarsest = self.coarsest_level;
         let mut work = ContactWork::default();
         let caps = self.caps(dt_s);
         let mut allow = Allowance::of(&caps);
-        let budget = match resolution {
-            Resolution::Level(_) => 0.0,
-            Resolution::Budget { points_per_ms, .. } => points_per_ms * dt_s * 1e3,
-        };
-        let last_resort = self.last_resort(coarsest, budget);
+        let budget = self.budget(dt_s);
+        let last_resort = budget.map_or(coarsest, |b| self.last_resort(coarsest, b));
         let found = self.sum_contacts(
             &self.pose,
             &self.velocity,
             &self.angular_velocity,
             &mut cache,
-            |near| match resolution {
-                Resolution::Level(_) => Plan::at(levels.level()),
-                Resolution::Budget { .. } => levels.plan(
+            |near| match budget {
+                None => Plan::at(levels.level()),
+                Some(budget) => levels.plan(
                     near,
                     budget,
                     coarsest,
