@@ -212,7 +212,16 @@ struct Replayed {
     /// Percentiles over the ticks of each tick's least CPU time, µs.
     cpu_us: Percentiles,
     /// The ticks with the largest least CPU time, largest first (`--slowest`).
-    slowest: Vec<SlowTick>,
+    slowest: Vec<ReplayedTick>,
+}
+
+/// A tick of the replayed runs: its least CPU time and its work (the same in every run).
+#[derive(Debug, Clone, Copy, Serialize)]
+struct ReplayedTick {
+    /// Tick number from 1.
+    tick: u64,
+    cpu_us: f64,
+    work: TickWork,
 }
 
 /// What the ticks measured.
@@ -362,14 +371,10 @@ fn main() -> anyhow::Result<()> {
             let slowest = order
                 .iter()
                 .take(args.slowest)
-                .map(|&i| SlowTick {
+                .map(|&i| ReplayedTick {
                     tick: i as u64 + 1,
-                    compute_us: f64::NAN,
-                    cpu_us: Some(least[i].0 as f64 / 1000.0),
+                    cpu_us: least[i].0 as f64 / 1000.0,
                     work: least[i].1,
-                    level: 0,
-                    points_tested: least[i].1.contact.look_ups,
-                    in_contact: false,
                 })
                 .collect();
             Replayed {
@@ -476,13 +481,7 @@ fn main() -> anyhow::Result<()> {
             let w = &t.work.contact;
             println!(
                 "least-of-runs slow tick {}: {:.1} µs CPU: {} checks, {} compares, {} look-ups, {} searches, {} near passes",
-                t.tick,
-                t.cpu_us.unwrap_or(f64::NAN),
-                w.checks,
-                w.compares,
-                w.look_ups,
-                w.searches,
-                w.near_passes
+                t.tick, t.cpu_us, w.checks, w.compares, w.look_ups, w.searches, w.near_passes
             );
         }
     }
