@@ -32,13 +32,16 @@ use parry3d_f64::query::{ClosestPoints, closest_points, contact, intersection_te
 use parry3d_f64::shape::{Compound, SharedShape};
 use scene::pose::Se3;
 use scene::shapes::{part_shapes, to_parry};
+use scene::topology::{MeshKind, Topology};
 use scene::{Bounds, Part, Primitive, Scene};
 use std::cell::Cell;
 
 mod obb_tree;
+mod solid;
 mod triangle_pair;
 
 use obb_tree::ObbTree;
+use solid::Solid;
 
 /// Default edge-validation resolution (weighted m): 5 mm of translation, or 0.05 rad of
 /// rotation with the default weights (no object point moves more than √2·5 ≈ 7 mm between
@@ -94,32 +97,80 @@ impl EdgeCheck {
     }
 }
 
-/// The parts of one side (object or obstacles) as parry sees them.
+/// A primitive part in its own frame, for the mesh–primitive pairs ([`Solid`]).
+#[derive(Debug, Clone, Copy)]
+enum Convex {
+    /// Half extents, m.
+    Box(Vector),
+    /// Radius, m.
+    Ball(f64),
+}
+
+impl Convex {
+    fn of(primitive: &Primitive) -> Option<Self> {
+        match primitive {
+            Primitive::Box { half_extents_m: h } => Some(Convex::Box(Vector::new(h.x, h.y, h.z))),
+            Primitive::Sphere { radius_m } => Some(Convex::Ball(*radius_m)),
+            Primitive::Mesh { .. } => None,
+        }
+    }
+
+    /// The solid with its frame at `pose` in a mesh's frame.
+    fn placed(self, pose: &Pose) -> Solid {
+        match self {
+            Convex::Box(half) => Solid::cuboid(pose, half),
+            Convex::Ball(radius) => Solid::ball(pose, radius),
+        }
+    }
+}
+
+/// The parts of one side (object or obstacles) as the checks see them.
 struct Side {
-    /// Every non-mesh part in one compound; `None` when there are none (parry's
-    /// `Compound::new` panics on an empty list).
+    /// Every non-mesh part in one compound, for parry's primitive–primitive tests; `None`
+    /// when there are none (parry's `Compound::new` panics on an empty list).
     primitives: Option<Compound>,
-    /// Mesh parts (composite shapes may not nest in a compound), each with its
-    /// oriented-box tree when the other side has meshes to test it against (`None`
-    /// otherwise, or when the part fell back to a bounding ball: parry tests those).
-    meshes: Vec<(Pose, SharedShape, Option<ObbTree>)>,
+    /// The same parts one by one, `(pose in the parent frame, primitive)`, each tested in
+    /// a mesh's frame against its tree.
+    convex: Vec<(Pose, Convex)>,
+    /// Mesh parts (composite shapes may not nest in a compound).
+    meshes: Vec<MeshPart>,
+}
+
+/// One mesh part of a side.
+struct MeshPart {
+    /// Pose in the parent frame.
+    pose: Pose,
+    shape: SharedShape,
+    /// Its oriented-box tree (`None` when the part fell back to a bounding ball: parry
+    /// tests those).
+    tree: Option<ObbTree>,
+    /// Closed and outward-wound: a primitive wholly inside it collides with it.
+    solid: bool,
 }
 
 impl Side {
-    fn new(parts: &[Part], trees: bool) -> Self {
+    fn new(parts: &[Part]) -> Self {
         let (mesh_parts, prim_parts): (Vec<Part>, Vec<Part>) = parts
             .iter()
             .cloned()
             .partition(|p| matches!(p.primitive, Primitive::Mesh { .. }));
         let meshes = part_shapes(&mesh_parts)
             .into_iter()
-            .map(|(pose, shape)| {
-                let tree = shape.as_trimesh().filter(|_| trees).map(ObbTree::new);
-                (pose, shape, tree)
+            .zip(&mesh_parts)
+            .map(|((pose, shape), part)| MeshPart {
+                tree: shape.as_trimesh().map(ObbTree::new),
+                shape,
+                pose,
+                solid: matches!(&part.primitive, Primitive::Mesh { mesh }
+                    if Topology::of(mesh).kind() == MeshKind::ClosedOutward),
             })
             .collect();
         Side {
             primitives: (!prim_parts.is_empty()).then(|| Compound::new(part_shapes(&prim_parts))),
+            convex: prim_parts
+                .iter()
+                .filter_map(|p| Some((to_parry(&p.pose), Convex::of(&p.primitive)?)))
+                .collect(),
             meshes,
         }
     }
@@ -130,63 +181,155 @@ impl Side {
 
     /// `(pose in the parent frame, shape)` of each composite piece.
     fn pieces(&self) -> impl Iterator<Item = (Pose, &Shape)> {
-        self.pieces_with_trees().map(|(p, s, _)| (p, s))
+        self.pieces_with_trees()
+            .map(|(p, piece)| (p, piece.shape()))
     }
 
-    /// [`Self::pieces`] with each mesh piece's oriented-box tree.
-    fn pieces_with_trees(&self) -> impl Iterator<Item = (Pose, &Shape, Option<&ObbTree>)> {
+    /// [`Self::pieces`] as the fast pairs see them.
+    fn pieces_with_trees(&self) -> impl Iterator<Item = (Pose, Piece<'_>)> {
         let prim = self
             .primitives
             .iter()
-            .map(|c| (Pose::IDENTITY, c as &Shape, None));
-        prim.chain(
-            self.meshes
-                .iter()
-                .map(|(p, s, t)| (*p, s.as_ref(), t.as_ref())),
-        )
+            .map(|c| (Pose::IDENTITY, Piece::Primitives(c, &self.convex)));
+        prim.chain(self.meshes.iter().map(|m| {
+            (
+                m.pose,
+                Piece::Mesh(m.shape.as_ref(), m.tree.as_ref(), m.solid),
+            )
+        }))
     }
 }
 
 type Shape = dyn parry3d_f64::shape::Shape;
 
-/// One piece of a side at its pose, with its oriented-box tree when it is a mesh.
-type TreePiece<'a> = (&'a Pose, &'a Shape, Option<&'a ObbTree>);
+/// One piece of a side.
+#[derive(Clone, Copy)]
+enum Piece<'a> {
+    /// Every primitive of the side: parry's compound of them, and each one.
+    Primitives(&'a Compound, &'a [(Pose, Convex)]),
+    /// A mesh, with its oriented-box tree when it has one, and whether it is closed
+    /// and outward-wound ([`MeshPart::solid`]).
+    Mesh(&'a Shape, Option<&'a ObbTree>, bool),
+}
+
+impl<'a> Piece<'a> {
+    fn shape(self) -> &'a Shape {
+        match self {
+            Piece::Primitives(c, _) => c as &Shape,
+            Piece::Mesh(s, ..) => s,
+        }
+    }
+}
+
+/// One piece of a side at its pose.
+type TreePiece<'a> = (&'a Pose, Piece<'a>);
+
+/// The primitives `list` (each at `list_pose ·` its pose) in the frame of a mesh at
+/// `mesh_pose`: what the mesh–primitive pairs test against the mesh's tree.
+fn solids_in<'a>(
+    mesh_pose: &'a Pose,
+    list_pose: &'a Pose,
+    list: &'a [(Pose, Convex)],
+) -> impl Iterator<Item = Solid> + 'a {
+    list.iter()
+        .map(move |(p, c)| c.placed(&mesh_pose.inv_mul(&(*list_pose * *p))))
+}
+
+/// The closed mesh `shape` (`solid`) holds `p` (its frame): asked only where no triangle
+/// meets a primitive, which then lies wholly inside or wholly outside.
+fn holds(shape: &Shape, tree: &ObbTree, solid: bool, p: Vector) -> bool {
+    use parry3d_f64::query::PointQuery;
+    solid
+        && tree.box_holds(p)
+        && shape
+            .as_trimesh()
+            .is_some_and(|m| m.contains_local_point(p))
+}
+
+/// The mesh (`shape`, `tree`, `solid`) meets the primitive `s` in its frame: a triangle
+/// meets it, or the closed mesh holds it.
+fn mesh_meets(shape: &Shape, tree: &ObbTree, solid: bool, s: &Solid) -> bool {
+    tree.meets_solid(s) || holds(shape, tree, solid, s.center())
+}
 
 /// The object piece meets the obstacle piece. Two meshes take the simultaneous traversal
-/// of their oriented-box trees ([`obb_tree`]); the rest parry.
-fn pair_intersects(
-    (obj_pose, obj, obj_tree): TreePiece,
-    (obs_pose, obs, obs_tree): TreePiece,
-) -> bool {
-    if let (Some(a), Some(b)) = (obj_tree, obs_tree) {
-        let pose = obj_pose.inv_mul(obs_pose);
-        return a.intersects(b, &Matrix::from_quat(pose.rotation), &pose.translation);
+/// of their oriented-box trees ([`obb_tree`]); a mesh and primitives, each primitive moved
+/// into the mesh's frame against its tree ([`solid`]), and a primitive wholly inside a
+/// closed mesh collides too; the rest parry.
+fn pair_intersects((obj_pose, obj): TreePiece, (obs_pose, obs): TreePiece) -> bool {
+    match (obj, obs) {
+        (Piece::Mesh(_, Some(a), _), Piece::Mesh(_, Some(b), _)) => {
+            let pose = obj_pose.inv_mul(obs_pose);
+            a.intersects(b, &Matrix::from_quat(pose.rotation), &pose.translation)
+        }
+        (Piece::Mesh(shape, Some(tree), solid), Piece::Primitives(_, list)) => {
+            solids_in(obj_pose, obs_pose, list).any(|s| mesh_meets(shape, tree, solid, &s))
+        }
+        (Piece::Primitives(_, list), Piece::Mesh(shape, Some(tree), solid)) => {
+            solids_in(obs_pose, obj_pose, list).any(|s| mesh_meets(shape, tree, solid, &s))
+        }
+        _ => parry_intersects(obj_pose, obj.shape(), obs_pose, obs.shape()),
     }
-    parry_intersects(obj_pose, obj, obs_pose, obs)
 }
 
 /// `min(distance, cap_m)` of two pieces (m). Two meshes take the traversal of their
 /// oriented-box trees (on real CAD pairs 1.5–80× faster than parry's closest points, on
-/// two small bumpy spheres in contact up to 1.5× slower: `mesh-checks`); the rest parry's
-/// closest points.
+/// two small bumpy spheres in contact up to 1.5× slower: `mesh-checks`), a mesh and
+/// primitives the mesh's tree; the rest parry's closest points.
 fn pair_clearance(obj: TreePiece, obs: TreePiece, cap_m: f64) -> f64 {
     pair_clearance_bound(obj, obs, cap_m, 0.0)
 }
 
-/// A lower bound `ℓ` of [`pair_clearance`] with `ℓ·(1 + rel) ≥` it; exact for parry's
-/// pairs (see [`ObbTree::distance_up_to`]).
+/// The nearest distance found `N` (m) with [`pair_clearance`] in `[N / (1 + rel), N]`;
+/// exact for parry's pairs (see [`ObbTree::distance_up_to`]). Undivided, so the search
+/// over the next pairs and primitives goes on below `N`.
 fn pair_clearance_bound(
-    (obj_pose, obj, obj_tree): TreePiece,
-    (obs_pose, obs, obs_tree): TreePiece,
+    (obj_pose, obj): TreePiece,
+    (obs_pose, obs): TreePiece,
     cap_m: f64,
     rel: f64,
 ) -> f64 {
-    if let (Some(a), Some(b)) = (obj_tree, obs_tree) {
-        let pose = obj_pose.inv_mul(obs_pose);
-        let r = Matrix::from_quat(pose.rotation);
-        return a.distance_up_to(b, &r, &pose.translation, cap_m, rel);
+    // The least over a mesh's primitives, each searched below the nearest so far; 0 for
+    // one a closed mesh holds.
+    let nearest =
+        |shape: &Shape, tree: &ObbTree, solid, solids: &mut dyn Iterator<Item = Solid>| {
+            let mut nearest = cap_m;
+            for s in solids {
+                nearest = tree.distance_to_solid_up_to(&s, nearest, rel);
+                if nearest <= 0.0 || holds(shape, tree, solid, s.center()) {
+                    return 0.0;
+                }
+            }
+            nearest
+        };
+    match (obj, obs) {
+        (Piece::Mesh(_, Some(a), _), Piece::Mesh(_, Some(b), _)) => {
+            let pose = obj_pose.inv_mul(obs_pose);
+            let r = Matrix::from_quat(pose.rotation);
+            a.distance_up_to(b, &r, &pose.translation, cap_m, rel)
+        }
+        (Piece::Mesh(shape, Some(tree), solid), Piece::Primitives(_, list)) => {
+            nearest(shape, tree, solid, &mut solids_in(obj_pose, obs_pose, list))
+        }
+        (Piece::Primitives(_, list), Piece::Mesh(shape, Some(tree), solid)) => {
+            nearest(shape, tree, solid, &mut solids_in(obs_pose, obj_pose, list))
+        }
+        _ => parry_clearance(obj_pose, obj.shape(), obs_pose, obs.shape(), cap_m),
     }
-    parry_clearance(obj_pose, obj, obs_pose, obs, cap_m)
+}
+
+/// One piece is a closed mesh that holds a primitive of the other, by parry's point
+/// query: the reference for [`holds`].
+fn parry_holds((p1, a): TreePiece, (p2, b): TreePiece) -> bool {
+    let held = |mesh_pose: &Pose, shape: &Shape, list_pose: &Pose, list: &[(Pose, Convex)]| {
+        list.iter()
+            .any(|(p, _)| shape.contains_point(mesh_pose, (*list_pose * *p).translation))
+    };
+    match (a, b) {
+        (Piece::Mesh(shape, _, true), Piece::Primitives(_, list)) => held(p1, shape, p2, list),
+        (Piece::Primitives(_, list), Piece::Mesh(shape, _, true)) => held(p2, shape, p1, list),
+        _ => false,
+    }
 }
 
 /// `min(distance, cap_m)` of two pieces by parry's GJK closest points (m); an unsupported
@@ -240,17 +383,9 @@ impl CollisionChecker {
         } else {
             DEFAULT_EDGE_RESOLUTION
         };
-        // Trees serve only mesh-against-mesh pairs: none are built when one side has no
-        // mesh (a CAD object among box obstacles).
-        let has_mesh = |parts: &[Part]| {
-            parts
-                .iter()
-                .any(|p| matches!(p.primitive, Primitive::Mesh { .. }))
-        };
-        let mesh_pairs = has_mesh(&scene.obstacles) && has_mesh(&scene.moving_object);
         CollisionChecker {
-            obstacles: Side::new(&scene.obstacles, mesh_pairs),
-            object: Side::new(&scene.moving_object, mesh_pairs),
+            obstacles: Side::new(&scene.obstacles),
+            object: Side::new(&scene.moving_object),
             space: Space::for_scene(scene, weights),
             resolution,
             edge_check: EdgeCheck::default(),
@@ -302,8 +437,12 @@ impl CollisionChecker {
     /// [`Self::clearance_up_to_m`] by parry's closest points for every pair, meshes too:
     /// the reference the mesh distance is checked and measured against. Not counted.
     pub fn clearance_up_to_m_by_parry(&self, q: &Se3, cap_m: f64) -> f64 {
-        self.nearest_pair(q, cap_m, |(p1, s1, _), (p2, s2, _), cap| {
-            parry_clearance(p1, s1, p2, s2, cap)
+        self.nearest_pair(q, cap_m, |a, b, cap| {
+            if parry_holds(a, b) {
+                0.0
+            } else {
+                parry_clearance(a.0, a.1.shape(), b.0, b.1.shape(), cap)
+            }
         })
     }
 
@@ -331,9 +470,11 @@ impl CollisionChecker {
     /// in [`Self::clearance_queries`].
     pub fn clearance_bound_up_to_m(&self, q: &Se3, cap_m: f64) -> f64 {
         self.clearance_queries.set(self.clearance_queries.get() + 1);
+        // Every pair's search goes on below the nearest found so far; the tolerance is
+        // taken off once, at the end.
         self.nearest_pair(q, cap_m, |a, b, cap| {
             pair_clearance_bound(a, b, cap, CERTIFIED_CLEARANCE_REL_TOLERANCE)
-        })
+        }) / (1.0 + CERTIFIED_CLEARANCE_REL_TOLERANCE)
     }
 
     /// True when `q` is inside the bounds and the object does not touch any obstacle.
@@ -355,24 +496,28 @@ impl CollisionChecker {
         if !q.is_finite() || !self.space.contains(q) {
             return false;
         }
-        !self.any_pair(q, |(p1, s1, _), (p2, s2, _)| {
-            parry_intersects(p1, s1, p2, s2)
+        !self.any_pair(q, |a, b| {
+            // The mesh first: parry answers a ball against a mesh by a point query, which
+            // finds an open mesh's inside too; its triangles against the ball do not.
+            let surfaces = match (a.1, b.1) {
+                (Piece::Primitives(..), Piece::Mesh(..)) => {
+                    parry_intersects(b.0, b.1.shape(), a.0, a.1.shape())
+                }
+                _ => parry_intersects(a.0, a.1.shape(), b.0, b.1.shape()),
+            };
+            surfaces || parry_holds(a, b)
         })
     }
 
     /// Some object piece, the object at `q`, and some obstacle piece `meet`.
     fn any_pair(&self, q: &Se3, meet: impl Fn(TreePiece, TreePiece) -> bool) -> bool {
         let at = to_parry(q);
-        self.object
-            .pieces_with_trees()
-            .any(|(obj_pose, obj, obj_tree)| {
-                let obj_pose = at * obj_pose;
-                self.obstacles
-                    .pieces_with_trees()
-                    .any(|(obs_pose, obs, obs_tree)| {
-                        meet((&obj_pose, obj, obj_tree), (&obs_pose, obs, obs_tree))
-                    })
-            })
+        self.object.pieces_with_trees().any(|(obj_pose, obj)| {
+            let obj_pose = at * obj_pose;
+            self.obstacles
+                .pieces_with_trees()
+                .any(|(obs_pose, obs)| meet((&obj_pose, obj), (&obs_pose, obs)))
+        })
     }
 
     /// The least `clearance` (capped at the nearest so far, starting at `cap_m`) over the
@@ -389,15 +534,11 @@ impl CollisionChecker {
         }
         let at = to_parry(q);
         let mut nearest = cap_m;
-        for (obj_pose, obj, obj_tree) in self.object.pieces_with_trees() {
+        for (obj_pose, obj) in self.object.pieces_with_trees() {
             let obj_pose = at * obj_pose;
-            for (obs_pose, obs, obs_tree) in self.obstacles.pieces_with_trees() {
+            for (obs_pose, obs) in self.obstacles.pieces_with_trees() {
                 // Searching only below the nearest so far prunes the later pairs too.
-                let d = clearance(
-                    (&obj_pose, obj, obj_tree),
-                    (&obs_pose, obs, obs_tree),
-                    nearest,
-                );
+                let d = clearance((&obj_pose, obj), (&obs_pose, obs), nearest);
                 if d.is_nan() || d <= 0.0 {
                     return 0.0;
                 }
@@ -1022,6 +1163,119 @@ mod tests {
             "{hits} of {poses}"
         );
         assert!(loose > 10, "{loose}");
+    }
+
+    #[test]
+    fn mesh_primitive_pairs_give_parrys_verdicts() {
+        // A bumpy mesh moving among boxes and balls, boxes and a ball moving about a mesh,
+        // and meshes with primitives on both sides, at random poses around contact: each
+        // primitive tested in the mesh's frame against its tree says what parry's
+        // composite test says, pose for pose, with the same capped clearances.
+        use scene::MeshData;
+        use std::sync::Arc;
+        let mesh = |m: MeshData, at: [f64; 3]| Part {
+            primitive: Primitive::Mesh { mesh: Arc::new(m) },
+            pose: Se3::from_xyz(at[0], at[1], at[2]),
+        };
+        let ball = |r: f64, at: [f64; 3]| Part {
+            primitive: Primitive::Sphere { radius_m: r },
+            pose: Se3::from_xyz(at[0], at[1], at[2]),
+        };
+        let tilted = |h: [f64; 3], at: [f64; 3], rpy: [f64; 3]| Part {
+            primitive: Primitive::Box {
+                half_extents_m: Vector3::from(h),
+            },
+            pose: Se3::new(
+                Vector3::from(at),
+                UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2]),
+            ),
+        };
+        let walls = vec![
+            tilted([0.01, 0.2, 0.05], [0.0, 0.0, 0.08], [0.0, 0.0, 0.0]),
+            tilted([0.01, 0.03, 0.03], [0.02, 0.0, -0.03], [0.3, 0.5, 0.7]),
+            ball(0.02, [-0.04, 0.05, 0.0]),
+        ];
+        let mut scene = Scene::free();
+        scene.bounds = Bounds {
+            min_m: Vector3::repeat(-1.0),
+            max_m: Vector3::repeat(1.0),
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(21);
+        let (mut hits, mut poses) = (0, 0);
+        for (case, (obstacles, object)) in [
+            // A CAD-like part (open, slivers) among boxes and a ball.
+            (
+                walls.clone(),
+                vec![mesh(MeshData::bumpy_sphere("b", 0.04, 14, 28), [0.0; 3])],
+            ),
+            (
+                walls.clone(),
+                vec![mesh(
+                    double_sided(MeshData::cuboid("plate", [0.05, 0.004, 0.02])),
+                    [0.01, 0.0, 0.0],
+                )],
+            ),
+            // Primitives moving about a mesh.
+            (
+                vec![mesh(
+                    MeshData::bumpy_sphere("a", 0.05, 16, 32),
+                    [0.0, 0.0, 0.01],
+                )],
+                vec![
+                    tilted([0.03, 0.005, 0.01], [0.0; 3], [0.1, 0.2, 0.3]),
+                    ball(0.01, [0.0, 0.02, 0.0]),
+                ],
+            ),
+            // Both kinds on both sides.
+            (
+                [
+                    walls.clone(),
+                    vec![mesh(
+                        MeshData::cuboid("c", [0.01, 0.01, 0.01]),
+                        [0.03, -0.03, 0.0],
+                    )],
+                ]
+                .concat(),
+                vec![
+                    mesh(MeshData::bumpy_sphere("b", 0.02, 8, 16), [0.0; 3]),
+                    tilted([0.02, 0.002, 0.002], [0.03, 0.0, 0.0], [0.0; 3]),
+                ],
+            ),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            scene.obstacles = obstacles;
+            scene.moving_object = object;
+            let c = CollisionChecker::new(&scene);
+            for i in 0..1500 {
+                let dir = Vector3::new(rng.random(), rng.random(), rng.random()) * 2.0
+                    - Vector3::repeat(1.0);
+                let pos = dir.normalize() * rng.random_range(0.0..0.1);
+                let q = Se3::new(pos, crate::space::uniform_rotation(&mut rng));
+                let ours = c.is_free(&q);
+                assert_eq!(ours, c.is_free_by_parry(&q), "case {case} at {q:?}");
+                for cap in [0.005, 0.05].into_iter().filter(|_| i % 3 == 0) {
+                    let (d, by_parry) = (
+                        c.clearance_up_to_m(&q, cap),
+                        c.clearance_up_to_m_by_parry(&q, cap),
+                    );
+                    assert!((d - by_parry).abs() < 1e-9, "{d} vs {by_parry} at {q:?}");
+                    let bound = c.clearance_bound_up_to_m(&q, cap);
+                    let widen = 1.0 + CERTIFIED_CLEARANCE_REL_TOLERANCE;
+                    assert!(
+                        bound <= d + 1e-12 && bound * widen >= d - 1e-9,
+                        "{bound} {d}"
+                    );
+                }
+                hits += usize::from(!ours);
+                poses += 1;
+            }
+        }
+        assert!(
+            hits > poses / 5 && hits < poses * 4 / 5,
+            "{hits} of {poses}"
+        );
     }
 
     #[test]

@@ -13,6 +13,7 @@
 //! points, so intersection and distance answers do not change, and such meshes would
 //! otherwise test every pair four times.
 
+use super::solid::Solid;
 use parry3d_f64::math::{Matrix, Vector};
 use parry3d_f64::shape::TriMesh;
 use std::collections::HashSet;
@@ -22,11 +23,11 @@ const LEAF_TRIANGLES: usize = 1;
 
 /// An oriented box: `center` + `axes · (x, y, z)` for |x| ≤ half.x …, in the mesh frame.
 #[derive(Debug, Clone, Copy)]
-struct Obb {
-    center: Vector,
+pub struct Obb {
+    pub center: Vector,
     /// Orthonormal columns.
-    axes: Matrix,
-    half: Vector,
+    pub axes: Matrix,
+    pub half: Vector,
 }
 
 #[derive(Debug, Clone)]
@@ -119,13 +120,15 @@ impl ObbTree {
         false
     }
 
-    /// A lower bound `ℓ` of `min(distance between the two meshes' surfaces, cap_m)` (m)
-    /// with `ℓ·(1 + rel) ≥` it, `other` placed as in [`Self::intersects`]; 0 when they
-    /// intersect; exact for `rel = 0`. Node pairs are visited nearer first and pruned once
-    /// their boxes' gap (a lower bound of their distance) times `1 + rel` reaches the
-    /// nearest distance found `N`, so every pruned pair is at least `N / (1 + rel)` apart:
-    /// a relative tolerance prunes far more pairs when the meshes are far apart, where an
-    /// exact distance must rule out every pair of nearly the same distance.
+    /// The nearest distance found `N` (m) with `min(distance between the two meshes'
+    /// surfaces, cap_m)` in `[N / (1 + rel), N]`, `other` placed as in
+    /// [`Self::intersects`]; 0 when they intersect; exact for `rel = 0`. Node pairs are
+    /// visited nearer first and pruned once their boxes' gap (a lower bound of their
+    /// distance) times `1 + rel` reaches `N`, so every pruned pair is at least
+    /// `N / (1 + rel)` apart: a relative tolerance prunes far more pairs when the meshes
+    /// are far apart, where an exact distance must rule out every pair of nearly the same
+    /// distance. `N` is returned undivided, so the search over several pairs can go on
+    /// below it and divide once at the end.
     pub fn distance_up_to(
         &self,
         other: &ObbTree,
@@ -189,7 +192,81 @@ impl ObbTree {
                 }
             }
         }
-        nearest / widen
+        nearest
+    }
+}
+
+impl ObbTree {
+    /// The mesh meets `solid` (a box or a ball in this mesh's frame): the solid against
+    /// each box on the way down, against triangles only at the leaves it reaches.
+    pub fn meets_solid(&self, solid: &Solid) -> bool {
+        if self.nodes.is_empty() {
+            return false;
+        }
+        let mut stack = Vec::with_capacity(64);
+        stack.push(0u32);
+        while let Some(i) = stack.pop() {
+            let n = &self.nodes[i as usize];
+            if !solid.meets_box(&n.obb) {
+                continue;
+            }
+            if n.count > 0 {
+                let leaf = &self.triangles[n.first as usize..(n.first + n.count) as usize];
+                if leaf.iter().any(|t| solid.meets_triangle(t)) {
+                    return true;
+                }
+            } else {
+                stack.extend([n.second, n.first]);
+            }
+        }
+        false
+    }
+
+    /// `p` (this mesh's frame) lies in the box holding the whole mesh: the cheap test
+    /// before asking whether a closed mesh holds a point.
+    pub fn box_holds(&self, p: Vector) -> bool {
+        self.nodes.first().is_some_and(|n| {
+            let local = n.obb.axes.transpose() * (p - n.obb.center);
+            local.abs().cmple(n.obb.half).all()
+        })
+    }
+
+    /// The nearest distance found `N` (m) with `min(distance from the mesh to solid,
+    /// cap_m)` in `[N / (1 + rel), N]`; 0 when they meet; exact for `rel = 0`. Nearer
+    /// boxes first, pruned as in [`Self::distance_up_to`].
+    pub fn distance_to_solid_up_to(&self, solid: &Solid, cap_m: f64, rel: f64) -> f64 {
+        let widen = 1.0 + rel.max(0.0);
+        if self.nodes.is_empty() {
+            return cap_m;
+        }
+        if self.meets_solid(solid) {
+            return 0.0;
+        }
+        let mut nearest = cap_m;
+        let mut stack = Vec::with_capacity(64);
+        stack.push((0u32, solid.gap_to_box(&self.nodes[0].obb)));
+        while let Some((i, g)) = stack.pop() {
+            if g * widen >= nearest {
+                continue;
+            }
+            let n = &self.nodes[i as usize];
+            if n.count > 0 {
+                for t in &self.triangles[n.first as usize..(n.first + n.count) as usize] {
+                    nearest = nearest.min(solid.triangle_distance(t));
+                }
+                continue;
+            }
+            let [c0, c1] =
+                [n.first, n.second].map(|c| (c, solid.gap_to_box(&self.nodes[c as usize].obb)));
+            // The nearer child on top, so it is searched first and tightens the bound.
+            let (near, far) = if c0.1 <= c1.1 { (c0, c1) } else { (c1, c0) };
+            for c in [far, near] {
+                if c.1 * widen < nearest {
+                    stack.push(c);
+                }
+            }
+        }
+        nearest
     }
 }
 
@@ -308,7 +385,7 @@ const EPS: f64 = 1e-12;
 
 /// The boxes `a` (frame 1) and `b` (frame 2, `x1 = r·x2 + t`) overlap: no separating axis
 /// among the 15 of Gottschalk's test.
-fn overlap(a: &Obb, b: &Obb, r: &Matrix, t: &Vector) -> bool {
+pub fn overlap(a: &Obb, b: &Obb, r: &Matrix, t: &Vector) -> bool {
     // b's axes and centre in a's box frame.
     let at = a.axes.transpose();
     let m = at * (*r * b.axes);
@@ -350,7 +427,7 @@ fn overlap(a: &Obb, b: &Obb, r: &Matrix, t: &Vector) -> bool {
 
 /// A lower bound of the distance between the boxes (m): their largest gap along the 15
 /// axes of [`overlap`] (0 when they overlap along all of them).
-fn gap(a: &Obb, b: &Obb, r: &Matrix, t: &Vector) -> f64 {
+pub fn gap(a: &Obb, b: &Obb, r: &Matrix, t: &Vector) -> f64 {
     let at = a.axes.transpose();
     let m = at * (*r * b.axes);
     let d = at * (*r * b.center + *t - a.center);

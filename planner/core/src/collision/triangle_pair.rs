@@ -41,7 +41,7 @@ pub(super) fn disjoint_triangle_distance(a: &[Vector; 3], b: &[Vector; 3]) -> f6
 }
 
 /// The point of triangle `t` nearest to `p` (Ericson §5.1.5, by Voronoi regions).
-fn closest_on_triangle(p: Vector, t: &[Vector; 3]) -> Vector {
+pub(super) fn closest_on_triangle(p: Vector, t: &[Vector; 3]) -> Vector {
     let [a, b, c] = *t;
     let (ab, ac, ap) = (b - a, c - a, p - a);
     let (d1, d2) = (ab.dot(ap), ac.dot(ap));
@@ -86,7 +86,7 @@ fn closest_on_triangle(p: Vector, t: &[Vector; 3]) -> Vector {
 }
 
 /// Squared distance between the segments `p1 q1` and `p2 q2` (Ericson §5.1.9).
-fn segments_distance_squared(p1: Vector, q1: Vector, p2: Vector, q2: Vector) -> f64 {
+pub(super) fn segments_distance_squared(p1: Vector, q1: Vector, p2: Vector, q2: Vector) -> f64 {
     let (d1, d2, r) = (q1 - p1, q2 - p2, p1 - p2);
     let (a, e, f) = (d1.length_squared(), d2.length_squared(), d2.dot(r));
     const TINY: f64 = 1e-30;
