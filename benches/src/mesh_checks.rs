@@ -1,8 +1,10 @@
 //! Per-check cost against triangle count for the `mesh-checks` harness: a bumpy closed
 //! sphere (non-convex, star-shaped) as the moving object against another as the obstacle,
-//! at random poses around contact, both meshes of about the same triangle count; or the two
-//! meshes of a scene file (one mesh obstacle, one mesh object: e.g. a CAD puzzle converted
-//! by `benches/cad/convert.py`) at random poses in its bounds.
+//! at random poses around contact, both meshes of about the same triangle count; the sphere
+//! moving against a box and a box moving against the sphere (the mesh–primitive pairs); or
+//! the parts of a scene file with a mesh (e.g. a CAD puzzle converted by
+//! `benches/cad/convert.py`, or a CAD link passing a hole in boxes) at random poses in its
+//! bounds.
 
 use planner::{CollisionChecker, Scene, Se3, Weights};
 use rand::{Rng, SeedableRng};
@@ -48,6 +50,76 @@ pub fn two_spheres(triangles: usize) -> Scene {
         space: SpaceKind::Se3,
         route: Vec::new(),
     }
+}
+
+/// Which pair of the generated cases: the two spheres, or one sphere and a box.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pair {
+    /// A bumpy sphere against another.
+    MeshMesh,
+    /// The bumpy sphere moving against a box obstacle.
+    MeshBox,
+    /// A box moving against the bumpy sphere.
+    BoxMesh,
+}
+
+impl Pair {
+    /// Every pair, in table order.
+    pub const ALL: [Pair; 3] = [Pair::MeshMesh, Pair::MeshBox, Pair::BoxMesh];
+
+    /// `mesh-mesh`, `mesh-box`, `box-mesh` (the CLI spelling).
+    pub fn name(self) -> &'static str {
+        match self {
+            Pair::MeshMesh => "mesh-mesh",
+            Pair::MeshBox => "mesh-box",
+            Pair::BoxMesh => "box-mesh",
+        }
+    }
+
+    /// The CLI spelling back.
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|p| p.name() == s)
+    }
+}
+
+/// Half extents of the box of the mesh–box pairs (m): a plate 80 × 60 × 20 mm, so the
+/// centre distances of [`poses`] put it in contact with the sphere about half the time.
+pub const BOX_HALF_M: [f64; 3] = [0.04, 0.03, 0.01];
+
+/// The scene of `pair` at about `triangles` triangles per mesh: a bumpy sphere at the
+/// origin as the obstacle and the moving object about it.
+pub fn pair_scene(pair: Pair, triangles: usize) -> Scene {
+    let mesh = |mesh: MeshData| Part {
+        primitive: Primitive::Mesh {
+            mesh: Arc::new(mesh),
+        },
+        pose: Se3::identity(),
+    };
+    let plate = || Part::axis_box(BOX_HALF_M, [0.0; 3]);
+    let (obstacle, object) = match pair {
+        Pair::MeshMesh => (
+            mesh(bumpy_sphere_of(triangles)),
+            mesh(bumpy_sphere_of(triangles)),
+        ),
+        Pair::MeshBox => (plate(), mesh(bumpy_sphere_of(triangles))),
+        Pair::BoxMesh => (mesh(bumpy_sphere_of(triangles)), plate()),
+    };
+    let mut scene = two_spheres(triangles);
+    scene.name = format!("{}-{triangles}", pair.name());
+    scene.obstacles = vec![obstacle];
+    scene.moving_object = vec![object];
+    scene
+}
+
+/// The triangles of a scene's meshes, object and obstacles.
+pub fn mesh_triangles(parts: &[Part]) -> usize {
+    parts
+        .iter()
+        .map(|p| match &p.primitive {
+            Primitive::Mesh { mesh } => mesh.triangles.len(),
+            _ => 0,
+        })
+        .sum()
 }
 
 /// Per-check cost at one mesh size.
@@ -96,9 +168,23 @@ pub const CELLS_HEADER: &str = "colliding | is_free µs | parry's mesh test µs 
     clearance (≤ 5 mm) µs | parry's clearance µs | clearance (≤ 50 mm) µs | \
     certification's bound (≤ 50 mm) µs";
 
-/// `poses` random poses with the centres 0.085–0.115 m apart (the spheres' radii sum to
-/// 0.1 m ± their bumps: about half collide), random orientations, seed fixed.
+/// `poses` random poses about the obstacle at the origin, random orientations, seed
+/// fixed, with the centres apart by what puts about half of `pair`'s in collision: 0.085–
+/// 0.115 m for two spheres (their radii sum to 0.1 m ± their bumps), 0.05–0.1 m for the
+/// sphere and the plate.
+pub fn poses_for(pair: Pair, poses: usize) -> Vec<Se3> {
+    match pair {
+        Pair::MeshMesh => poses_between(poses, 0.085, 0.115),
+        Pair::MeshBox | Pair::BoxMesh => poses_between(poses, 0.05, 0.1),
+    }
+}
+
+/// [`poses_for`] the two spheres.
 pub fn poses(poses: usize) -> Vec<Se3> {
+    poses_for(Pair::MeshMesh, poses)
+}
+
+fn poses_between(poses: usize, near_m: f64, far_m: f64) -> Vec<Se3> {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     (0..poses)
         .map(|_| {
@@ -120,54 +206,56 @@ pub fn poses(poses: usize) -> Vec<Se3> {
                     rng.random_range(-1.0..1.0),
                 ) * PI,
             );
-            Se3::new(dir * rng.random_range(0.085..0.115), rot)
+            Se3::new(dir * rng.random_range(near_m..far_m), rot)
         })
         .collect()
 }
 
 /// Times `is_free` (and parry's test of the same) and the capped clearance over `poses` at
-/// about `triangles` triangles. Panics if the two tests disagree on a pose, or the two
-/// clearances by more than 1 nm: a wrong fast test must not report a time.
-pub fn measure(triangles: usize, poses: &[Se3], repeats: usize) -> MeshPoint {
-    measure_scene(&two_spheres(triangles), poses, repeats)
-        .expect("two_spheres makes one mesh obstacle and one mesh object")
+/// about `triangles` triangles per mesh of `pair`. Panics if the two tests disagree on a
+/// pose, or the two clearances by more than 1 nm: a wrong fast test must not report a
+/// time.
+pub fn measure(pair: Pair, triangles: usize, poses: &[Se3], repeats: usize) -> MeshPoint {
+    measure_scene(&pair_scene(pair, triangles), poses, repeats).expect("every pair has a mesh")
 }
 
-/// The obstacle and the object of a scene made of one mesh each, the obstacle where its
-/// mesh was given (identity pose); `None` for any other scene.
-pub fn mesh_pair(scene: &Scene) -> Option<(&MeshData, &MeshData)> {
-    let ([obstacle], [object]) = (&scene.obstacles[..], &scene.moving_object[..]) else {
-        return None;
-    };
-    match (&obstacle.primitive, &object.primitive) {
-        (Primitive::Mesh { mesh: a }, Primitive::Mesh { mesh: b })
-            if obstacle.pose == Se3::identity() =>
-        {
-            Some((a, b))
+/// The box (scene frame, m) that holds the obstacle part `part`.
+fn part_box(part: &Part) -> (nalgebra::Vector3<f64>, nalgebra::Vector3<f64>) {
+    let points: Vec<nalgebra::Vector3<f64>> = match &part.primitive {
+        Primitive::Mesh { mesh } => mesh
+            .vertices_m
+            .iter()
+            .map(|v| part.pose.transform_point(v))
+            .collect(),
+        Primitive::Box { half_extents_m: h } => (0..8)
+            .map(|i| {
+                let s = |bit: u32| if i & (1 << bit) == 0 { -1.0 } else { 1.0 };
+                part.pose.transform_point(&nalgebra::Vector3::new(
+                    s(0) * h.x,
+                    s(1) * h.y,
+                    s(2) * h.z,
+                ))
+            })
+            .collect(),
+        Primitive::Sphere { radius_m } => {
+            let r = nalgebra::Vector3::repeat(*radius_m);
+            vec![part.pose.pos - r, part.pose.pos + r]
         }
-        _ => None,
-    }
+    };
+    let first = points.first().copied().unwrap_or_default();
+    points
+        .iter()
+        .fold((first, first), |(a, b), p| (a.inf(p), b.sup(p)))
 }
 
 /// `n` configurations drawn as the planner draws them (position uniform in the bounds,
 /// rotation uniform), seed fixed; with `near`, only those whose object's bounding sphere
-/// reaches into the obstacle's bounding box, where a check must descend the trees.
+/// reaches into the box of an obstacle part, where a check must descend the trees.
 pub fn scene_poses(scene: &Scene, n: usize, near: bool) -> Vec<Se3> {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let (lo, hi) = (scene.bounds.min_m, scene.bounds.max_m);
     let reach = scene.object_radius_m();
-    let (box_lo, box_hi) = mesh_pair(scene).map_or(
-        (
-            nalgebra::Vector3::repeat(f64::MIN),
-            nalgebra::Vector3::repeat(f64::MAX),
-        ),
-        |(obstacle, _)| {
-            let v = &obstacle.vertices_m;
-            let first = v.first().copied().unwrap_or_default();
-            v.iter()
-                .fold((first, first), |(a, b), p| (a.inf(p), b.sup(p)))
-        },
-    );
+    let boxes: Vec<_> = scene.obstacles.iter().map(part_box).collect();
     let mut out = Vec::with_capacity(n);
     // Bounded, so a scene whose obstacle lies outside its bounds ends with fewer poses
     // instead of looping.
@@ -182,20 +270,29 @@ pub fn scene_poses(scene: &Scene, n: usize, near: bool) -> Vec<Se3> {
                 lo[i]
             }
         });
-        let gap = (box_lo - p)
-            .sup(&(p - box_hi))
-            .sup(&nalgebra::Vector3::zeros());
-        if !near || gap.norm() <= reach {
+        let reaches = |(box_lo, box_hi): &(nalgebra::Vector3<f64>, nalgebra::Vector3<f64>)| {
+            let gap = (box_lo - p)
+                .sup(&(p - box_hi))
+                .sup(&nalgebra::Vector3::zeros());
+            gap.norm() <= reach
+        };
+        if !near || boxes.iter().any(reaches) {
             out.push(Se3::new(p, planner::space::uniform_rotation(&mut rng)));
         }
     }
     out
 }
 
-/// [`measure`] on any scene of one mesh obstacle and one mesh object (`None` otherwise);
-/// `triangles` reports the obstacle's count.
+/// [`measure`] on any scene with a mesh (`None` otherwise); `triangles` reports the
+/// obstacles' count, or the object's when the obstacles have none.
 pub fn measure_scene(scene: &Scene, poses: &[Se3], repeats: usize) -> Option<MeshPoint> {
-    let (obstacle, _) = mesh_pair(scene)?;
+    let triangles = match mesh_triangles(&scene.obstacles) {
+        0 => mesh_triangles(&scene.moving_object),
+        n => n,
+    };
+    if triangles == 0 {
+        return None;
+    }
     let c = CollisionChecker::with_params(scene, Weights::default(), 0.005);
     let free: Vec<bool> = poses.iter().map(|q| c.is_free(q)).collect();
     assert!(
@@ -226,7 +323,7 @@ pub fn measure_scene(scene: &Scene, poses: &[Se3], repeats: usize) -> Option<Mes
         t.elapsed().as_secs_f64() * 1e6 / (repeats * poses.len()).max(1) as f64
     };
     Some(MeshPoint {
-        triangles: obstacle.triangles.len(),
+        triangles,
         poses: poses.len(),
         colliding: colliding as f64 / poses.len().max(1) as f64,
         is_free_us: time(&|q| c.is_free(q)),
@@ -263,7 +360,7 @@ mod tests {
         // The obstacle sphere's box is within 0.055 m of the origin.
         assert!(near.iter().all(|q| q.pos.amax() <= 0.055 + reach + 1e-12));
         assert!(uniform.iter().any(|q| q.pos.amax() > 0.055 + reach));
-        // Only pairs of one mesh each are measured.
+        // Only scenes with a mesh are measured.
         assert!(measure_scene(&Scene::wall_with_hole(), &near, 1).is_none());
         let p = measure_scene(&scene, &near, 1).expect("two meshes");
         assert!(p.colliding > 0.0 && p.far_bound_us > 0.0);
@@ -271,8 +368,19 @@ mod tests {
 
     #[test]
     fn about_half_the_poses_collide() {
-        let p = measure(500, &poses(200), 1);
-        assert!((0.2..0.8).contains(&p.colliding), "{}", p.colliding);
-        assert!(p.is_free_us > 0.0 && p.clearance_us > 0.0);
+        for pair in Pair::ALL {
+            let p = measure(pair, 500, &poses_for(pair, 200), 1);
+            assert!(
+                (0.2..0.8).contains(&p.colliding),
+                "{pair:?}: {}",
+                p.colliding
+            );
+            assert!(p.is_free_us > 0.0 && p.clearance_us > 0.0);
+            assert_eq!(Pair::parse(pair.name()), Some(pair));
+        }
+        // The box–mesh pairs meet a box and a mesh.
+        let s = pair_scene(Pair::BoxMesh, 500);
+        assert_eq!(mesh_triangles(&s.moving_object), 0);
+        assert!(mesh_triangles(&s.obstacles) > 400);
     }
 }

@@ -1,10 +1,10 @@
 //! Mesh checks: the cost of one collision check and of one capped clearance query between
-//! two closed bumpy spheres against their triangle count, as a table, JSON and a log–log
-//! PNG.
+//! two closed bumpy spheres, and between such a sphere and a box either way round, against
+//! their triangle count, as a table, JSON and a log–log PNG.
 //!
 //! `cargo build --release -p benches && target/release/mesh-checks --png docs/mesh-checks.png`;
-//! `--scene FILE` measures a scene's own pair of meshes instead (e.g. a CAD puzzle converted
-//! by `benches/cad/convert.py`).
+//! `--scene FILE` measures a scene's own parts instead (e.g. a CAD puzzle converted by
+//! `benches/cad/convert.py`, or a CAD link among boxes written by `benches/cad/rtb_scenes.py`).
 
 use anyhow::{Context, bail};
 use benches::mesh_checks::{self, MeshPoint};
@@ -12,7 +12,7 @@ use benches::scaling::{loglog_slope, plot_loglog};
 use clap::Parser;
 use std::path::{Path, PathBuf};
 
-/// Per-check cost against triangle count, mesh against mesh.
+/// Per-check cost against triangle count, mesh against mesh and mesh against box.
 #[derive(Debug, Parser)]
 struct Args {
     /// Triangles per mesh, comma-separated.
@@ -38,36 +38,57 @@ struct Args {
     /// for a reference library to check and time the same cases (`benches/coal/run.py`).
     #[arg(long, value_name = "DIR")]
     export: Option<PathBuf>,
-    /// Measure these scenes (files or built-in names, comma-separated; each one mesh
-    /// obstacle and one mesh object) at poses drawn in their bounds, instead of the
-    /// spheres at `--triangles`.
+    /// Measure these scenes (files or built-in names, comma-separated; each with a mesh)
+    /// at poses drawn in their bounds, instead of the generated pairs at `--triangles`.
     #[arg(long, value_delimiter = ',', value_name = "SCENE")]
     scene: Vec<String>,
+    /// The generated pairs (comma-separated): `mesh-mesh` (two bumpy spheres), `mesh-box`
+    /// (the sphere moving against a box), `box-mesh` (a box moving against the sphere).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "mesh-mesh,mesh-box,box-mesh"
+    )]
+    pairs: Vec<String>,
 }
 
 /// `cases.json` of `--export`.
 #[derive(serde::Serialize)]
 struct Cases {
-    /// Object poses in the obstacle's frame: x, y, z (m), qw, qx, qy, qz (for every case
-    /// without its own).
-    poses: Vec<[f64; 7]>,
     sizes: Vec<Case>,
 }
 
 #[derive(serde::Serialize)]
 struct Case {
-    /// What the row is (a mesh size, or a scene and its pose set).
+    /// What the row is (a pair and its mesh size, or a scene and its pose set).
     label: String,
     triangles: usize,
-    /// This case's own poses, as `Cases::poses`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    poses: Option<Vec<[f64; 7]>>,
-    obstacle_obj: String,
-    object_obj: String,
+    /// The object's poses in the scene frame: x, y, z (m), qw, qx, qy, qz.
+    poses: Vec<[f64; 7]>,
+    /// The obstacle's parts, scene frame.
+    obstacle: Vec<PartOut>,
+    /// The moving object's parts, object frame.
+    object: Vec<PartOut>,
     /// Our verdict per pose.
     colliding: Vec<bool>,
     is_free_us: f64,
     parry_us: f64,
+}
+
+/// One part as `cases.json` gives it: a mesh (OBJ file), a box or a sphere at a pose.
+#[derive(serde::Serialize)]
+struct PartOut {
+    /// `mesh`, `box` or `sphere`.
+    kind: &'static str,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    obj: Option<String>,
+    /// Half extents of a box, m.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    half_extents_m: Option<[f64; 3]>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    radius_m: Option<f64>,
+    /// x, y, z (m), qw, qx, qy, qz.
+    pose: [f64; 7],
 }
 
 fn pose_row(q: &planner::Se3) -> [f64; 7] {
@@ -76,35 +97,57 @@ fn pose_row(q: &planner::Se3) -> [f64; 7] {
     ]
 }
 
-/// Writes a pair's meshes as OBJ into `dir`, returning the obstacle's and the object's
-/// file names.
-fn export_pair(dir: &Path, stem: &str, scene: &planner::Scene) -> anyhow::Result<[String; 2]> {
-    let Some((obstacle, object)) = mesh_checks::mesh_pair(scene) else {
-        bail!(
-            "scene `{}` is not one mesh obstacle and one mesh object",
-            scene.name
-        );
-    };
-    let mut names = [String::new(), String::new()];
-    for (name, (role, mesh)) in names
-        .iter_mut()
-        .zip([("obstacle", obstacle), ("object", object)])
-    {
-        *name = format!("{role}-{stem}.obj");
-        std::fs::write(dir.join(&*name), mesh.to_obj())
-            .with_context(|| format!("writing {}", dir.join(&*name).display()))?;
+/// Writes the scene's mesh parts as OBJ into `dir` (names from `stem`) and describes every
+/// part: the obstacle's and the object's.
+fn export_parts(
+    dir: &Path,
+    stem: &str,
+    scene: &planner::Scene,
+) -> anyhow::Result<[Vec<PartOut>; 2]> {
+    use scene::Primitive;
+    let mut out = [Vec::new(), Vec::new()];
+    for (list, (role, parts)) in out.iter_mut().zip([
+        ("obstacle", &scene.obstacles),
+        ("object", &scene.moving_object),
+    ]) {
+        for (i, part) in parts.iter().enumerate() {
+            let mut p = PartOut {
+                kind: "mesh",
+                obj: None,
+                half_extents_m: None,
+                radius_m: None,
+                pose: pose_row(&part.pose),
+            };
+            match &part.primitive {
+                Primitive::Mesh { mesh } => {
+                    let name = format!("{role}-{stem}-{i}.obj");
+                    std::fs::write(dir.join(&name), mesh.to_obj())
+                        .with_context(|| format!("writing {}", dir.join(&name).display()))?;
+                    p.obj = Some(name);
+                }
+                Primitive::Box { half_extents_m: h } => {
+                    p.kind = "box";
+                    p.half_extents_m = Some([h.x, h.y, h.z]);
+                }
+                Primitive::Sphere { radius_m } => {
+                    p.kind = "sphere";
+                    p.radius_m = Some(*radius_m);
+                }
+            }
+            list.push(p);
+        }
     }
-    Ok(names)
+    Ok(out)
 }
 
-/// `--scene`: each scene's pair at poses drawn uniformly in its bounds and at those near
-/// the obstacle.
+/// `--scene`: each scene's parts at poses drawn uniformly in its bounds and at those near
+/// an obstacle.
 fn scenes(args: &Args) -> anyhow::Result<()> {
     if args.png.is_some() {
         bail!("--png draws cost against triangle count: not with --scene");
     }
     println!(
-        "| scene | triangles (object × obstacle) | poses | {} |",
+        "| scene | triangles (object × obstacles) | poses | {} |",
         mesh_checks::CELLS_HEADER
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
@@ -113,42 +156,40 @@ fn scenes(args: &Args) -> anyhow::Result<()> {
     for name in &args.scene {
         let scene =
             planner::Scene::by_name_or_path(name).with_context(|| format!("--scene {name}"))?;
-        let Some((_, object)) = mesh_checks::mesh_pair(&scene) else {
-            bail!(
-                "--scene {name}: needs exactly one mesh obstacle (identity pose) and one mesh object"
-            );
-        };
-        let object_triangles = object.triangles.len();
-        let names = match &args.export {
+        let object_triangles = mesh_checks::mesh_triangles(&scene.moving_object);
+        if object_triangles + mesh_checks::mesh_triangles(&scene.obstacles) == 0 {
+            bail!("--scene {name}: has no mesh (this harness measures the mesh pairs)");
+        }
+        let parts = match &args.export {
             Some(dir) => {
                 std::fs::create_dir_all(dir)
                     .with_context(|| format!("creating {}", dir.display()))?;
-                Some(export_pair(dir, &scene.name, &scene)?)
+                Some(export_parts(dir, &scene.name, &scene)?)
             }
             None => None,
         };
         for (set, near) in [("uniform", false), ("near", true)] {
             let poses = mesh_checks::scene_poses(&scene, args.poses, near);
             if poses.is_empty() {
-                bail!("--scene {name}: no pose in the bounds reaches the obstacle");
+                bail!("--scene {name}: no pose in the bounds reaches an obstacle");
             }
             let p = mesh_checks::measure_scene(&scene, &poses, args.repeats)
-                .expect("mesh_pair checked above");
+                .expect("a mesh, checked above");
             println!(
                 "| {} ({set}) | {object_triangles} × {} | {} | {} |",
                 scene.name,
-                p.triangles,
+                mesh_checks::mesh_triangles(&scene.obstacles),
                 p.poses,
                 p.cells()
             );
-            if let Some([obstacle_obj, object_obj]) = &names {
+            if let Some([obstacle, object]) = &parts {
                 let checker = planner::CollisionChecker::new(&scene);
                 cases.push(Case {
                     label: format!("{} ({set})", scene.name),
                     triangles: p.triangles,
-                    poses: Some(poses.iter().map(pose_row).collect()),
-                    obstacle_obj: obstacle_obj.clone(),
-                    object_obj: object_obj.clone(),
+                    poses: poses.iter().map(pose_row).collect(),
+                    obstacle: obstacle.iter().map(PartOut::again).collect(),
+                    object: object.iter().map(PartOut::again).collect(),
                     colliding: poses.iter().map(|q| !checker.is_free(q)).collect(),
                     is_free_us: p.is_free_us,
                     parry_us: p.parry_us,
@@ -159,10 +200,7 @@ fn scenes(args: &Args) -> anyhow::Result<()> {
     }
     if let Some(dir) = &args.export {
         let file = dir.join("cases.json");
-        let all = Cases {
-            poses: Vec::new(),
-            sizes: cases,
-        };
+        let all = Cases { sizes: cases };
         std::fs::write(&file, serde_json::to_string(&all)?)
             .with_context(|| format!("writing {}", file.display()))?;
     }
@@ -171,6 +209,19 @@ fn scenes(args: &Args) -> anyhow::Result<()> {
             .with_context(|| format!("writing {}", p.display()))?;
     }
     Ok(())
+}
+
+impl PartOut {
+    /// The same description (each pose set of a scene is a case of its own).
+    fn again(&self) -> PartOut {
+        PartOut {
+            kind: self.kind,
+            obj: self.obj.clone(),
+            half_extents_m: self.half_extents_m,
+            radius_m: self.radius_m,
+            pose: self.pose,
+        }
+    }
 }
 
 fn main() -> anyhow::Result<()> {
@@ -191,47 +242,66 @@ fn main() -> anyhow::Result<()> {
     if args.poses == 0 || args.repeats == 0 {
         bail!("--poses and --repeats must be > 0");
     }
-    let poses = mesh_checks::poses(args.poses);
-    let points: Vec<MeshPoint> = args
-        .triangles
+    let pairs = args
+        .pairs
         .iter()
-        .map(|&n| mesh_checks::measure(n, &poses, args.repeats))
-        .collect();
-    println!("| triangles per mesh | {} |", mesh_checks::CELLS_HEADER);
-    println!("|---|---|---|---|---|---|---|---|---|");
-    for p in &points {
-        println!("| {} | {} |", p.triangles, p.cells());
+        .map(|p| {
+            mesh_checks::Pair::parse(p).with_context(|| {
+                format!("--pairs: `{p}` is not one of mesh-mesh, mesh-box, box-mesh")
+            })
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    if let Some(dir) = &args.export {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
-    let series = [
-        (
-            "is_free".to_string(),
-            points
-                .iter()
-                .map(|p| (p.triangles as f64, p.is_free_us))
-                .collect::<Vec<_>>(),
-        ),
-        (
-            "is_free by parry's mesh test".to_string(),
-            points
-                .iter()
-                .map(|p| (p.triangles as f64, p.parry_us))
-                .collect(),
-        ),
-        (
-            "parry's clearance up to 5 mm".to_string(),
-            points
-                .iter()
-                .map(|p| (p.triangles as f64, p.clearance_parry_us))
-                .collect(),
-        ),
-        (
-            "clearance up to 5 mm".to_string(),
-            points
-                .iter()
-                .map(|p| (p.triangles as f64, p.clearance_us))
-                .collect(),
-        ),
-    ];
+    let mut points = Vec::new();
+    let mut series = Vec::new();
+    let mut cases = Vec::new();
+    println!(
+        "| pair | triangles per mesh | {} |",
+        mesh_checks::CELLS_HEADER
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for &pair in &pairs {
+        let poses = mesh_checks::poses_for(pair, args.poses);
+        let mut row = Vec::new();
+        for &n in &args.triangles {
+            let p = mesh_checks::measure(pair, n, &poses, args.repeats);
+            println!("| {} | {} | {} |", pair.name(), p.triangles, p.cells());
+            if let Some(dir) = &args.export {
+                let scene = mesh_checks::pair_scene(pair, n);
+                let checker = planner::CollisionChecker::new(&scene);
+                let stem = format!("{}-{}", pair.name(), p.triangles);
+                let [obstacle, object] = export_parts(dir, &stem, &scene)?;
+                cases.push(Case {
+                    label: stem,
+                    triangles: p.triangles,
+                    poses: poses.iter().map(pose_row).collect(),
+                    obstacle,
+                    object,
+                    colliding: poses.iter().map(|q| !checker.is_free(q)).collect(),
+                    is_free_us: p.is_free_us,
+                    parry_us: p.parry_us,
+                });
+            }
+            row.push(p);
+        }
+        let name = pair.name();
+        let at = |f: fn(&MeshPoint) -> f64| -> Vec<(f64, f64)> {
+            row.iter().map(|p| (p.triangles as f64, f(p))).collect()
+        };
+        series.push((format!("{name}: is_free"), at(|p| p.is_free_us)));
+        series.push((format!("{name}: is_free by parry"), at(|p| p.parry_us)));
+        series.push((
+            format!("{name}: parry's clearance up to 5 mm"),
+            at(|p| p.clearance_parry_us),
+        ));
+        series.push((
+            format!("{name}: clearance up to 5 mm"),
+            at(|p| p.clearance_us),
+        ));
+        points.push(serde_json::json!({ "pair": name, "points": row }));
+    }
     for (name, pts) in &series {
         if let Some(s) = loglog_slope(pts) {
             println!("log–log slope of {name}: {s:.2}");
@@ -246,7 +316,7 @@ fn main() -> anyhow::Result<()> {
         }
         plot_loglog(
             p,
-            "mesh against mesh: cost per query",
+            "mesh pairs: cost per query",
             "triangles per mesh",
             "µs per query",
             &series,
@@ -254,27 +324,7 @@ fn main() -> anyhow::Result<()> {
         .map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
     }
     if let Some(dir) = &args.export {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        let mut sizes = Vec::new();
-        for (p, &asked) in points.iter().zip(&args.triangles) {
-            let scene = mesh_checks::two_spheres(asked);
-            let checker = planner::CollisionChecker::new(&scene);
-            let names = export_pair(dir, &p.triangles.to_string(), &scene)?;
-            sizes.push(Case {
-                label: p.triangles.to_string(),
-                triangles: p.triangles,
-                poses: None,
-                obstacle_obj: names[0].clone(),
-                object_obj: names[1].clone(),
-                colliding: poses.iter().map(|q| !checker.is_free(q)).collect(),
-                is_free_us: p.is_free_us,
-                parry_us: p.parry_us,
-            });
-        }
-        let cases = Cases {
-            poses: poses.iter().map(pose_row).collect(),
-            sizes,
-        };
+        let cases = Cases { sizes: cases };
         let file = dir.join("cases.json");
         std::fs::write(&file, serde_json::to_string(&cases)?)
             .with_context(|| format!("writing {}", file.display()))?;
