@@ -52,7 +52,8 @@ pub enum ContactError {
     /// The moving object has no surface point to sample.
     #[error("pointshell: the moving object has no surface to sample")]
     NoSurface,
-    /// A mesh of the scene whose inside cannot be told (or an open moving object): the
+    /// A mesh of the scene without a surface to render (no triangle with an area, invalid
+    /// data), or one built in code and never repaired that is not closed and outward: the
     /// voxmap's signs and the pointshell's inward normals would be wrong, so contact is
     /// refused rather than rendered wrong.
     #[error(
@@ -63,7 +64,7 @@ pub enum ContactError {
         field: String,
         /// The mesh file.
         source_file: String,
-        /// Why its inside cannot be told.
+        /// Why it cannot be rendered.
         reason: String,
     },
     /// The build was stopped (its progress's cancel flag was set).

@@ -40,8 +40,9 @@ impl ContactModel {
     /// Builds the voxmap of `scene.obstacles` and the pointshell of `scene.moving_object`,
     /// reporting progress to and stopping on `control`. A closed, outward mesh is solid;
     /// an open one (a panel, a sheet: holes in its surface) is rendered as a shell of
-    /// [`VoxmapConfig::shell_voxels`] around its surface, with a warning; a mesh whose
-    /// inside cannot be told is refused ([`ContactError::Mesh`]), naming why. With a
+    /// [`VoxmapConfig::shell_voxels`] around its surface, with a warning (so is a closed one
+    /// whose inside cannot be told: repair makes it open, saying why); a mesh without a
+    /// surface is refused ([`ContactError::Mesh`]), naming why. With a
     /// `cache_dir`, the voxmap is read from there when it was built from the same inputs
     /// before, and written there when built (`voxmap::cache`).
     pub fn from_scene_with(

@@ -413,7 +413,7 @@ impl Scene {
     }
 
     /// One line per mesh part that loading repaired, that is open (contact renders it as
-    /// a thin shell) or whose inside cannot be told (contact refuses it), for the log:
+    /// a thin shell, also when its inside cannot be told) or that contact refuses, for the log:
     /// `(is a warning, line)`. Reads the repair's report; judges a mesh that never went
     /// through the repair from its topology.
     pub fn mesh_notes(&self) -> Vec<(bool, String)> {

@@ -19,10 +19,14 @@
 //!   of their triangles had. Contact renders an open mesh as a thin shell, which needs no
 //!   side; so edges on more than two triangles (walls meeting a panel, as in OMPL.app's
 //!   Twistycool) do not stop an open mesh, they only end its components.
-//! - **Refused**, with the reason and an example edge: a mesh without boundary edges whose
-//!   inside cannot be told: edges on more than two triangles once twins are dropped,
-//!   closed shells whose winding cannot be made consistent (a Möbius-like twist), closed
-//!   shells that enclose no volume.
+//! - **No inside, but a surface**: a mesh without boundary edges whose inside cannot be
+//!   told (edges on more than two triangles once twins are dropped, as SolidWorks and
+//!   MeshLab exports often have where two bodies meet along an edge; closed shells whose
+//!   winding cannot be made consistent, a Möbius-like twist; closed shells that enclose no
+//!   volume) is repaired as an open one and rendered as a thin shell, the report naming
+//!   why and an example edge ([`RepairReport::no_inside`]).
+//! - **Refused**: only what has no surface: no triangle with an area, non-finite vertices,
+//!   indices out of range.
 //!
 //! Triangles keep their order and their first corner (a flip swaps the other two); a mesh
 //! with nothing to repair comes back as it was, so planning on it is unchanged.
@@ -45,11 +49,13 @@ pub enum Surface {
     /// Closed, consistently wound, outward (cavities inward): containment and signed
     /// distances are right.
     ClosedOutward,
-    /// Has boundary edges (holes, sheets, panels): no inside. Contact renders it as a thin
+    /// No inside: boundary edges (holes, sheets, panels), or a closed surface whose inside
+    /// cannot be told ([`RepairReport::no_inside`] says why). Contact renders it as a thin
     /// shell; its triangles are wound consistently where their component allows it.
     Open,
-    /// Which side is inside cannot be told: contact refuses it; planning still works on
-    /// its triangles.
+    /// No surface to render (no triangle with an area, invalid data), or a mesh never
+    /// repaired that is not closed and outward: contact refuses it; planning still works
+    /// on its triangles.
     Refused(Refusal),
 }
 
@@ -72,7 +78,8 @@ impl Surface {
     }
 }
 
-/// Why a mesh is refused. `Display` gives the reason for a message.
+/// Why a mesh is refused, or why a closed one has no inside. `Display` gives the reason
+/// for a message.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Refusal {
     /// A mesh without boundary edges with edges used by more than two triangles once
@@ -142,11 +149,14 @@ pub struct RepairReport {
     pub inverted_components: usize,
     /// Edges used by one triangle only.
     pub boundary_edges: usize,
-    /// Edges used by more than two triangles (in an open mesh; a closed one is refused).
+    /// Edges used by more than two triangles.
     pub non_manifold_edges: usize,
     /// Edges of open components where the winding cannot be consistent (a Möbius strip);
     /// harmless for a thin shell.
     pub unorientable_edges: usize,
+    /// Why a mesh without boundary edges has no inside (so is [`Surface::Open`], a thin
+    /// shell), with an example edge.
+    pub no_inside: Option<Refusal>,
 }
 
 impl RepairReport {
@@ -177,6 +187,7 @@ impl RepairReport {
             boundary_edges: 0,
             non_manifold_edges: 0,
             unorientable_edges: 0,
+            no_inside: None,
         }
     }
 }
@@ -563,29 +574,36 @@ pub fn repair(mesh: &MeshData) -> MeshRepair {
         let (j, k) = (h as usize / 3, h as usize % 3);
         [corner_m(j, k), corner_m(j, (k + 1) % 3)]
     };
-    // An open mesh is a thin shell, which needs no inside: only a closed one is refused.
+    // A surface whose inside cannot be told is still a surface: its components ending at
+    // edges on more than two triangles are open already, and twisted or flat shells are
+    // made open here, so the mesh is rendered as a thin shell, the report saying why.
+    let mut no_inside = None;
     if edges.non_manifold > 0 && edges.boundary == 0 {
-        return refuse(Refusal::NonManifold {
+        no_inside = Some(Refusal::NonManifold {
             edges: edges.non_manifold,
             example_m: example(edges.non_manifold_example),
         });
     }
-    let twisted: Vec<&Component> = components
-        .iter()
-        .filter(|k| !k.open && k.conflicts > 0)
+    let twisted: Vec<usize> = (0..components.len())
+        .filter(|&c| !components[c].open && components[c].conflicts > 0)
         .collect();
-    if let Some(first) = twisted.first() {
-        return refuse(Refusal::NonOrientable {
-            edges: twisted.iter().map(|k| k.conflicts).sum(),
-            example_m: example(first.conflict_example),
+    if let Some(&first) = twisted.first() {
+        no_inside.get_or_insert(Refusal::NonOrientable {
+            edges: twisted.iter().map(|&c| components[c].conflicts).sum(),
+            example_m: example(components[first].conflict_example),
         });
     }
-    let flat = components
-        .iter()
-        .filter(|k| !k.open && k.volume6.abs() <= 1e-12 * (k.hi - k.lo).norm().powi(3))
-        .count();
-    if flat > 0 {
-        return refuse(Refusal::Flat { shells: flat });
+    let flat: Vec<usize> = (0..components.len())
+        .filter(|&c| {
+            let k = &components[c];
+            !k.open && k.volume6.abs() <= 1e-12 * (k.hi - k.lo).norm().powi(3)
+        })
+        .collect();
+    if !flat.is_empty() {
+        no_inside.get_or_insert(Refusal::Flat { shells: flat.len() });
+    }
+    for &c in twisted.iter().chain(&flat) {
+        components[c].open = true;
     }
 
     let closed: Vec<usize> = (0..components.len())
@@ -640,6 +658,7 @@ pub fn repair(mesh: &MeshData) -> MeshRepair {
             .filter(|k| k.open)
             .map(|k| k.conflicts)
             .sum(),
+        no_inside,
     };
     if !report.changed() {
         return MeshRepair {
@@ -860,6 +879,9 @@ impl fmt::Display for RepairReport {
                         ", {} cannot be wound consistently",
                         plural(self.unorientable_edges, "edge", "edges")
                     )?;
+                }
+                if let Some(why) = &self.no_inside {
+                    write!(f, "; no inside: {why}")?;
                 }
                 write!(f, "; contact renders it as a thin shell")
             }
@@ -1088,7 +1110,7 @@ mod tests {
     }
 
     #[test]
-    fn three_triangles_on_an_edge_refuse_a_closed_mesh_but_not_an_open_one() {
+    fn three_triangles_on_an_edge_make_a_closed_mesh_a_shell_that_says_why() {
         // A cube with a wall inside on its diagonal plane x/0.1 = y/0.2: the wall puts a
         // third triangle on four of the cube's edges and leaves no edge on one triangle.
         // Vertices read in single precision, as OBJ and STL files give them: the edge is
@@ -1104,21 +1126,24 @@ mod tests {
         let walled = MeshData::new("walled", v, t).expect("valid");
         assert_eq!(Topology::of(&walled).boundary_edges, 0);
         let r = repair(&walled);
-        let Surface::Refused(why) = &r.report.surface else {
-            panic!("not refused: {}", r.report);
-        };
+        assert_eq!(r.report.surface, Surface::Open, "{}", r.report);
         assert!(
-            matches!(why, Refusal::NonManifold { edges: 4, .. }),
-            "{why:?}"
+            matches!(
+                r.report.no_inside,
+                Some(Refusal::NonManifold { edges: 4, .. })
+            ),
+            "{:?}",
+            r.report.no_inside
         );
         let line = r.report.to_string();
         assert!(
-            line.contains("refused")
-                && line.contains("4 edges shared by more than two triangles")
-                && line.contains("e.g. (-0.1, -0.2, -0.3)–(0.1, 0.2, -0.3) m"),
+            line.contains("no inside: 4 edges shared by more than two triangles")
+                && line.contains("e.g. (-0.1, -0.2, -0.3)–(0.1, 0.2, -0.3) m")
+                && line.contains("thin shell"),
             "{line}"
         );
-        assert!(r.mesh == walled && !r.report.changed());
+        // Every triangle kept: a shell of the cube and its wall.
+        assert_eq!(r.report.triangles_out, walled.triangles.len());
         // Three triangles on the edge (0, 0, 0)–(1, 1, 0) of an open fan: a thin shell
         // needs no inside.
         let s = square();
@@ -1199,7 +1224,7 @@ mod tests {
     }
 
     #[test]
-    fn a_closed_surface_that_cannot_be_oriented_is_refused_and_a_moebius_strip_is_open() {
+    fn a_closed_surface_that_cannot_be_oriented_and_a_moebius_strip_are_shells() {
         // The 6-vertex real projective plane: closed (every edge on two triangles) and
         // one-sided. Generic positions give every triangle an area.
         let v: Vec<_> = (0..6)
@@ -1223,8 +1248,9 @@ mod tests {
         let rp2 = MeshData::new("rp2", v, t.to_vec()).expect("valid");
         assert_eq!(Topology::of(&rp2).boundary_edges, 0);
         let r = repair(&rp2);
-        let Surface::Refused(Refusal::NonOrientable { edges, .. }) = r.report.surface else {
-            panic!("not refused as non-orientable: {}", r.report);
+        assert_eq!(r.report.surface, Surface::Open, "{}", r.report);
+        let Some(Refusal::NonOrientable { edges, .. }) = r.report.no_inside else {
+            panic!("not found non-orientable: {}", r.report);
         };
         assert!(edges > 0);
         assert!(
@@ -1311,7 +1337,7 @@ mod tests {
     }
 
     #[test]
-    fn bad_data_is_refused_not_panicked_on() {
+    fn only_what_has_no_surface_is_refused_and_bad_data_is_not_panicked_on() {
         let c = cube();
         let bad = MeshData {
             triangles: vec![[0, 1, 99]],
@@ -1334,9 +1360,9 @@ mod tests {
         let s = square();
         let pillow = with(&s, vec![[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2]]);
         assert_eq!(Topology::of(&pillow).boundary_edges, 0);
-        assert_eq!(
-            repair(&pillow).report.surface,
-            Surface::Refused(Refusal::Flat { shells: 1 })
-        );
+        // A surface all the same: a thin shell, saying why.
+        let r = repair(&pillow);
+        assert_eq!(r.report.surface, Surface::Open);
+        assert_eq!(r.report.no_inside, Some(Refusal::Flat { shells: 1 }));
     }
 }

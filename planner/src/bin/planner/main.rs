@@ -293,9 +293,10 @@ mod tests {
     }
 
     /// Issue 36: `planner scenes check --fix` writes a double-sided mesh's repair beside
-    /// it and a scene using it, and exits 1 only for a mesh it refuses.
+    /// it and a scene using it; a closed mesh whose inside cannot be told is open, not
+    /// refused (issue 45).
     #[test]
-    fn issue_36_scenes_check_fix_writes_the_repaired_mesh_and_refuses_only_the_hopeless() {
+    fn issue_36_scenes_check_fix_writes_the_repaired_mesh_and_keeps_the_untellable_as_a_shell() {
         let dir = std::env::temp_dir().join(format!("planner-fix-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("dir");
         let cube = scene::MeshData::cuboid("plate", [0.05, 0.2, 0.2]);
@@ -318,8 +319,8 @@ mod tests {
         );
         assert!(checks[0].is_ok() && !checks[0].repair.as_ref().expect("ran").changed());
         // A closed box with a wall inside on a diagonal plane: three triangles on four of
-        // its edges and no hole, so no inside can be told: refused, exit code 1, nothing
-        // written.
+        // its edges and no hole, so no inside can be told. It has a surface, so it is not
+        // refused (issue 45): a thin shell, exit code 0, nothing to write.
         let mut t = cube.triangles.clone();
         t.extend([[0, 3, 7], [0, 7, 4]]);
         let walled = scene::MeshData::new("walled", cube.vertices_m.clone(), t).expect("mesh");
@@ -328,7 +329,12 @@ mod tests {
         let path = toml.display().to_string();
         assert_eq!(
             main_with_args(["planner", "scenes", "check", "--fix", &path]).expect("runs"),
-            1
+            0
+        );
+        let loaded = planner::Scene::load(&toml).expect("loads");
+        assert_eq!(
+            loaded.mesh_checks()[0].surface(),
+            scene::repair::Surface::Open
         );
         assert!(!dir.join("walled.repaired.toml").exists());
     }

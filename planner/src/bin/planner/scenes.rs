@@ -24,9 +24,9 @@ pub enum ScenesCommand {
     /// Load scenes and say, for each mesh part, what loading makes of it: OK (closed and
     /// wound outward as it is), REPAIRED (what was dropped or flipped to make it so: twins
     /// of a double-sided export, duplicates, degenerate triangles, inconsistent or inward
-    /// winding), OPEN (holes or a sheet: contact renders it as a thin shell) or REFUSED
-    /// (which side is inside cannot be told, with the reason; planning still works on it).
-    /// Exit code 1 when a mesh is refused, else 0.
+    /// winding), OPEN (holes, a sheet, or a closed surface whose inside cannot be told,
+    /// with the reason: contact renders it as a thin shell) or REFUSED (no surface: no
+    /// triangle with an area, or invalid data). Exit code 1 when a mesh is refused, else 0.
     Check {
         /// Also write each repaired mesh beside its original as `<stem>.repaired.obj` (in
         /// metres) and a copy of the scene file pointing at them, `<stem>.repaired.toml`.
