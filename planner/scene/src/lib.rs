@@ -34,6 +34,7 @@ pub mod pose;
 pub mod progress;
 pub mod repair;
 pub mod shapes;
+mod stl;
 pub mod topology;
 
 pub use builtin::BUILTIN_NAMES;

@@ -1,4 +1,4 @@
-//! Triangle meshes for scene parts, read from Wavefront OBJ (`tobj`) or STL (`stl_io`,
+//! Triangle meshes for scene parts, read from Wavefront OBJ (`tobj`) or STL ([`crate::stl`],
 //! ASCII or binary).
 //!
 //! Vertices are in the part's local frame; a file's numbers are multiplied by `scale` to
@@ -45,7 +45,8 @@ pub enum MeshError {
     Format {
         /// Mesh file path.
         path: String,
-        /// 1-based line of the offending statement, when known (OBJ).
+        /// 1-based line of the offending statement, when known (OBJ, ASCII STL; a binary
+        /// STL's byte offset is in the reason).
         line: Option<usize>,
         /// What is wrong.
         reason: String,
@@ -409,27 +410,15 @@ fn obj_first_bad_line(text: &str) -> Option<(usize, String)> {
 }
 
 fn read_stl(path: &Path, name: &str) -> Result<RawMesh, MeshError> {
-    let file = std::fs::File::open(path).map_err(|error| MeshError::Io {
+    let bytes = std::fs::read(path).map_err(|error| MeshError::Io {
         path: name.to_owned(),
         error,
     })?;
-    let mut reader = BufReader::new(file);
-    let mesh = stl_io::read_stl(&mut reader).map_err(|e| MeshError::Format {
+    crate::stl::parse(&bytes).map_err(|e| MeshError::Format {
         path: name.to_owned(),
-        line: None,
-        reason: format!("STL: {e}"),
-    })?;
-    let vertices = mesh
-        .vertices
-        .iter()
-        .map(|v| Vector3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2])))
-        .collect();
-    let mut triangles = Vec::with_capacity(mesh.faces.len());
-    for f in &mesh.faces {
-        let idx = f.vertices.map(|i| u32::try_from(i).unwrap_or(u32::MAX));
-        triangles.push(idx);
-    }
-    Ok((vertices, triangles))
+        line: e.line,
+        reason: e.reason,
+    })
 }
 
 #[cfg(test)]
@@ -485,23 +474,22 @@ vertex 0 1 0\nendloop\nendfacet\nendsolid t\n";
         let m = MeshData::load(&tmp("t.stl", ascii.as_bytes()), 2.0).expect("ascii");
         assert_eq!(m.triangles.len(), 1);
         assert!((m.reach_m(|v| *v) - 2.0).abs() < 1e-12);
-        let tri = stl_io::Triangle {
-            normal: stl_io::Normal::new([0.0, 0.0, 1.0]),
-            vertices: [
-                stl_io::Vertex::new([0.0, 0.0, 0.0]),
-                stl_io::Vertex::new([1.0, 0.0, 0.0]),
-                stl_io::Vertex::new([0.0, 1.0, 0.0]),
-            ],
-        };
-        let mut bin = Vec::new();
-        stl_io::write_stl(&mut bin, [tri].iter()).expect("write");
+        // One triangle, binary: header, count, normal, corners, attribute.
+        let mut bin = vec![0u8; 80];
+        bin.extend(1u32.to_le_bytes());
+        let floats = [0f32, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+        bin.extend(floats.iter().flat_map(|x| x.to_le_bytes()));
+        bin.extend([0u8, 0]);
         let m = MeshData::load(&tmp("b.STL", &bin), 1.0).expect("binary");
         assert_eq!(m.triangles.len(), 1);
         // Truncated binary and garbage ASCII are errors, not panics.
         let e = MeshData::load(&tmp("cut.stl", &bin[..100]), 1.0).unwrap_err();
-        assert!(e.to_string().contains("cut.stl"), "{e}");
+        assert!(
+            e.to_string().contains("cut.stl") && e.to_string().contains("134 bytes"),
+            "{e}"
+        );
         let e = MeshData::load(&tmp("junk.stl", b"solid x\nfacet nonsense\n"), 1.0).unwrap_err();
-        assert!(e.to_string().contains("junk.stl"), "{e}");
+        assert!(e.to_string().contains("junk.stl:2:"), "{e}");
     }
 
     #[test]
