@@ -118,7 +118,9 @@ fn ascii(bytes: &[u8]) -> Result<Welded, StlError> {
         ),
         reason: "ASCII STL: not text (a byte that is not UTF-8)".into(),
     })?;
-    // Non-empty lines, numbered from 1, split into words.
+    // Lines end at `\n`, `\r\n` or a lone `\r` (classic Mac OS exports); non-empty ones,
+    // numbered from 1, split into words.
+    let text = text.replace("\r\n", "\n").replace('\r', "\n");
     let mut lines = text
         .lines()
         .enumerate()
@@ -296,6 +298,19 @@ mod tests {
             let e = r.err().unwrap_or_else(|| panic!("accepted: {broken}"));
             assert_eq!(e.line, Some(line), "{}", e.reason);
             assert!(e.reason.contains(want), "{}", e.reason);
+        }
+        // Old Mac OS line ends, and Windows ones.
+        for ends in ["\r", "\r\n"] {
+            let (_, t) = parse(good.replace('\n', ends).as_bytes())
+                .unwrap_or_else(|e| panic!("{}", e.reason));
+            assert_eq!(t.len(), 1);
+            let e = parse(
+                good.replace("endloop", "end")
+                    .replace('\n', ends)
+                    .as_bytes(),
+            )
+            .expect_err("broken");
+            assert_eq!(e.line, Some(7), "{}", e.reason);
         }
         let e = parse(b"solid t\n  facet normal 0 0 1\n    outer loop\n").expect_err("cut");
         assert!(

@@ -9,6 +9,7 @@ static ALLOCATOR: CountingAllocator = CountingAllocator;
 mod alloc;
 mod bridge;
 mod bridge_in_planner;
+mod cad_exports;
 mod devices;
 mod external_c;
 mod issue_16;

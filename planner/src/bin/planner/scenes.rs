@@ -33,7 +33,7 @@ pub enum ScenesCommand {
         /// Never writes over an input.
         #[arg(long)]
         fix: bool,
-        /// Scene files (or built-in names).
+        /// Scene files (or built-in names), or mesh files (`.stl`, `.obj`) to check alone.
         #[arg(required = true, value_name = "SCENE")]
         scenes: Vec<String>,
     },
@@ -67,9 +67,38 @@ pub fn run(args: &ScenesArgs) -> anyhow::Result<i32> {
     Ok(0)
 }
 
+/// The verdict of a mesh's check, as `check` prints it.
+fn verdict(surface: &Surface, changed: bool) -> &'static str {
+    match surface {
+        Surface::ClosedOutward if changed => "REPAIRED",
+        Surface::ClosedOutward => "OK",
+        Surface::Open => "OPEN",
+        Surface::Refused(_) => "REFUSED",
+    }
+}
+
+/// Whether `arg` names a mesh file rather than a scene.
+fn is_mesh_file(arg: &str) -> bool {
+    Path::new(arg)
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("stl") || e.eq_ignore_ascii_case("obj"))
+}
+
 fn check(scenes: &[String], fix: bool) -> anyhow::Result<i32> {
     let mut refused = 0;
     for arg in scenes {
+        if is_mesh_file(arg) {
+            // A mesh alone: what loading it into a scene would make of it.
+            let mesh = scene::MeshData::load(Path::new(arg), 1.0)?;
+            let r = scene::repair::repair(&mesh);
+            println!(
+                "  {:8} {}",
+                verdict(&r.report.surface, r.report.changed()),
+                r.report
+            );
+            refused += usize::from(r.report.surface.is_refused());
+            continue;
+        }
         let scene = Scene::by_name_or_path(arg)?;
         let checks = scene.mesh_checks();
         println!("{arg}: scene '{}', {} mesh parts", scene.name, checks.len());
@@ -77,12 +106,7 @@ fn check(scenes: &[String], fix: bool) -> anyhow::Result<i32> {
         for c in &checks {
             let surface = c.surface();
             let changed = c.repair.as_ref().is_some_and(|r| r.changed());
-            let verdict = match &surface {
-                Surface::ClosedOutward if changed => "REPAIRED",
-                Surface::ClosedOutward => "OK",
-                Surface::Open => "OPEN",
-                Surface::Refused(_) => "REFUSED",
-            };
+            let verdict = verdict(&surface, changed);
             repaired += usize::from(changed);
             refused += usize::from(surface.is_refused());
             match (&c.repair, &surface) {
