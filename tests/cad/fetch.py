@@ -9,7 +9,7 @@ tests/cad/requirements.txt.
 Usage (from the repository's root, before `cargo test --workspace`):
     python3 tests/cad/fetch.py
 
-Makes a virtual environment in target/cad-venv (PyPI only; nothing is installed outside the
+Makes a virtual environment in target/cad-data/venv (PyPI only; nothing is installed outside the
 checkout), downloads the wheel with pip into target/cad-data, and writes the meshes under
 target/cad-data/rtb-data-2.0.0/ with, for each COLLADA file `X.dae`, `X.dae.obj` and a line in
 converted.tsv (`X.dae<TAB>ok` or `X.dae<TAB>why not`). Run again, it checks what is there and
@@ -28,7 +28,7 @@ WHEEL = "rtb_data-2.0.0-py3-none-any.whl"
 WHEEL_SHA256 = "ecbcad669eb4d91ef971311640683eab19e2310f2a2be5c04fa5d32c6f0efce6"
 DATA = ROOT / "target" / "cad-data"
 OUT = DATA / "rtb-data-2.0.0"
-VENV = ROOT / "target" / "cad-venv"
+VENV = DATA / "venv"
 
 
 def sha256(path):
