@@ -1088,6 +1088,43 @@ mod tests {
         m
     }
 
+    /// A random pose within `reach_m` of the origin: the checker's verdict equals parry's
+    /// and, with `clearances`, so do its clearances capped at 5 and 50 mm, which the
+    /// certification's bound brackets. Returns (in collision, the bound below a clearance).
+    fn agrees_with_parry(
+        c: &CollisionChecker,
+        rng: &mut ChaCha8Rng,
+        reach_m: f64,
+        clearances: bool,
+        what: &str,
+    ) -> (bool, bool) {
+        let dir =
+            Vector3::new(rng.random(), rng.random(), rng.random()) * 2.0 - Vector3::repeat(1.0);
+        let pos = dir.normalize() * rng.random_range(0.0..reach_m);
+        let q = Se3::new(pos, crate::space::uniform_rotation(rng));
+        let ours = c.is_free(&q);
+        assert_eq!(ours, c.is_free_by_parry(&q), "{what} at {q:?}");
+        let mut loose = false;
+        for cap in [0.005, 0.05].into_iter().filter(|_| clearances) {
+            let (d, by_parry) = (
+                c.clearance_up_to_m(&q, cap),
+                c.clearance_up_to_m_by_parry(&q, cap),
+            );
+            assert!(
+                (d - by_parry).abs() < 1e-9,
+                "{what}: {d} vs {by_parry} at {q:?}"
+            );
+            let bound = c.clearance_bound_up_to_m(&q, cap);
+            let widen = 1.0 + CERTIFIED_CLEARANCE_REL_TOLERANCE;
+            assert!(
+                bound <= d + 1e-12 && bound * widen >= d - 1e-9,
+                "{what}: {bound} {d}"
+            );
+            loose |= bound < d - 1e-9;
+        }
+        (!ours, loose)
+    }
+
     #[test]
     fn mesh_pairs_give_parrys_verdicts() {
         // Two bumpy spheres (non-convex) of 80 to 2 000 triangles, a sphere against a box
@@ -1133,29 +1170,10 @@ mod tests {
             scene.moving_object = vec![mesh(object)];
             let c = CollisionChecker::new(&scene);
             for i in 0..1500 {
-                let dir = Vector3::new(rng.random(), rng.random(), rng.random()) * 2.0
-                    - Vector3::repeat(1.0);
-                let pos = dir.normalize() * rng.random_range(0.0..0.12);
-                let q = Se3::new(pos, crate::space::uniform_rotation(&mut rng));
-                let ours = c.is_free(&q);
-                assert_eq!(ours, c.is_free_by_parry(&q), "at {q:?}");
                 // Every fifth pose: parry's mesh distance is slow.
-                for cap in [0.005, 0.05].into_iter().filter(|_| i % 5 == 0) {
-                    let (d, by_parry) = (
-                        c.clearance_up_to_m(&q, cap),
-                        c.clearance_up_to_m_by_parry(&q, cap),
-                    );
-                    assert!((d - by_parry).abs() < 1e-9, "{d} vs {by_parry} at {q:?}");
-                    // The certification's bound brackets it.
-                    let bound = c.clearance_bound_up_to_m(&q, cap);
-                    let widen = 1.0 + CERTIFIED_CLEARANCE_REL_TOLERANCE;
-                    assert!(
-                        bound <= d + 1e-12 && bound * widen >= d - 1e-9,
-                        "{bound} {d}"
-                    );
-                    loose += usize::from(bound < d - 1e-9);
-                }
-                hits += usize::from(!ours);
+                let (collides, looser) = agrees_with_parry(&c, &mut rng, 0.12, i % 5 == 0, "");
+                loose += usize::from(looser);
+                hits += usize::from(collides);
                 poses += 1;
             }
         }
@@ -1252,26 +1270,9 @@ mod tests {
             scene.moving_object = object;
             let c = CollisionChecker::new(&scene);
             for i in 0..1500 {
-                let dir = Vector3::new(rng.random(), rng.random(), rng.random()) * 2.0
-                    - Vector3::repeat(1.0);
-                let pos = dir.normalize() * rng.random_range(0.0..0.1);
-                let q = Se3::new(pos, crate::space::uniform_rotation(&mut rng));
-                let ours = c.is_free(&q);
-                assert_eq!(ours, c.is_free_by_parry(&q), "case {case} at {q:?}");
-                for cap in [0.005, 0.05].into_iter().filter(|_| i % 3 == 0) {
-                    let (d, by_parry) = (
-                        c.clearance_up_to_m(&q, cap),
-                        c.clearance_up_to_m_by_parry(&q, cap),
-                    );
-                    assert!((d - by_parry).abs() < 1e-9, "{d} vs {by_parry} at {q:?}");
-                    let bound = c.clearance_bound_up_to_m(&q, cap);
-                    let widen = 1.0 + CERTIFIED_CLEARANCE_REL_TOLERANCE;
-                    assert!(
-                        bound <= d + 1e-12 && bound * widen >= d - 1e-9,
-                        "{bound} {d}"
-                    );
-                }
-                hits += usize::from(!ours);
+                let what = format!("case {case}");
+                let (collides, _) = agrees_with_parry(&c, &mut rng, 0.1, i % 3 == 0, &what);
+                hits += usize::from(collides);
                 poses += 1;
             }
         }
