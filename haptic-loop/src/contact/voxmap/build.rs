@@ -464,7 +464,7 @@ fn add_mesh(
         .map(|v| nvec(pose.transform_point(pvec(v))))
         .collect();
     let prep = Instant::now();
-    let mesh = Mesh::new(&vertices, &data.triangles);
+    let mesh = Mesh::new_spatial(&vertices, &data.triangles);
     drop(vertices);
     tracing::debug!("mesh topology: {:.2} s", prep.elapsed().as_secs_f64());
     let side = match *surface {
