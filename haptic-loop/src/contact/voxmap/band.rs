@@ -140,7 +140,7 @@ impl Band {
                         let c = work.counts;
                         let per = |x: u64| x as f64 / nodes.max(1) as f64;
                         tracing::debug!(
-                            "slab {k}: seed {:.2} s ({seeded} nodes, {} distances), spread {:.2} s ({pops} turns, {nodes} nodes, {} blocks); per node: {:.2} turns, {:.2} rings walked ({:.1} distances), {:.2} ridge checks ({:.2} walks), {:.1} offers, {:.1} distances in all",
+                            "slab {k}: seed {:.2} s ({seeded} nodes, {} distances), spread {:.2} s ({pops} turns, {nodes} nodes, {} blocks); per node: {:.2} turns, {:.2} rings walked ({:.1} distances), {:.2} ridge checks ({:.2} walks), {:.1} offered distances, {:.1} distances in all",
                             (t1 - t0).as_secs_f64(),
                             c.seed,
                             t1.elapsed().as_secs_f64(),
@@ -448,7 +448,8 @@ struct Counts {
     /// Neighbours' triangles looked at off the ring (the ridge check), and walks from them.
     ridge: u64,
     ridge_walks: u64,
-    /// Distances computed handing a node's triangle to its neighbours.
+    /// Distances computed handing a node's triangle to its neighbours (not to those that
+    /// hold it already).
     offered: u64,
 }
 
@@ -508,13 +509,18 @@ impl<'m> Work<'m> {
         self.slot[b] as usize
     }
 
-    /// Offers triangle `t` at distance `d` to node `n`; queues the node (once) when it
-    /// takes it.
+    /// Offers triangle `t` at distance `d()` to node `n`; queues the node (once) when it
+    /// takes it. A node that holds `t` already holds its distance, which is not less:
+    /// `d` is not computed then.
     #[inline]
-    fn offer(&mut self, n: [usize; 3], t: u32, d: f32) {
+    fn offer(&mut self, n: [usize; 3], t: u32, d: impl FnOnce() -> f32) {
         let s = self.slot_of(n);
         let l = local(n);
         let old = self.dist[s][l];
+        if !old.is_nan() && self.tri[s][l] == t {
+            return;
+        }
+        let d = d();
         if old.is_nan() || d < old.abs() {
             self.dist[s][l] = d;
             self.tri[s][l] = t;
@@ -574,7 +580,7 @@ impl<'m> Work<'m> {
                         n[w] = k;
                         let at = self.mesh.closest(t, &g.position(n));
                         self.counts.seed += 1;
-                        self.offer(n, t, at.distance2.sqrt() as f32);
+                        self.offer(n, t, || at.distance2.sqrt() as f32);
                     }
                 }
             }
@@ -650,10 +656,14 @@ impl<'m> Work<'m> {
             if d > limit {
                 continue;
             }
+            let mesh = self.mesh;
             for m in neighbours(n, g.nodes) {
-                let at = self.mesh.closest(t, &g.position(m));
-                self.counts.offered += 1;
-                self.offer(m, t, at.distance2.sqrt() as f32);
+                let mut computed = false;
+                self.offer(m, t, || {
+                    computed = true;
+                    mesh.closest(t, &g.position(m)).distance2.sqrt() as f32
+                });
+                self.counts.offered += u64::from(computed);
             }
         }
         Ok(turns)
