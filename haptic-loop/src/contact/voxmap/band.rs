@@ -84,6 +84,8 @@ pub(super) struct Band {
     region: Vec<i8>,
     /// The values of nodes out of the band's reach, m: outside, inside (negative).
     far_m: [f32; 2],
+    /// Turns the spread took on every slab (margins counted in each), for progress.
+    pub(super) turns: u64,
 }
 
 impl Band {
@@ -157,6 +159,7 @@ impl Band {
                             work_blocks: work.blocks,
                             slot: work.slot,
                             dist: work.dist,
+                            turns: pops,
                             offset: lo,
                             core: (core_lo, core_hi),
                         })
@@ -187,9 +190,11 @@ impl Band {
                     [far, far]
                 }
             },
+            turns: 0,
         };
         for part in parts {
             let part = part?;
+            band.turns += part.turns;
             for (b, &s) in part.slot.iter().enumerate() {
                 if s == ABSENT {
                     continue;
@@ -214,6 +219,8 @@ impl Band {
         if side == Side::Solid {
             band.fill_regions(&progress.cancel)?;
         }
+        // Counted whatever the side, as `build` expects them.
+        progress.add(super::build::REGION_UNITS_PER_BLOCK * band.slot.len() as u64);
         tracing::debug!(
             "band of {} triangles on {slabs} thread(s): {} blocks; spread {spread:.2} s, merge {:.2} s, regions {:.2} s",
             mesh.len(),
@@ -427,6 +434,7 @@ fn neighbours(n: [usize; 3], nodes: [usize; 3]) -> impl Iterator<Item = [usize; 
 
 /// One slab's band blocks, to be merged into the [`Band`].
 struct Part {
+    turns: u64,
     work_blocks: [usize; 3],
     slot: Vec<u32>,
     dist: Vec<[f32; OWN]>,
@@ -585,6 +593,7 @@ impl<'m> Work<'m> {
                 }
             }
         }
+        progress.add(self.mesh.len() as u64 % 8192);
         Ok(())
     }
 
@@ -666,6 +675,7 @@ impl<'m> Work<'m> {
                 self.counts.offered += u64::from(computed);
             }
         }
+        progress.add(turns % 8192);
         Ok(turns)
     }
 
