@@ -31,6 +31,31 @@ pub(in crate::contact) struct Closest {
     pub(in crate::contact) feature: Feature,
 }
 
+/// How many of the triangles a walk stood on [`Walk`] keeps.
+const PATH: usize = 8;
+
+/// Where a walk ([`Mesh::walk`]) ended and the way it went.
+#[derive(Debug, Clone, Copy)]
+pub(in crate::contact) struct Walk {
+    /// The triangle it ended on and its closest point.
+    pub(in crate::contact) t: u32,
+    pub(in crate::contact) at: Closest,
+    /// The first [`PATH`] triangles it stood on, the start first.
+    path: [u32; PATH],
+    /// How many triangles it stood on (rings looked at).
+    pub(in crate::contact) stood: usize,
+    /// Triangle distances it computed.
+    pub(in crate::contact) distances: u32,
+}
+
+impl Walk {
+    /// Whether the walk stood on triangle `t` (among the first [`PATH`]).
+    #[inline]
+    pub(in crate::contact) fn stood_on(&self, t: u32) -> bool {
+        self.path[..self.stood.min(PATH)].contains(&t)
+    }
+}
+
 /// A mesh in the scene frame with its adjacency and pseudo-normals.
 #[derive(Debug)]
 pub(in crate::contact) struct Mesh {
@@ -52,8 +77,29 @@ pub(in crate::contact) struct Mesh {
 }
 
 impl Mesh {
-    /// Welds `vertices` by exact position and keeps the triangles with positive area.
+    /// Welds `vertices` by exact position and keeps the triangles with positive area, in
+    /// their order.
     pub(in crate::contact) fn new(vertices: &[Vector3<f64>], triangles: &[[u32; 3]]) -> Self {
+        Self::build(vertices, triangles, false)
+    }
+
+    /// [`Self::new`], with the triangles stored along a Morton (Z-order) curve through
+    /// their centroids and the vertices in the order those triangles first use them, so
+    /// that triangles near each other in space are near each other in memory whatever
+    /// order the input had. The band reads a node's triangle and its 1-ring for every node
+    /// and sweeps the whole surface once per layer of nodes: with triangles in an order
+    /// without locality (an exporter's, a subdivision's), each of those reads was a cache
+    /// miss and the build took 2–2.5 times as long. Normals are computed before the
+    /// reordering, in the input's order, so every value is the same bit for bit; only
+    /// which of two triangles at exactly the same distance is met first can differ.
+    pub(in crate::contact) fn new_spatial(
+        vertices: &[Vector3<f64>],
+        triangles: &[[u32; 3]],
+    ) -> Self {
+        Self::build(vertices, triangles, true)
+    }
+
+    fn build(vertices: &[Vector3<f64>], triangles: &[[u32; 3]], spatial: bool) -> Self {
         let ids = scene::repair::weld(vertices);
         let mut unique =
             vec![Vector3::zeros(); ids.iter().map(|&i| i as usize + 1).max().unwrap_or(0)];
@@ -81,8 +127,8 @@ impl Mesh {
             kept.push([a, b, c]);
             face_normals.push(n);
         }
-        let vertices = unique;
-        let triangles = kept;
+        let mut vertices = unique;
+        let mut triangles = kept;
 
         // Edges: the (at most two) triangles on each undirected edge.
         let mut edges: foldhash::HashMap<(u32, u32), [(u32, u8); 2]> =
@@ -121,7 +167,41 @@ impl Mesh {
         }
         drop(edges);
 
-        // Fans (triangles around each vertex) and angle-weighted vertex normals.
+        // Angle-weighted vertex normals.
+        let mut vertex_normals = vec![Vector3::zeros(); vertices.len()];
+        for (t, tri) in triangles.iter().enumerate() {
+            for c in 0..3 {
+                let v = tri[c] as usize;
+                let p = vertices[v];
+                let u = vertices[tri[(c + 1) % 3] as usize] - p;
+                let w = vertices[tri[(c + 2) % 3] as usize] - p;
+                vertex_normals[v] += face_normals[t] * u.angle(&w);
+            }
+        }
+        if spatial {
+            let order = morton_order(&triangles, &vertices);
+            // Vertices renumbered in the order the reordered triangles first use them.
+            let mut renumbered = vec![NONE; vertices.len()];
+            let mut used = Vec::with_capacity(vertices.len());
+            for &t in &order {
+                for &v in &triangles[t as usize] {
+                    if renumbered[v as usize] == NONE {
+                        renumbered[v as usize] = used.len() as u32;
+                        used.push(v);
+                    }
+                }
+            }
+            vertices = used.iter().map(|&v| vertices[v as usize]).collect();
+            vertex_normals = used.iter().map(|&v| vertex_normals[v as usize]).collect();
+            triangles = order
+                .iter()
+                .map(|&t| triangles[t as usize].map(|v| renumbered[v as usize]))
+                .collect();
+            face_normals = order.iter().map(|&t| face_normals[t as usize]).collect();
+            edge_normals = order.iter().map(|&t| edge_normals[t as usize]).collect();
+        }
+
+        // Fans: the triangles around each vertex.
         let mut fan_start = vec![0u32; vertices.len() + 1];
         for tri in &triangles {
             for &v in tri {
@@ -133,16 +213,10 @@ impl Mesh {
         }
         let mut fill = fan_start.clone();
         let mut fan = vec![0u32; fan_start[vertices.len()] as usize];
-        let mut vertex_normals = vec![Vector3::zeros(); vertices.len()];
         for (t, tri) in triangles.iter().enumerate() {
-            for c in 0..3 {
-                let v = tri[c] as usize;
-                fan[fill[v] as usize] = t as u32;
-                fill[v] += 1;
-                let p = vertices[v];
-                let u = vertices[tri[(c + 1) % 3] as usize] - p;
-                let w = vertices[tri[(c + 2) % 3] as usize] - p;
-                vertex_normals[v] += face_normals[t] * u.angle(&w);
+            for &v in tri {
+                fan[fill[v as usize] as usize] = t as u32;
+                fill[v as usize] += 1;
             }
         }
         // Each triangle's 1-ring: the union of its corners' fans, itself excluded.
@@ -218,29 +292,77 @@ impl Mesh {
     /// projects into this face, both being local minima. Ends at a triangle none of whose
     /// neighbours is nearer: on a surface smooth at the scale of `p`'s distance, the
     /// closest.
+    #[cfg(test)]
     pub(in crate::contact) fn descend(
+        &self,
+        p: &Vector3<f64>,
+        t: u32,
+        at: Closest,
+    ) -> (u32, Closest) {
+        let w = self
+            .walk(p, t, at, None)
+            .expect("a walk without a stop ends");
+        (w.t, w.at)
+    }
+
+    /// [`Self::descend`], telling the way it went; `None` if it stood on a triangle of
+    /// `stop`'s path, from which it would have gone on as `stop` did (the next triangle is
+    /// the nearest of the ring, whatever came before) and ended where `stop` ended.
+    ///
+    /// A ring's triangles that were in the ring before (or were the triangle before) are
+    /// not looked at again: none of them is nearer than the current triangle, which was
+    /// the nearest of them. The way is the same as looking at all of them, at about half
+    /// the distances per step (neighbouring rings share about half their triangles).
+    #[inline]
+    pub(in crate::contact) fn walk(
         &self,
         p: &Vector3<f64>,
         mut t: u32,
         mut at: Closest,
-    ) -> (u32, Closest) {
+        stop: Option<&Walk>,
+    ) -> Option<Walk> {
+        let mut walk = Walk {
+            t,
+            at,
+            path: [NONE; PATH],
+            stood: 0,
+            distances: 0,
+        };
+        let mut before: &[u32] = &[];
+        let mut previous = NONE;
         loop {
+            if stop.is_some_and(|w| w.stood_on(t)) {
+                return None;
+            }
+            if walk.stood < PATH {
+                walk.path[walk.stood] = t;
+            }
+            walk.stood += 1;
             let mut best = (t, at);
-            let (s, e) = (
-                self.ring_start[t as usize] as usize,
-                self.ring_start[t as usize + 1] as usize,
-            );
-            for &n in &self.ring[s..e] {
+            let ring = self.ring_of(t);
+            for &n in ring {
+                if n == previous || before.contains(&n) {
+                    continue;
+                }
+                walk.distances += 1;
                 let c = self.closest(n, p);
                 if c.distance2 < best.1.distance2 {
                     best = (n, c);
                 }
             }
             if best.0 == t {
-                return best;
+                (walk.t, walk.at) = best;
+                return Some(walk);
             }
+            (previous, before) = (t, ring);
             (t, at) = best;
         }
+    }
+
+    /// The triangles sharing a corner with triangle `t`.
+    #[inline]
+    fn ring_of(&self, t: u32) -> &[u32] {
+        &self.ring[self.ring_start[t as usize] as usize..self.ring_start[t as usize + 1] as usize]
     }
 
     /// The pseudo-normal at the feature of triangle `t` that holds a closest point: its
@@ -254,6 +376,45 @@ impl Mesh {
             }
         }
     }
+}
+
+/// The triangles (indices) sorted by the Morton code of their centroids, quantised to
+/// 2²¹ steps per axis of the vertices' box (ties in input order).
+fn morton_order(triangles: &[[u32; 3]], vertices: &[Vector3<f64>]) -> Vec<u32> {
+    let (lo, hi) = vertices.iter().fold(
+        (
+            Vector3::repeat(f64::INFINITY),
+            Vector3::repeat(f64::NEG_INFINITY),
+        ),
+        |(lo, hi), v| (lo.inf(v), hi.sup(v)),
+    );
+    let steps = f64::from((1u32 << 21) - 1);
+    let scale = (hi - lo).map(|e| if e > 0.0 { steps / e } else { 0.0 });
+    // Spreads the low 21 bits of `x` to every third bit.
+    let spread = |x: u64| {
+        let mut x = x & 0x1f_ffff;
+        x = (x | x << 32) & 0x001f_0000_0000_ffff;
+        x = (x | x << 16) & 0x001f_0000_ff00_00ff;
+        x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+        x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+        (x | x << 2) & 0x1249_2492_4924_9249
+    };
+    let mut keyed: Vec<(u64, u32)> = triangles
+        .iter()
+        .enumerate()
+        .map(|(t, tri)| {
+            let c = tri
+                .iter()
+                .fold(Vector3::zeros(), |s, &v| s + vertices[v as usize])
+                / 3.0;
+            let q = (c - lo)
+                .component_mul(&scale)
+                .map(|x| x.clamp(0.0, steps) as u64);
+            (spread(q.x) | spread(q.y) << 1 | spread(q.z) << 2, t as u32)
+        })
+        .collect();
+    keyed.sort_unstable();
+    keyed.into_iter().map(|(_, t)| t).collect()
 }
 
 /// The closest point of triangle (a, b, c) to `p`, by the regions of Ericson,
@@ -419,6 +580,104 @@ pub(in crate::contact) mod tests {
             let (_, at) = mesh.descend(&p, start, mesh.closest(start, &p));
             assert!((at.distance2 - exact).abs() < 1e-12, "{p:?} from {start}");
         }
+    }
+
+    /// A bumpy sphere (not convex) with its triangles in random order.
+    fn shuffled_sphere() -> (Vec<Vector3<f64>>, Vec<[u32; 3]>) {
+        use rand::seq::SliceRandom;
+        let m = scene::MeshData::bumpy_sphere("s", 0.05, 20, 40);
+        let mut t = m.triangles.clone();
+        t.shuffle(&mut rand_chacha::ChaCha8Rng::seed_from_u64(1));
+        (m.vertices_m, t)
+    }
+
+    /// Every triangle's corners, normals and corners' vertex normals, as bits, sorted.
+    fn per_triangle_bits(m: &Mesh) -> Vec<Vec<u64>> {
+        let mut out: Vec<Vec<u64>> = (0..m.len())
+            .map(|t| {
+                let mut v: Vec<f64> = m.corners[t]
+                    .iter()
+                    .flat_map(|c| c.iter().copied())
+                    .collect();
+                v.extend(m.face_normals[t].iter());
+                v.extend(m.edge_normals[t].iter().flat_map(|n| n.iter().copied()));
+                for &i in &m.triangles[t] {
+                    v.extend(m.vertex_normals[i as usize].iter());
+                }
+                v.iter().map(|x| x.to_bits()).collect()
+            })
+            .collect();
+        out.sort();
+        out
+    }
+
+    #[test]
+    fn the_spatial_order_keeps_every_value_and_puts_neighbours_near_in_memory() {
+        let (v, t) = shuffled_sphere();
+        let (plain, spatial) = (Mesh::new(&v, &t), Mesh::new_spatial(&v, &t));
+        assert_eq!(per_triangle_bits(&plain), per_triangle_bits(&spatial));
+        // How far apart in memory a triangle's ring lies, on average.
+        let spread = |m: &Mesh| {
+            let mut sum = 0u64;
+            for t in 0..m.len() as u32 {
+                sum += m
+                    .ring_of(t)
+                    .iter()
+                    .map(|&n| u64::from(n.abs_diff(t)))
+                    .sum::<u64>();
+            }
+            sum as f64 / m.ring.len() as f64
+        };
+        let (a, b) = (spread(&plain), spread(&spatial));
+        assert!(
+            b < 0.25 * a,
+            "ring index distance {b:.0} (spatial) vs {a:.0}"
+        );
+    }
+
+    #[test]
+    fn a_walk_goes_the_way_of_a_descent_that_looks_at_every_triangle_of_every_ring() {
+        let (v, t) = shuffled_sphere();
+        let mesh = Mesh::new_spatial(&v, &t);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        let mut steps = 0;
+        for _ in 0..3000 {
+            let p = Vector3::from_fn(|_, _| rng.random_range(-0.07..0.07));
+            let start = rng.random_range(0..mesh.len() as u32);
+            // The descent as it was: the whole ring at every step.
+            let (mut t, mut at) = (start, mesh.closest(start, &p));
+            let mut way = vec![t];
+            loop {
+                let mut best = (t, at);
+                for &n in mesh.ring_of(t) {
+                    let c = mesh.closest(n, &p);
+                    if c.distance2 < best.1.distance2 {
+                        best = (n, c);
+                    }
+                }
+                if best.0 == t {
+                    break;
+                }
+                (t, at) = best;
+                way.push(t);
+            }
+            let w = mesh.walk(&p, start, mesh.closest(start, &p), None).unwrap();
+            assert_eq!((w.t, w.at.distance2.to_bits()), (t, at.distance2.to_bits()));
+            assert_eq!(w.stood, way.len());
+            steps += way.len() - 1;
+            // A walk that meets the first one's way stops; one that does not ends as it
+            // would have.
+            let other = rng.random_range(0..mesh.len() as u32);
+            match mesh.walk(&p, other, mesh.closest(other, &p), Some(&w)) {
+                None => {}
+                Some(o) => {
+                    let alone = mesh.walk(&p, other, mesh.closest(other, &p), None).unwrap();
+                    assert_eq!((o.t, o.stood), (alone.t, alone.stood));
+                    assert!((0..o.stood.min(PATH)).all(|i| !w.stood_on(o.path[i])));
+                }
+            }
+        }
+        assert!(steps > 3000, "{steps}");
     }
 
     #[test]

@@ -52,6 +52,44 @@ impl ContactModel {
         cache_dir: Option<&std::path::Path>,
     ) -> Result<Self, ContactError> {
         use scene::repair::Surface as Found;
+        let obstacles = Self::obstacles(scene, voxmap)?;
+        let mut open = Vec::with_capacity(scene.moving_object.len());
+        for (i, part) in scene.moving_object.iter().enumerate() {
+            let scene::Primitive::Mesh { mesh } = &part.primitive else {
+                open.push(false);
+                continue;
+            };
+            match mesh.surface() {
+                Found::ClosedOutward => open.push(false),
+                Found::Open => {
+                    tracing::warn!(
+                        "contact: mesh {} (moving_object[{i}]) is open: its points touch from either side, its mass is that of a shell {:.1} mm thick",
+                        mesh.source,
+                        voxmap.shell_voxels * voxmap.voxel_m * 1e3
+                    );
+                    open.push(true);
+                }
+                Found::Refused(why) => {
+                    return Err(ContactError::Mesh {
+                        field: format!("moving_object[{i}]"),
+                        source_file: mesh.source.clone(),
+                        reason: why.to_string(),
+                    });
+                }
+            }
+        }
+        let shell_m = voxmap.shell_voxels * voxmap.voxel_m;
+        let voxmap = cached_voxmap(&obstacles, voxmap, control, cache_dir)?;
+        let object = scene::shapes::part_shapes(&scene.moving_object);
+        Self::with_voxmap(voxmap, &object, &open, shell_m, control)
+    }
+
+    /// The obstacles of `scene` as [`Self::from_scene_with`] voxelises them: primitives as
+    /// parry shapes; a closed, outward mesh solid; an open one a shell of
+    /// [`VoxmapConfig::shell_voxels`] (with a warning); a mesh whose inside cannot be told
+    /// refused ([`ContactError::Mesh`]).
+    pub fn obstacles(scene: &Scene, voxmap: &VoxmapConfig) -> Result<Vec<Obstacle>, ContactError> {
+        use scene::repair::Surface as Found;
         let mut obstacles = Vec::with_capacity(scene.obstacles.len());
         for (i, part) in scene.obstacles.iter().enumerate() {
             let pose = scene::shapes::to_parry(&part.pose);
@@ -87,35 +125,7 @@ impl ContactModel {
                 surface,
             });
         }
-        let mut open = Vec::with_capacity(scene.moving_object.len());
-        for (i, part) in scene.moving_object.iter().enumerate() {
-            let scene::Primitive::Mesh { mesh } = &part.primitive else {
-                open.push(false);
-                continue;
-            };
-            match mesh.surface() {
-                Found::ClosedOutward => open.push(false),
-                Found::Open => {
-                    tracing::warn!(
-                        "contact: mesh {} (moving_object[{i}]) is open: its points touch from either side, its mass is that of a shell {:.1} mm thick",
-                        mesh.source,
-                        voxmap.shell_voxels * voxmap.voxel_m * 1e3
-                    );
-                    open.push(true);
-                }
-                Found::Refused(why) => {
-                    return Err(ContactError::Mesh {
-                        field: format!("moving_object[{i}]"),
-                        source_file: mesh.source.clone(),
-                        reason: why.to_string(),
-                    });
-                }
-            }
-        }
-        let shell_m = voxmap.shell_voxels * voxmap.voxel_m;
-        let voxmap = cached_voxmap(&obstacles, voxmap, control, cache_dir)?;
-        let object = scene::shapes::part_shapes(&scene.moving_object);
-        Self::with_voxmap(voxmap, &object, &open, shell_m, control)
+        Ok(obstacles)
     }
 
     /// Builds from parry shapes: obstacles in the scene frame, object parts in the object

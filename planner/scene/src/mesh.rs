@@ -207,6 +207,111 @@ impl MeshData {
     }
 }
 
+/// The relief of [`MeshData::icosphere`]: its radius along each unit direction (x, y, z)
+/// from the centre, as a factor of the nominal radius.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Bumps {
+    /// A sphere: 1.
+    None,
+    /// Those of [`MeshData::bumpy_sphere`]: 1 + 0.1·sin 5θ·sin 5φ (θ from +z, φ about z),
+    /// ±10 %, not convex.
+    Bench,
+    /// Finer and shallower: 1 + 0.04·sin 12x·sin 9y + 0.02·sin 30z, within ±6 %.
+    Fine,
+}
+
+impl Bumps {
+    /// The radius factor along unit direction `u`.
+    fn factor(self, u: &Vector3<f64>) -> f64 {
+        match self {
+            Bumps::None => 1.0,
+            Bumps::Bench => {
+                let (theta, phi) = (u.z.clamp(-1.0, 1.0).acos(), u.y.atan2(u.x));
+                1.0 + 0.1 * (5.0 * theta).sin() * (5.0 * phi).sin()
+            }
+            Bumps::Fine => {
+                1.0 + 0.04 * (12.0 * u.x).sin() * (9.0 * u.y).sin() + 0.02 * (30.0 * u.z).sin()
+            }
+        }
+    }
+}
+
+impl MeshData {
+    /// A closed, outward-wound sphere of radius `r` (m) whose triangles are all about the
+    /// same size: an icosahedron whose triangles are each cut into four `subdivisions`
+    /// times (20·4^s triangles, 10·4^s + 2 vertices), every vertex then at `r` times
+    /// `bumps`' factor along its direction. Triangles are stored as the subdivision makes
+    /// them (each one's four children in its place: a quadtree order on each of the 20
+    /// faces), vertices in the order they were made (the 12 corners, then each level's
+    /// midpoints). Dense meshes for tests and benchmarks, unlike
+    /// [`Self::bumpy_sphere`]'s slivers at the poles.
+    pub fn icosphere(source: &str, r: f64, subdivisions: u32, bumps: Bumps) -> Self {
+        let g = (1.0 + 5f64.sqrt()) / 2.0;
+        let mut dirs: Vec<Vector3<f64>> = [
+            [-1.0, g, 0.0],
+            [1.0, g, 0.0],
+            [-1.0, -g, 0.0],
+            [1.0, -g, 0.0],
+            [0.0, -1.0, g],
+            [0.0, 1.0, g],
+            [0.0, -1.0, -g],
+            [0.0, 1.0, -g],
+            [g, 0.0, -1.0],
+            [g, 0.0, 1.0],
+            [-g, 0.0, -1.0],
+            [-g, 0.0, 1.0],
+        ]
+        .iter()
+        .map(|c| Vector3::from(*c).normalize())
+        .collect();
+        let mut t: Vec<[u32; 3]> = vec![
+            [0, 11, 5],
+            [0, 5, 1],
+            [0, 1, 7],
+            [0, 7, 10],
+            [0, 10, 11],
+            [1, 5, 9],
+            [5, 11, 4],
+            [11, 10, 2],
+            [10, 7, 6],
+            [7, 1, 8],
+            [3, 9, 4],
+            [3, 4, 2],
+            [3, 2, 6],
+            [3, 6, 8],
+            [3, 8, 9],
+            [4, 9, 5],
+            [2, 4, 11],
+            [6, 2, 10],
+            [8, 6, 7],
+            [9, 8, 1],
+        ];
+        for _ in 0..subdivisions {
+            let mut mid = std::collections::HashMap::with_capacity(t.len() * 3 / 2);
+            let mut midpoint = |a: u32, b: u32, dirs: &mut Vec<Vector3<f64>>| {
+                *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                    dirs.push((dirs[a as usize] + dirs[b as usize]).normalize());
+                    dirs.len() as u32 - 1
+                })
+            };
+            let mut next = Vec::with_capacity(t.len() * 4);
+            for &[a, b, c] in &t {
+                let ab = midpoint(a, b, &mut dirs);
+                let bc = midpoint(b, c, &mut dirs);
+                let ca = midpoint(c, a, &mut dirs);
+                next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+            }
+            t = next;
+        }
+        MeshData {
+            source: source.to_owned(),
+            vertices_m: dirs.iter().map(|u| u * (r * bumps.factor(u))).collect(),
+            triangles: t,
+            repair: None,
+        }
+    }
+}
+
 impl MeshData {
     /// A stand-in for a CAD part as exported (for tests and benchmarks of the loop's
     /// worst case): 20 040 triangles in open components, 160 × 83 × 80 mm about its
@@ -490,6 +595,42 @@ vertex 0 1 0\nendloop\nendfacet\nendsolid t\n";
         );
         let e = MeshData::load(&tmp("junk.stl", b"solid x\nfacet nonsense\n"), 1.0).unwrap_err();
         assert!(e.to_string().contains("junk.stl:2:"), "{e}");
+    }
+
+    #[test]
+    fn icospheres_are_closed_outward_with_20_times_4_to_the_s_triangles() {
+        use crate::topology::{MeshKind, Topology};
+        for (s, bumps) in [(0, Bumps::None), (2, Bumps::Bench), (3, Bumps::Fine)] {
+            let m = MeshData::icosphere("ico", 0.25, s, bumps);
+            assert_eq!(m.triangles.len(), 20 * 4usize.pow(s), "{s}");
+            assert_eq!(m.vertices_m.len(), 10 * 4usize.pow(s) + 2, "{s}");
+            assert_eq!(
+                Topology::of(&m).kind(),
+                MeshKind::ClosedOutward,
+                "{s} {bumps:?}"
+            );
+            let reach = m.reach_m(|v| *v);
+            let most = match bumps {
+                Bumps::None => 1.0,
+                Bumps::Bench => 1.1,
+                Bumps::Fine => 1.06,
+            };
+            assert!(reach <= 0.25 * most + 1e-12, "{s} {bumps:?}: {reach}");
+        }
+        // Every triangle about the same size: within a factor of 2 in area at s = 4.
+        let m = MeshData::icosphere("ico", 1.0, 4, Bumps::None);
+        let areas: Vec<f64> = m
+            .triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| m.vertices_m[i as usize]);
+                0.5 * (b - a).cross(&(c - a)).norm()
+            })
+            .collect();
+        let (lo, hi) = areas
+            .iter()
+            .fold((f64::INFINITY, 0f64), |(l, h), &x| (l.min(x), h.max(x)));
+        assert!(hi < 2.0 * lo, "{lo} .. {hi}");
     }
 
     #[test]

@@ -24,7 +24,7 @@
 //! exact point–mesh distances).
 
 use super::B;
-use crate::contact::mesh::Mesh;
+use crate::contact::mesh::{Mesh, Walk};
 use nalgebra::Vector3;
 use scene::progress::Progress;
 use std::collections::VecDeque;
@@ -84,6 +84,8 @@ pub(super) struct Band {
     region: Vec<i8>,
     /// The values of nodes out of the band's reach, m: outside, inside (negative).
     far_m: [f32; 2],
+    /// Turns the spread took on every slab (margins counted in each), for progress.
+    pub(super) turns: u64,
 }
 
 impl Band {
@@ -131,16 +133,33 @@ impl Band {
                         let seeded = work.queue.len();
                         let t1 = std::time::Instant::now();
                         let pops = work.propagate(progress)?;
+                        let nodes = work
+                            .dist
+                            .iter()
+                            .flatten()
+                            .filter(|d| !d.is_nan())
+                            .count();
+                        let c = work.counts;
+                        let per = |x: u64| x as f64 / nodes.max(1) as f64;
                         tracing::debug!(
-                            "slab {k}: seed {:.2} s ({seeded} nodes), spread {:.2} s ({pops} turns, {} blocks)",
+                            "slab {k}: seed {:.2} s ({seeded} nodes, {} distances), spread {:.2} s ({pops} turns, {nodes} nodes, {} blocks); per node: {:.2} turns, {:.2} rings walked ({:.1} distances), {:.2} ridge checks ({:.2} walks), {:.1} offered distances, {:.1} distances in all",
                             (t1 - t0).as_secs_f64(),
+                            c.seed,
                             t1.elapsed().as_secs_f64(),
-                            work.dist.len()
+                            work.dist.len(),
+                            per(pops),
+                            per(c.rings),
+                            per(c.ring_distances),
+                            per(c.ridge),
+                            per(c.ridge_walks),
+                            per(c.offered),
+                            per(c.seed + c.ring_distances + c.ridge + c.offered),
                         );
                         Ok(Part {
                             work_blocks: work.blocks,
                             slot: work.slot,
                             dist: work.dist,
+                            turns: pops,
                             offset: lo,
                             core: (core_lo, core_hi),
                         })
@@ -171,9 +190,11 @@ impl Band {
                     [far, far]
                 }
             },
+            turns: 0,
         };
         for part in parts {
             let part = part?;
+            band.turns += part.turns;
             for (b, &s) in part.slot.iter().enumerate() {
                 if s == ABSENT {
                     continue;
@@ -198,6 +219,8 @@ impl Band {
         if side == Side::Solid {
             band.fill_regions(&progress.cancel)?;
         }
+        // Counted whatever the side, as `build` expects them.
+        progress.add(super::build::REGION_UNITS_PER_BLOCK * band.slot.len() as u64);
         tracing::debug!(
             "band of {} triangles on {slabs} thread(s): {} blocks; spread {spread:.2} s, merge {:.2} s, regions {:.2} s",
             mesh.len(),
@@ -411,6 +434,7 @@ fn neighbours(n: [usize; 3], nodes: [usize; 3]) -> impl Iterator<Item = [usize; 
 
 /// One slab's band blocks, to be merged into the [`Band`].
 struct Part {
+    turns: u64,
     work_blocks: [usize; 3],
     slot: Vec<u32>,
     dist: Vec<[f32; OWN]>,
@@ -418,6 +442,23 @@ struct Part {
     offset: usize,
     /// The blocks along the split axis this slab answers for.
     core: (usize, usize),
+}
+
+/// What one slab's band did, for the debug log: triangle distances computed by stage, and
+/// the walks over 1-rings.
+#[derive(Debug, Default, Clone, Copy)]
+struct Counts {
+    /// Distances computed seeding.
+    seed: u64,
+    /// Rings walked ([`Mesh::descend`]'s rounds) and distances computed walking them.
+    rings: u64,
+    ring_distances: u64,
+    /// Neighbours' triangles looked at off the ring (the ridge check), and walks from them.
+    ridge: u64,
+    ridge_walks: u64,
+    /// Distances computed handing a node's triangle to its neighbours (not to those that
+    /// hold it already).
+    offered: u64,
 }
 
 /// The band's working state on one slab: distances (unsigned until a node's turn signs
@@ -436,6 +477,7 @@ struct Work<'m> {
     /// Per own node, whether it waits in `queue` (one bit each).
     queued: Vec<[u64; OWN / 64]>,
     queue: VecDeque<[u32; 3]>,
+    counts: Counts,
 }
 
 impl<'m> Work<'m> {
@@ -459,6 +501,7 @@ impl<'m> Work<'m> {
             tri: Vec::with_capacity(expected),
             queued: Vec::with_capacity(expected),
             queue: VecDeque::new(),
+            counts: Counts::default(),
         }
     }
 
@@ -474,13 +517,18 @@ impl<'m> Work<'m> {
         self.slot[b] as usize
     }
 
-    /// Offers triangle `t` at distance `d` to node `n`; queues the node (once) when it
-    /// takes it.
+    /// Offers triangle `t` at distance `d()` to node `n`; queues the node (once) when it
+    /// takes it. A node that holds `t` already holds its distance, which is not less:
+    /// `d` is not computed then.
     #[inline]
-    fn offer(&mut self, n: [usize; 3], t: u32, d: f32) {
+    fn offer(&mut self, n: [usize; 3], t: u32, d: impl FnOnce() -> f32) {
         let s = self.slot_of(n);
         let l = local(n);
         let old = self.dist[s][l];
+        if !old.is_nan() && self.tri[s][l] == t {
+            return;
+        }
+        let d = d();
         if old.is_nan() || d < old.abs() {
             self.dist[s][l] = d;
             self.tri[s][l] = t;
@@ -539,11 +587,13 @@ impl<'m> Work<'m> {
                     for k in from..=to.min(z[w]) {
                         n[w] = k;
                         let at = self.mesh.closest(t, &g.position(n));
-                        self.offer(n, t, at.distance2.sqrt() as f32);
+                        self.counts.seed += 1;
+                        self.offer(n, t, || at.distance2.sqrt() as f32);
                     }
                 }
             }
         }
+        progress.add(self.mesh.len() as u64 % 8192);
         Ok(())
     }
 
@@ -566,7 +616,12 @@ impl<'m> Work<'m> {
             let l = local(n);
             self.queued[s][l / 64] &= !(1u64 << (l % 64));
             let t0 = self.tri[s][l];
-            let (mut t, mut at) = self.mesh.descend(&p, t0, self.mesh.closest(t0, &p));
+            let main = self
+                .mesh
+                .walk(&p, t0, self.mesh.closest(t0, &p), None)
+                .expect("a walk without a stop ends");
+            self.count_walk(&main);
+            let (mut t, mut at) = (main.t, main.at);
             // Near a ridge of the distance (two parts of the surface about as near, on the
             // concave side), the walk from the nearest offer can end in the wrong basin:
             // walk also from a neighbour's triangle that is about as near and not next to
@@ -579,15 +634,20 @@ impl<'m> Work<'m> {
                     continue;
                 }
                 let tm = self.tri[ms as usize][local(m)];
-                if tm == t || self.mesh.in_ring(t, tm) {
+                // From a triangle the first walk stood on, a walk goes its way again.
+                if tm == t || main.stood_on(tm) || self.mesh.in_ring(t, tm) {
                     continue;
                 }
                 let c = self.mesh.closest(tm, &p);
+                self.counts.ridge += 1;
                 let reach = at.distance2.sqrt() + slack;
                 if c.distance2 < reach * reach {
-                    let (t2, at2) = self.mesh.descend(&p, tm, c);
-                    if at2.distance2 < at.distance2 {
-                        (t, at) = (t2, at2);
+                    self.counts.ridge_walks += 1;
+                    if let Some(w) = self.mesh.walk(&p, tm, c, Some(&main)) {
+                        self.count_walk(&w);
+                        if w.at.distance2 < at.distance2 {
+                            (t, at) = (w.t, w.at);
+                        }
                     }
                 }
             }
@@ -605,12 +665,25 @@ impl<'m> Work<'m> {
             if d > limit {
                 continue;
             }
+            let mesh = self.mesh;
             for m in neighbours(n, g.nodes) {
-                let at = self.mesh.closest(t, &g.position(m));
-                self.offer(m, t, at.distance2.sqrt() as f32);
+                let mut computed = false;
+                self.offer(m, t, || {
+                    computed = true;
+                    mesh.closest(t, &g.position(m)).distance2.sqrt() as f32
+                });
+                self.counts.offered += u64::from(computed);
             }
         }
+        progress.add(turns % 8192);
         Ok(turns)
+    }
+
+    /// Counts a walk's rings and distances (and the distance of its start).
+    #[inline]
+    fn count_walk(&mut self, w: &Walk) {
+        self.counts.rings += w.stood as u64;
+        self.counts.ring_distances += 1 + u64::from(w.distances);
     }
 }
 
@@ -676,6 +749,40 @@ mod tests {
         // The cube's centre (20 mm deep) is beyond the band: inside by the fill.
         assert!(band.value([25, 25, 25]) < 0.0);
         assert!(band.value([0, 0, 0]) > 0.0);
+    }
+
+    #[test]
+    fn triangles_in_spatial_order_give_the_same_band_bit_for_bit() {
+        use rand::SeedableRng;
+        use rand::seq::SliceRandom;
+        let m = scene::MeshData::bumpy_sphere("s", 0.05, 30, 60);
+        let mut t = m.triangles.clone();
+        t.shuffle(&mut rand_chacha::ChaCha8Rng::seed_from_u64(2));
+        let grid = Grid {
+            origin: Vector3::repeat(-0.07),
+            h: 0.002,
+            nodes: [71, 71, 71],
+        };
+        let limits = Limits {
+            out_m: 0.01,
+            in_m: 0.01,
+        };
+        let band =
+            |mesh: &Mesh| Band::compute(mesh, grid, Side::Solid, limits, 2, &no_cancel()).unwrap();
+        let plain = band(&Mesh::new(&m.vertices_m, &t));
+        let spatial = band(&Mesh::new_spatial(&m.vertices_m, &t));
+        for k in 0..71 {
+            for j in 0..71 {
+                for i in 0..71 {
+                    let n = [i, j, k];
+                    assert_eq!(
+                        plain.value(n).to_bits(),
+                        spatial.value(n).to_bits(),
+                        "{n:?}"
+                    );
+                }
+            }
+        }
     }
 
     #[test]
