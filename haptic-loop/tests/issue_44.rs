@@ -124,6 +124,31 @@ fn issue_44_a_cad_like_part_keeps_to_the_caps() {
     within_caps(&scene);
 }
 
+/// Issue 45: a big part as the moving object, 327 680 triangles of about one size (an
+/// icosphere subdivided 7 times, fine bumps, stretched to a 180 × 110 × 60 mm ellipsoid)
+/// that starts turned across the CAD-like part's hole: the same caps hold.
+#[test]
+fn issue_45_a_327k_triangle_part_keeps_to_the_caps() {
+    use scene::{Bumps, MeshData, Primitive};
+    let ball = MeshData::icosphere("327k part", 1.0, 7, Bumps::Fine);
+    let part = MeshData::new(
+        "327k part",
+        ball.vertices_m
+            .iter()
+            .map(|v| nalgebra::Vector3::new(0.09 * v.x, 0.055 * v.y, 0.03 * v.z))
+            .collect(),
+        ball.triangles,
+    )
+    .expect("a valid mesh");
+    assert_eq!(part.triangles.len(), 327_680);
+    let mut scene = Scene::cad_like_part_through_wall();
+    scene.name = "327k-part".into();
+    scene.moving_object[0].primitive = Primitive::Mesh {
+        mesh: std::sync::Arc::new(part),
+    };
+    within_caps(&scene);
+}
+
 #[test]
 fn issue_44_a_cap_below_what_the_ticks_need_is_caught() {
     // The crossing planes' newcomer comes within a chunk of the look-up cap in its first
