@@ -96,6 +96,9 @@ pub struct IterReport {
     pub novel: bool,
     /// True when the problem is solved (now or before).
     pub solved: bool,
+    /// The operator's sample was in shallow collision and was pushed out to a free
+    /// configuration ([`crate::PlannerParams::touch_depth_m`]), which `sample` holds.
+    pub touched: bool,
 }
 
 /// Planner statistics.
@@ -115,7 +118,21 @@ pub struct Stats {
     pub best_distance_to_goal: f64,
     /// Local trees merged so far.
     pub merges: u64,
+    /// Operator samples in shallow collision pushed out and used (touch retraction).
+    pub touched: u64,
+    /// Of those, the ones a tree reached: added as nodes.
+    pub touched_nodes: u64,
+    /// Waypoints of the raw solution path that are such nodes.
+    pub touched_on_path: usize,
 }
+
+/// Push-outs one touch retraction tries: each moves the object along the deepest
+/// contact's normal by its depth and a margin; several contacts (a slot's two walls) take
+/// a few.
+const TOUCH_PUSHES: u32 = 4;
+
+/// Clearance a push-out adds beyond the depth (m): free by a margin, not touching.
+const TOUCH_MARGIN_M: f64 = 5e-5;
 
 const START: usize = 0;
 const GOAL: usize = 1;
@@ -138,6 +155,12 @@ pub struct Planner {
     a: usize,
     iterations: u64,
     merges: u64,
+    /// Operator samples pushed out of a shallow collision ([`Self::touch_retract`]).
+    touched: Vec<Se3>,
+    /// Of those, the ones a tree reached.
+    touched_nodes: u64,
+    /// Raw solution waypoints among them, counted when solved.
+    touched_on_path: usize,
     /// Round-robin cursor over local trees.
     local_cursor: usize,
     /// The operator's previous configuration (for F_u).
@@ -188,6 +211,9 @@ impl Planner {
             a: START,
             iterations: 0,
             merges: 0,
+            touched: Vec::new(),
+            touched_nodes: 0,
+            touched_on_path: 0,
             local_cursor: 0,
             prev_user: None,
             last_human: None,
@@ -223,6 +249,7 @@ impl Planner {
             merged: 0,
             novel: false,
             solved: self.solved(),
+            touched: false,
         };
         if report.solved {
             return report;
@@ -238,13 +265,23 @@ impl Planner {
                     .observe(&rule, &self.space, &u.q_user, &self.goal, u.time_s);
             }
         }
-        let (q_rand, source, present) = self.sample(input.as_ref());
+        let (mut q_rand, source, present) = self.sample(input.as_ref());
+        if source == Source::User
+            && let Some(q) = self.touch_retract(&q_rand)
+        {
+            q_rand = q;
+            report.touched = true;
+            self.touched.push(q);
+        }
         report.sample = Some(q_rand);
         report.source = source;
         report.from_user = matches!(source, Source::User | Source::Contact);
         match self.params.algorithm {
             Algorithm::Rrt => self.rrt_step(&q_rand, &mut report),
             Algorithm::RrtConnect => self.connect_step(&q_rand, source, &mut report),
+        }
+        if report.touched && report.extend == Some(Extend::Success) {
+            self.touched_nodes += 1;
         }
         if let Some(rule) = self.adaptive()
             && present
@@ -256,6 +293,33 @@ impl Planner {
             self.prev_user = Some(u.q_user);
         }
         report
+    }
+
+    /// `q`, an operator sample, pushed out of a shallow collision (no deeper than
+    /// [`crate::PlannerParams::touch_depth_m`]) to a free configuration nearby: moved along
+    /// the deepest contact's normal by its depth and [`TOUCH_MARGIN_M`], up to
+    /// [`TOUCH_PUSHES`] times. `None` when `q` is free already, deeper, or not freed so.
+    fn touch_retract(&self, q: &Se3) -> Option<Se3> {
+        let limit = self.params.touch_depth_m;
+        if limit <= 0.0 || self.checker.is_free(q) {
+            return None;
+        }
+        let mut at = *q;
+        for _ in 0..TOUCH_PUSHES {
+            let (_, normal, depth) = self.checker.deepest_contact(&at)?;
+            if depth > limit || !normal.iter().all(|x| x.is_finite()) {
+                return None;
+            }
+            at = self.space.project(&Se3::new(
+                at.pos + normal * (depth + TOUCH_MARGIN_M),
+                at.rot,
+            ));
+            if self.checker.is_free(&at) {
+                // Near the sample: within the depth limit for each push.
+                return Some(at);
+            }
+        }
+        None
     }
 
     /// The adaptive authority's rule, when H-RRT-C runs with it.
@@ -628,6 +692,7 @@ impl Planner {
             &mut self.rng,
         );
         let resolution = 0.2 * self.params.step;
+        self.touched_on_path = raw.iter().filter(|q| self.touched.contains(q)).count();
         self.guide = Some(PathGuide::new(&self.space, &smooth, resolution));
         self.raw_solution = Some(raw);
         self.solution = Some(smooth);
@@ -669,6 +734,9 @@ impl Planner {
             clearance_queries: self.checker.clearance_queries(),
             best_distance_to_goal: best,
             merges: self.merges,
+            touched: self.touched.len() as u64,
+            touched_nodes: self.touched_nodes,
+            touched_on_path: self.touched_on_path,
         }
     }
 

@@ -134,6 +134,13 @@ pub struct ShellReport {
     pub authority_takeovers: u64,
     /// Times it gave the operator its share back after it had started taking it.
     pub authority_restores: u64,
+    /// Operator samples in shallow collision pushed out to a free configuration and used
+    /// (touch retraction, `PlannerParams::touch_depth_m`).
+    pub touched: u64,
+    /// Of those, the ones a tree reached (added as nodes).
+    pub touched_nodes: u64,
+    /// Waypoints of the raw solution path that are such nodes.
+    pub touched_on_path: u64,
     /// Mean time the main thread spent on one roadmap increment (loan, fill, send), µs.
     pub roadmap_publish_mean_us: f64,
     /// Longest time the main thread spent on one roadmap increment, µs.
@@ -407,6 +414,9 @@ pub fn run_with_guidance_out(
     report.authority_restores = planner.authority().restores;
     report.iterations = s.iterations;
     report.nodes = s.nodes as u64;
+    report.touched = s.touched;
+    report.touched_nodes = s.touched_nodes;
+    report.touched_on_path = s.touched_on_path as u64;
     report.collision_checks = s.collision_checks;
     report.states_received = op.received;
     report.states_skipped = op.skipped;

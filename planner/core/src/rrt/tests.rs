@@ -854,3 +854,51 @@ fn an_operator_sample_that_opens_new_ground_restores_the_trust() {
     assert_eq!((a.trust, a.stagnant_s), (1.0, 0.0), "{a:?}");
     assert_eq!(a.restores, 1);
 }
+
+/// Issue 46: the operator's configuration touching a wall (0.5 mm in, as an operator's pose
+/// in a slot is) is pushed out to a free configuration beside it and used, with touch
+/// retraction on (1 mm); a deep one, a free one, or any with it off (the default) is not.
+#[test]
+fn an_operator_sample_in_shallow_collision_is_pushed_out_and_used() {
+    use crate::sampling::UserInput;
+    let scene = Scene::wall_with_hole();
+    let params = |touch_depth_m: f64| PlannerParams {
+        sampling: crate::Sampling::Hrrtc { alpha: 0.0 },
+        touch_depth_m,
+        ..Default::default()
+    };
+    // The S's x-max face 0.5 mm into the wall's face x = −0.01, beside the hole.
+    let pressed = Se3::from_xyz(-0.0595, 0.15, 0.0);
+    let mut p = Planner::new(&scene, params(0.001), 1).expect("planner");
+    assert!(!p.checker().is_free(&pressed));
+    let r = p.iterate_input(Some(&UserInput::free(pressed)));
+    assert!(r.from_user && r.touched, "{r:?}");
+    let q = r.sample.expect("a sample");
+    assert!(p.checker().is_free(&q), "{q:?}");
+    // Out along the wall's normal (−x) by the depth and the margin, nothing else.
+    let moved = q.pos - pressed.pos;
+    assert!(
+        (moved.x + 0.0005 + TOUCH_MARGIN_M).abs() < 1e-9 && moved.y.abs() < 1e-12,
+        "{moved}"
+    );
+    assert_eq!(q.rot, pressed.rot);
+    // The tree reaches it (the way from the start to the wall's face is free): a node.
+    assert_eq!(r.extend, Some(Extend::Success));
+    let s = p.stats();
+    assert_eq!((s.touched, s.touched_nodes), (1, 1));
+    // Not touched: a sample 5 mm deep, a free one, and any with the retraction off.
+    let deep = Se3::from_xyz(-0.055, 0.15, 0.0);
+    let free = Se3::from_xyz(-0.07, 0.15, 0.0);
+    for (depth, q_user) in [(0.001, deep), (0.001, free), (0.0, pressed)] {
+        let mut p = Planner::new(&scene, params(depth), 1).expect("planner");
+        let r = p.iterate_input(Some(&UserInput::free(q_user)));
+        assert!(r.from_user && !r.touched, "{q_user:?} {depth}: {r:?}");
+        assert_eq!(r.sample, Some(q_user));
+        assert_eq!(p.stats().touched, 0);
+    }
+    // Off by default.
+    assert_eq!(PlannerParams::default().touch_depth_m, 0.0);
+    // A bad limit is refused.
+    assert!(Planner::new(&scene, params(-1.0), 1).is_err());
+    assert!(Planner::new(&scene, params(f64::NAN), 1).is_err());
+}

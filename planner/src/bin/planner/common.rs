@@ -38,6 +38,12 @@ pub struct CoreArgs {
     /// Random shortcut attempts on the solution path (0 keeps the raw tree path).
     #[arg(long, default_value_t = 100)]
     pub shortcut_attempts: u32,
+    /// Touch retraction: the operator's configuration in collision no deeper than this (mm,
+    /// e.g. 1, the loop's voxel) is pushed out along the contact normal to a free
+    /// configuration and used instead of lost (the poses an operator passes a slot with
+    /// touch its walls); 0, the default, turns it off.
+    #[arg(long, default_value_t = 0.0)]
+    pub touch_depth_mm: f64,
     /// RRT-Connect: how the tree extended towards the sample grows, `greedy` (I-RRT
     /// Extend: steps until reached or blocked) or `step` (one step, as OMPL's
     /// RRTConnect); the other tree always connects greedily.
@@ -84,6 +90,7 @@ impl CoreArgs {
                 planner::Algorithm::RrtConnect
             },
             shortcut_attempts: self.shortcut_attempts,
+            touch_depth_m: self.touch_depth_mm * 1e-3,
             machine_sampler: planner::MachineSampler::parse(
                 &self.machine_sampler,
                 self.bridge_test_share,

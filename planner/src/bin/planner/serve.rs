@@ -197,11 +197,14 @@ pub fn run(args: &ServeArgs) -> anyhow::Result<i32> {
         Some(b) => serve_with_bridge(&config, &b, stop)?,
     };
     tracing::info!(
-        "planner done: solved {}, {} iterations, {} nodes, states {:.0} Hz",
+        "planner done: solved {}, {} iterations, {} nodes, states {:.0} Hz; touch: {} operator samples pushed out of a shallow collision, {} reached by a tree, {} on the raw path",
         report.solved,
         report.iterations,
         report.nodes,
-        report.state_rate_hz
+        report.state_rate_hz,
+        report.touched,
+        report.touched_nodes,
+        report.touched_on_path
     );
     let t = &report.samples;
     let kind = |name: &str, share: f64, k: &shell::SourceTally| {
