@@ -10,8 +10,6 @@
 //! same `f32` bits, −0 as +0) become one vertex, as they are in the file's geometry.
 
 use nalgebra::Vector3;
-use std::collections::HashMap;
-use std::hash::BuildHasherDefault;
 
 /// The bytes of a binary STL before its triangles: an 80-byte header and a `u32` count.
 const HEADER: usize = 84;
@@ -67,41 +65,31 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<Welded, StlError> {
     })
 }
 
-/// Merges corners at the same position into one vertex.
-#[derive(Default)]
-struct Weld {
-    index: HashMap<[u32; 3], u32, BuildHasherDefault<crate::repair::KeyHasher>>,
-    vertices: Vec<Vector3<f64>>,
-}
-
-impl Weld {
-    fn vertex(&mut self, p: [f32; 3]) -> u32 {
-        // −0 and +0 are one position.
-        let key = p.map(|x| (x + 0.0).to_bits());
-        *self.index.entry(key).or_insert_with(|| {
-            self.vertices.push(Vector3::new(
-                f64::from(p[0]),
-                f64::from(p[1]),
-                f64::from(p[2]),
-            ));
-            (self.vertices.len() - 1) as u32
-        })
+/// The triangles of `corners` (three a triangle) with corners at the same position as one
+/// vertex ([`crate::repair::weld`]: numbered by first appearance, −0 as +0).
+fn welded(corners: &[Vector3<f64>]) -> Welded {
+    let ids = crate::repair::weld(corners);
+    let mut vertices = Vec::new();
+    for (c, &id) in corners.iter().zip(&ids) {
+        if id as usize == vertices.len() {
+            vertices.push(*c);
+        }
     }
+    let triangles = ids.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+    (vertices, triangles)
 }
 
 fn binary(body: &[u8], n: usize) -> Welded {
-    let mut weld = Weld::default();
-    let mut triangles = Vec::with_capacity(n);
+    let mut corners = Vec::with_capacity(3 * n);
     for t in body.chunks_exact(TRIANGLE) {
-        let f = |i: usize| f32::from_le_bytes([t[i], t[i + 1], t[i + 2], t[i + 3]]);
+        let f = |i: usize| f64::from(f32::from_le_bytes([t[i], t[i + 1], t[i + 2], t[i + 3]]));
         // Bytes 0..12 are the normal, which the winding gives again.
-        let corner = |k: usize| {
+        for k in 0..3 {
             let at = 12 + 12 * k;
-            [f(at), f(at + 4), f(at + 8)]
-        };
-        triangles.push([0, 1, 2].map(|k| weld.vertex(corner(k))));
+            corners.push(Vector3::new(f(at), f(at + 4), f(at + 8)));
+        }
     }
-    (weld.vertices, triangles)
+    welded(&corners)
 }
 
 /// `solid`, then per triangle `facet normal x y z`, `outer loop`, three `vertex x y z`,
@@ -126,8 +114,7 @@ fn ascii(bytes: &[u8]) -> Result<Welded, StlError> {
         .enumerate()
         .map(|(i, l)| (i + 1, l.split_whitespace().collect::<Vec<_>>()))
         .filter(|(_, w)| !w.is_empty());
-    let mut weld = Weld::default();
-    let mut triangles = Vec::new();
+    let mut corners = Vec::new();
     let bad = |line: usize, reason: String| StlError {
         line: Some(line),
         reason: format!("ASCII STL: {reason}"),
@@ -173,8 +160,7 @@ fn ascii(bytes: &[u8]) -> Result<Welded, StlError> {
             }
         };
         expect(next("outer loop")?, &["outer", "loop"])?;
-        let mut corner = [0u32; 3];
-        for c in &mut corner {
+        for _ in 0..3 {
             let (n, words) = next("vertex x y z")?;
             let xyz = (words.len() == 4 && words[0] == "vertex")
                 .then(|| {
@@ -191,16 +177,15 @@ fn ascii(bytes: &[u8]) -> Result<Welded, StlError> {
                         ),
                     )
                 })?;
-            *c = weld.vertex(xyz);
+            corners.push(xyz.map(f64::from).into());
         }
         expect(next("endloop")?, &["endloop"])?;
         expect(next("endfacet")?, &["endfacet"])?;
-        triangles.push(corner);
     }
-    if triangles.is_empty() {
+    if corners.is_empty() {
         return Err(bad(last_line, "no `facet` in the file: no surface".into()));
     }
-    Ok((weld.vertices, triangles))
+    Ok(welded(&corners))
 }
 
 #[cfg(test)]
