@@ -34,8 +34,8 @@ use parry3d_f64::math::{Matrix, Pose, Vector};
 use parry3d_f64::query::{ClosestPoints, closest_points, contact, intersection_test};
 use parry3d_f64::shape::{Compound, SharedShape};
 use scene::pose::Se3;
+use scene::repair::Surface;
 use scene::shapes::{part_shapes, to_parry};
-use scene::topology::{MeshKind, Topology};
 use scene::{Bounds, Part, Primitive, Scene};
 use std::cell::Cell;
 
@@ -164,8 +164,10 @@ impl Side {
                 tree: shape.as_trimesh().map(ObbTree::new),
                 shape,
                 pose,
+                // The repair's verdict a loaded mesh carries (its topology for one built
+                // in code): no second topology pass per checker.
                 solid: matches!(&part.primitive, Primitive::Mesh { mesh }
-                    if Topology::of(mesh).kind() == MeshKind::ClosedOutward),
+                    if mesh.surface() == Surface::ClosedOutward),
             })
             .collect();
         Side {
