@@ -30,5 +30,6 @@ pub use planner_core::{
     Se3, Se3Space, Source, Space, Stats, UserInput, Weights,
 };
 pub use planner_core::{
-    aligned, authority, collision, guidance, params, path, retraction, rrt, sampling, space, tree,
+    aligned, authority, collision, guidance, params, path, portfolio, retraction, rrt, sampling,
+    space, tree,
 };

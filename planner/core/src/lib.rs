@@ -18,6 +18,8 @@
 //! - [`authority`]: H-RRT-C's fixed α, and the authority that adapts to a stuck operator.
 //! - [`rrt`]: RRT, RRT-Connect with I-RRT Extend and local trees, the `Planner` API.
 //! - [`retraction`]: small-step retraction (plan a thinned object, carry the path back).
+//! - [`portfolio`]: the narrow-passage methods taking turns with the operator, time shared
+//!   by what each gives per check.
 //! - [`path`]: shortcut smoothing, CSV / JSON export.
 //! - [`guidance`]: F_a (label-weighted barycenter) and, once solved, the lead along the
 //!   path (a saturating spring towards a carrot ahead, force and torque).
@@ -31,6 +33,7 @@ pub mod collision;
 pub mod guidance;
 pub mod params;
 pub mod path;
+pub mod portfolio;
 pub mod retraction;
 pub mod rrt;
 pub mod sampling;

@@ -27,6 +27,7 @@
 use crate::collision::CollisionChecker;
 use crate::params::{PlannerError, PlannerParams};
 use crate::rrt::Planner;
+use crate::sampling::UserInput;
 use crate::space::{ConfigSpace, Space};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -142,6 +143,49 @@ pub fn thinned(scene: &Scene, scale: f64) -> Scene {
     out
 }
 
+/// Largest mesh (vertices × triangles) [`shrinks_inside`] tests for convexity.
+const CONVEXITY_TEST_MAX: usize = 50_000_000;
+
+/// True when `part` shrunk by `scale` about its own centre (as [`thinned`] does) is known
+/// to lie inside the real part, so that a configuration free for the real object is free
+/// for the thinned one: boxes and spheres always; a mesh when it is closed and outward and
+/// convex (every vertex and the centre behind every triangle's plane, to 1e-9 of its size),
+/// tested up to [`CONVEXITY_TEST_MAX`] vertex–triangle pairs. False for the others: a
+/// non-convex part shrunk about its box's centre can poke out of itself (an L shrinks
+/// towards a point outside it), so the operator's configurations are only candidates for
+/// the thinned plan, which checks every sample.
+pub fn shrinks_inside(part: &Part, scale: f64) -> bool {
+    if !(scale > 0.0 && scale <= 1.0) {
+        return false;
+    }
+    let Primitive::Mesh { mesh } = &part.primitive else {
+        return true;
+    };
+    let v = &mesh.vertices_m;
+    if v.is_empty()
+        || v.len().saturating_mul(mesh.triangles.len()) > CONVEXITY_TEST_MAX
+        || !matches!(mesh.surface(), scene::repair::Surface::ClosedOutward)
+    {
+        return false;
+    }
+    let (lo, hi) = v
+        .iter()
+        .fold((v[0], v[0]), |(lo, hi), p| (lo.inf(p), hi.sup(p)));
+    let centre = (lo + hi) * 0.5;
+    let tol = 1e-9 * (hi - lo).norm();
+    mesh.triangles.iter().all(|t| {
+        let [a, b, c] = t.map(|i| v[i as usize]);
+        let n = (b - a).cross(&(c - a));
+        let len = n.norm();
+        if len == 0.0 {
+            return true; // no plane: nothing to be behind
+        }
+        let n = n / len;
+        let behind = |p: &nalgebra::Vector3<f64>| n.dot(&(p - a)) <= tol;
+        behind(&centre) && v.iter().all(behind)
+    })
+}
+
 fn shrink(part: &Part, s: f64) -> Part {
     let primitive = match &part.primitive {
         Primitive::Box { half_extents_m } => Primitive::Box {
@@ -246,6 +290,11 @@ pub struct ThinningStats {
     pub restarts: u64,
     /// Thinned plans given up after `plan_iterations`, each followed by a new one.
     pub replans: u64,
+    /// Samples of the thinned plans that were new ground a tree reached
+    /// ([`crate::IterReport::novel`]).
+    pub novel: u64,
+    /// Stages finished: thinned plans solved and repairs carried through.
+    pub stages: u64,
 }
 
 impl ThinningStats {
@@ -366,14 +415,30 @@ impl ThinnedPlanner {
     /// One bounded piece of work: a planner iteration, or one configuration of a repair.
     /// Does nothing once solved.
     pub fn step(&mut self) -> Result<(), PlannerError> {
+        self.step_with(None)
+    }
+
+    /// [`ThinnedPlanner::step`] with the operator's input: the thinned plan samples it as
+    /// its sampling method says (H-RRT-C: q_device in 1 − α of the samples). Only its
+    /// configuration is passed on: the contact the loop reports is the real object's,
+    /// and a configuration free for the real object is free for a thinned one whose parts
+    /// lie inside the real ones ([`shrinks_inside`]), so the operator's passage through a
+    /// slot is a passage for the thinned plan too. Repairs and joins plan without it.
+    pub fn step_with(&mut self, input: Option<&UserInput>) -> Result<(), PlannerError> {
         let stage = std::mem::replace(&mut self.stage, Stage::Done(Vec::new()));
         self.stage = match stage {
             Stage::Plan(mut p) => {
-                p.iterate(None);
+                let free = input.map(|u| UserInput {
+                    contact: None,
+                    ..*u
+                });
+                let report = p.iterate_input(free.as_ref());
+                self.stats.novel += u64::from(report.novel);
                 match p.solution() {
                     Some(path) => {
                         let path = path.to_vec();
                         self.stats.add_planner(&p);
+                        self.stats.stages += 1;
                         Stage::Repair(Box::new(self.repair(1, path, 1)))
                     }
                     None if p.stats().iterations >= self.thinning.plan_iterations => {
@@ -407,6 +472,7 @@ impl ThinnedPlanner {
                         &mut self.rng,
                     );
                     self.stats.add_checker(&r.checker);
+                    self.stats.stages += 1;
                     if r.k + 1 < self.scales.len() {
                         Stage::Repair(Box::new(self.repair(r.k + 1, path, 1)))
                     } else {

@@ -698,6 +698,34 @@ impl Planner {
         self.solution = Some(smooth);
     }
 
+    /// Takes `path` (start → goal, consecutive configurations joined by edges free at this
+    /// planner's edge check, e.g. a small-step retraction's final stage) as the solution:
+    /// smoothed and guided along as a path of its own. Ignored when already solved or when
+    /// it does not run from this problem's start to its goal.
+    pub fn adopt_solution(&mut self, path: &[Se3]) {
+        let ends = (path.first(), path.last());
+        if self.solved()
+            || ends
+                != (
+                    Some(&self.trees[START].node(NodeId(0)).config),
+                    Some(&self.goal),
+                )
+        {
+            return;
+        }
+        self.finish(path.to_vec());
+    }
+
+    /// Sets how machine samples are drawn from the next iteration on: the sampler and
+    /// the share of them turned square to an obstacle (clamped to [0, 1]; without
+    /// candidates, [`crate::aligned::AlignedOrientations::of`] found none or the planner
+    /// was built with `aligned_share` 0, aligned draws are uniform). A portfolio
+    /// ([`crate::portfolio`]) switches between them turn by turn.
+    pub fn set_machine_sampler(&mut self, sampler: MachineSampler, aligned_share: f64) {
+        self.params.machine_sampler = sampler;
+        self.params.aligned_share = aligned_share.clamp(0.0, 1.0);
+    }
+
     /// True once a start–goal path exists.
     pub fn solved(&self) -> bool {
         self.solution.is_some()

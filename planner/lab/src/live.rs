@@ -47,16 +47,20 @@ pub struct LiveMethod {
     pub guidance: bool,
     /// Operator preset.
     pub operator: String,
+    /// `planner serve --portfolio` (the narrow-passage methods taking turns), if the
+    /// method sets it: `off` keeps the papers' single planner whatever the default is.
+    pub portfolio: Option<String>,
     /// More `planner serve` options.
     pub planner_args: Option<String>,
 }
 
 /// The method names [`LiveMethod::parse`] accepts.
-pub const METHOD_NAMES: [&str; 14] = [
+pub const METHOD_NAMES: [&str; 15] = [
     "operator-alone",
     "rrt-connect",
     "hrrtc-fixed",
     "hrrtc-adaptive",
+    "hrrtc-portfolio",
     "pos+cs",
     "path",
     "irrtc-mouse",
@@ -83,6 +87,7 @@ impl LiveMethod {
             input,
             guidance: true,
             operator: DEFAULT_OPERATOR.to_owned(),
+            portfolio: Some("off".to_owned()),
             planner_args: None,
         }
     }
@@ -97,6 +102,11 @@ impl LiveMethod {
     ///   per α of `alphas`;
     /// - `hrrtc-adaptive`: H-RRT-C with the authority that adapts to a stuck operator
     ///   (`--authority adaptive`, α while it progresses), one method per α;
+    /// - `hrrtc-portfolio`: H-RRT-C with the fixed α and the narrow-passage methods
+    ///   taking turns (`--portfolio all`), one method per α;
+    ///
+    /// Every method but `hrrtc-portfolio` runs one planner (`--portfolio off`): the
+    /// papers' methods as they wrote them, whatever `planner serve`'s default.
     /// - `pos+cs`, `path`: I-RRT's samplers with the operator on the arm;
     /// - `irrtc-mouse`: I-RRT-C, contact sampling with authority α = 0 (H-RRT-C Table II),
     ///   the operator on the SpaceMouse;
@@ -137,6 +147,7 @@ impl LiveMethod {
                 planner: false,
                 sampling: "none".into(),
                 authority: None,
+                portfolio: None,
                 guidance: false,
                 ..LiveMethod::new(name.into(), "none", None, Input::Arm)
             }],
@@ -145,6 +156,13 @@ impl LiveMethod {
                 ..LiveMethod::new(name.into(), "cs", None, Input::Arm)
             }],
             "hrrtc-fixed" => alphas.iter().map(|&a| hrrtc(name, a, Input::Arm)).collect(),
+            "hrrtc-portfolio" => alphas
+                .iter()
+                .map(|&a| LiveMethod {
+                    portfolio: Some("all".into()),
+                    ..hrrtc(name, a, Input::Arm)
+                })
+                .collect(),
             "hrrtc-adaptive" => alphas
                 .iter()
                 .map(|&a| LiveMethod {
@@ -231,6 +249,7 @@ impl LiveMethod {
             .authority
             .iter()
             .map(|x| format!("--authority {x}"))
+            .chain(self.portfolio.iter().map(|x| format!("--portfolio {x}")))
             .chain(self.planner_args.clone())
             .collect();
         if !planner_args.is_empty() {

@@ -3,6 +3,7 @@
 
 use crate::LabError;
 use crate::picture::{self, ColorBy, Plane};
+use planner_core::portfolio::{Portfolio, PortfolioParams, PortfolioReport};
 use planner_core::retraction::{ThinnedPlanner, ThinningParams};
 use planner_core::{Planner, PlannerParams, Scene};
 use serde::Serialize;
@@ -40,6 +41,9 @@ pub struct SolveConfig {
     /// Plan by small-step retraction ([`planner_core::retraction`]) instead of one
     /// RRT-Connect on the real object.
     pub thinning: Option<ThinningParams>,
+    /// Plan with the narrow-passage methods taking turns ([`planner_core::portfolio`])
+    /// instead (its thinning stages are its own; `thinning` is then ignored).
+    pub portfolio: Option<PortfolioParams>,
 }
 
 /// Result of a solve; `planner solve --json` writes it.
@@ -70,6 +74,45 @@ pub struct SolveReport {
     /// iterations).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub thinning: Option<ThinningCounts>,
+    /// Portfolio only: what each method did, and which one solved.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub portfolio: Option<PortfolioReport>,
+}
+
+/// The portfolio until solved or out of time; writes the path files.
+fn solve_portfolio(
+    config: &SolveConfig,
+    params: &PortfolioParams,
+) -> Result<SolveReport, LabError> {
+    let mut p = Portfolio::new(
+        &config.scene,
+        config.params.clone(),
+        params.clone(),
+        config.seed,
+    )?;
+    let started = Instant::now();
+    while !p.solved() && started.elapsed().as_secs_f64() < config.time_limit_s {
+        p.turn(None);
+    }
+    let time_s = started.elapsed().as_secs_f64();
+    let s = p.main().stats();
+    let t = p.thinning().map(|t| t.stats()).unwrap_or_default();
+    let work = Work {
+        iterations: s.iterations + t.iterations,
+        nodes: s.nodes as u64 + t.nodes,
+        collision_checks: s.collision_checks + t.collision_checks,
+        clearance_queries: s.clearance_queries + t.clearance_queries,
+    };
+    let mut report = finish(
+        config,
+        time_s,
+        p.main().space(),
+        p.main().solution(),
+        work,
+        None,
+    )?;
+    report.portfolio = Some(p.report());
+    Ok(report)
 }
 
 /// What small-step retraction did ([`planner_core::retraction::ThinningStats`]).
@@ -158,6 +201,7 @@ fn finish(
         path_length: solution.map(|p| planner_core::space::path_length(space, p)),
         path_waypoints: solution.map(<[_]>::len),
         thinning,
+        portfolio: None,
     })
 }
 
@@ -179,6 +223,9 @@ fn write_paths(
 
 /// Iterates until solved or out of time, then writes the files asked for.
 pub fn solve(config: &SolveConfig) -> Result<SolveReport, LabError> {
+    if let Some(p) = &config.portfolio {
+        return solve_portfolio(config, p);
+    }
     if let Some(t) = &config.thinning {
         return solve_thinned(config, t);
     }

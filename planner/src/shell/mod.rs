@@ -26,6 +26,7 @@ mod error;
 pub use ipc_types::pacing;
 mod receiver;
 
+use crate::portfolio::{Portfolio, PortfolioParams, PortfolioReport};
 use crate::{IterReport, Planner, PlannerParams, Scene, Se3, Source};
 pub use error::ShellError;
 
@@ -80,6 +81,9 @@ pub struct ShellConfig {
     pub duration_s: Option<f64>,
     /// Roadmap increments published per second for viewers; 0 publishes none.
     pub roadmap_rate_hz: f64,
+    /// The narrow-passage methods taking turns ([`crate::portfolio`]); `None`: one planner
+    /// with `params`' machine sampler.
+    pub portfolio: Option<PortfolioParams>,
 }
 
 /// What a planner run did; written as JSON by `--json`.
@@ -147,6 +151,49 @@ pub struct ShellReport {
     pub roadmap_publish_max_us: f64,
     /// The iterations until the solution by where their sample came from.
     pub samples: SampleTally,
+    /// With a portfolio: what each method did, and which one solved.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub portfolio: Option<PortfolioReport>,
+}
+
+/// The planner the shell runs: one, or a portfolio whose main planner holds the roadmap
+/// the operator feels and the solution, whichever method found it.
+enum Engine {
+    Single(Box<Planner>),
+    Portfolio(Box<Portfolio>),
+}
+
+impl Engine {
+    fn new(config: &ShellConfig) -> Result<Self, crate::PlannerError> {
+        let (scene, params, seed) = (&config.scene, config.params.clone(), config.seed);
+        Ok(match &config.portfolio {
+            Some(p) => Engine::Portfolio(Box::new(Portfolio::new(scene, params, p.clone(), seed)?)),
+            None => Engine::Single(Box::new(Planner::new(scene, params, seed)?)),
+        })
+    }
+
+    /// The planner whose roadmap, guidance and solution the operator gets.
+    fn main(&self) -> &Planner {
+        match self {
+            Engine::Single(p) => p,
+            Engine::Portfolio(p) => p.main(),
+        }
+    }
+
+    /// One iteration, or one portfolio turn: the main planner's report, if it iterated.
+    fn iterate(&mut self, input: Option<&crate::UserInput>) -> Option<IterReport> {
+        match self {
+            Engine::Single(p) => Some(p.iterate_input(input)),
+            Engine::Portfolio(p) => p.turn(input),
+        }
+    }
+
+    fn report(&self) -> Option<PortfolioReport> {
+        match self {
+            Engine::Single(_) => None,
+            Engine::Portfolio(p) => Some(p.report()),
+        }
+    }
 }
 
 /// Iterations by where their sample came from ([`crate::Source`]), and what they added:
@@ -221,7 +268,11 @@ pub fn run_with_guidance_out(
     // The planner first (collision trees of big meshes take seconds): until the node below
     // exists, a signal ends the process at once (`ipc_types::startup`).
     let built = Instant::now();
-    let mut planner = Planner::new(&config.scene, config.params.clone(), config.seed)?;
+    let mut engine = Engine::new(config)?;
+    if let Some(p) = &config.portfolio {
+        let names: Vec<_> = p.methods.iter().map(|m| m.name()).collect();
+        tracing::info!("portfolio: {} taking turns", names.join(", "));
+    }
     tracing::debug!("planner built in {:.2} s", built.elapsed().as_secs_f64());
     let node_name = format!("planner_{}", std::process::id());
     let (node, cleaned) = services::create_node(&node_name)?;
@@ -310,24 +361,34 @@ pub fn run_with_guidance_out(
             let t0 = Instant::now();
             std::thread::sleep(next_guidance.saturating_duration_since(t0));
             report.idle_s += t0.elapsed().as_secs_f64();
-        } else if !planner.solved() {
+        } else if !engine.main().solved() {
             let input = op.state.filter(|_| fresh).and_then(|s| user_input(&s));
-            report.samples.add(&planner.iterate_input(input.as_ref()));
+            if let Some(r) = engine.iterate(input.as_ref()) {
+                report.samples.add(&r);
+            }
+            let planner = engine.main();
             authority_log.update(&planner.authority());
             if planner.solved() {
                 let t = started.elapsed().as_secs_f64();
                 report.time_to_solve_s = Some(t);
                 if let Some(sol) = planner.solution() {
                     path_seq += 1;
-                    let path = to_wire_path(sol, &planner, path_seq, pid);
+                    let path = to_wire_path(sol, planner, path_seq, pid);
                     report.path_waypoints = path.len;
                     if let Err(e) = path_pub.send_copy(path) {
                         tracing::warn!("cannot publish path: {e:?}");
                     }
                 }
                 let s = planner.stats();
+                let by = match &engine {
+                    Engine::Portfolio(p) => p
+                        .solved_by()
+                        .map(|m| format!(" on a {} turn", m.name()))
+                        .unwrap_or_default(),
+                    Engine::Single(_) => String::new(),
+                };
                 tracing::info!(
-                    "solved after {t:.2} s: {} iterations, {} nodes, {} waypoints",
+                    "solved after {t:.2} s{by}: {} iterations, {} nodes, {} waypoints",
                     s.iterations,
                     s.nodes,
                     report.path_waypoints
@@ -363,7 +424,7 @@ pub fn run_with_guidance_out(
             guidance_seq += 1;
             let g = make_guidance(
                 config,
-                &planner,
+                engine.main(),
                 q_user.as_ref(),
                 &op,
                 guidance_seq,
@@ -379,7 +440,7 @@ pub fn run_with_guidance_out(
         {
             next_roadmap = now + roadmap_period;
             let t0 = Instant::now();
-            let sent = publish_roadmap(rp, &mut feed, &planner, pid);
+            let sent = publish_roadmap(rp, &mut feed, engine.main(), pid);
             let us = t0.elapsed().as_secs_f64() * 1e6;
             roadmap_publish_total_us += us;
             report.roadmap_publish_max_us = report.roadmap_publish_max_us.max(us);
@@ -403,7 +464,9 @@ pub fn run_with_guidance_out(
         report.state_age_us = latency.age.percentiles_us();
     }
     let op = *lock(&operator);
+    let planner = engine.main();
     let s = planner.stats();
+    report.portfolio = engine.report();
     report.run_s = started.elapsed().as_secs_f64();
     let attempts = report.roadmap_published + report.roadmap_skipped;
     if attempts > 0 {
@@ -608,6 +671,7 @@ mod tests {
             plan_without_operator: false,
             duration_s: None,
             roadmap_rate_hz: 0.0,
+            portfolio: None,
         }
     }
 
@@ -671,6 +735,39 @@ mod tests {
         let before = *t;
         tally.add(&idle);
         assert_eq!(tally, before);
+    }
+
+    #[test]
+    fn a_portfolio_engine_solves_through_its_main_planner_and_reports_its_methods() {
+        let mut c = config(Scene::wall_with_square_hole(0.3));
+        assert!(Engine::new(&c).expect("engine").report().is_none());
+        c.portfolio = Some(PortfolioParams::default());
+        let mut engine = Engine::new(&c).expect("engine");
+        let mut tally = SampleTally::default();
+        let op = crate::UserInput::free(Se3::from_xyz(-0.1, 0.05, 0.0));
+        for _ in 0..200_000 {
+            if engine.main().solved() {
+                break;
+            }
+            if let Some(r) = engine.iterate(Some(&op)) {
+                tally.add(&r);
+            }
+        }
+        assert!(engine.main().solved());
+        let report = engine.report().expect("a portfolio report");
+        let methods: Vec<_> = report.methods.iter().map(|m| m.method.as_str()).collect();
+        assert_eq!(methods, ["uniform", "bridge-test", "aligned", "thinning"]);
+        assert!(report.solved_by.is_some());
+        // The main planner's iterations are the tally's, whoever's turn they were.
+        let t = &tally;
+        assert_eq!(
+            t.machine.iterations + t.operator.iterations + t.contact.iterations,
+            engine.main().stats().iterations
+        );
+        // Guidance comes from the main planner's path.
+        let op = Operator::default();
+        let g = make_guidance(&c, engine.main(), Some(&c.scene.start), &op, 1, 1, 7);
+        assert_eq!(g.mode, GuidanceMode::PATH);
     }
 
     /// The force and torque the loop renders from `g` (before its device bound), N, N·m.

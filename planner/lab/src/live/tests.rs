@@ -49,7 +49,7 @@ fn method_names_expand_to_demo_options() {
             "--alpha",
             "0.5",
             "--planner-args",
-            "--authority fixed"
+            "--authority fixed --portfolio off"
         ]
     );
     let m = &LiveMethod::parse("irrtc-mouse", &[], 0.5, "expert").unwrap()[0];
@@ -67,7 +67,7 @@ fn method_names_expand_to_demo_options() {
     assert_eq!(p[1].name, "hrrtc-paper α=0.9");
     let args = p[0].demo_args().join(" ");
     assert!(
-        args.contains("--planner-args --authority fixed --human-mode every"),
+        args.contains("--planner-args --authority fixed --portfolio off --human-mode every"),
         "{args}"
     );
     let a = &LiveMethod::parse("rrt-connect", &[], 0.5, "expert").unwrap()[0];
@@ -205,7 +205,9 @@ fn the_issue_32_methods_and_the_operator_pass_through() {
             "--device",
             "sim",
             "--operator",
-            "newcomer"
+            "newcomer",
+            "--planner-args",
+            "--portfolio off"
         ]
     );
     let fixed = LiveMethod::parse("hrrtc-fixed", &[0.1, 0.5], 0.5, "novice").unwrap();
@@ -213,14 +215,23 @@ fn the_issue_32_methods_and_the_operator_pass_through() {
     assert_eq!(fixed[0].name, "hrrtc-fixed α=0.1");
     let args = fixed[1].demo_args().join(" ");
     assert!(
-        args.ends_with("--operator novice --alpha 0.5 --planner-args --authority fixed"),
+        args.ends_with(
+            "--operator novice --alpha 0.5 --planner-args --authority fixed --portfolio off"
+        ),
         "{args}"
     );
     let adaptive = &LiveMethod::parse("hrrtc-adaptive", &[0.5], 0.5, "expert").unwrap()[0];
     assert_eq!(adaptive.name, "hrrtc-adaptive α=0.5");
     let args = adaptive.demo_args().join(" ");
     assert!(
-        args.ends_with("--planner-args --authority adaptive"),
+        args.ends_with("--planner-args --authority adaptive --portfolio off"),
+        "{args}"
+    );
+    let portfolio = &LiveMethod::parse("hrrtc-portfolio=0.5", &[], 0.5, "newcomer").unwrap()[0];
+    assert_eq!(portfolio.name, "hrrtc-portfolio α=0.5");
+    let args = portfolio.demo_args().join(" ");
+    assert!(
+        args.ends_with("--alpha 0.5 --planner-args --authority fixed --portfolio all"),
         "{args}"
     );
     // A method that names its operator keeps it.

@@ -119,6 +119,70 @@ impl CoreArgs {
     }
 }
 
+/// The portfolio of narrow-passage methods ([`planner::portfolio`]).
+#[derive(Debug, Args, Clone)]
+pub struct PortfolioArgs {
+    /// Narrow-passage methods that take turns in the planner, time shared by what each
+    /// gives per collision check: a comma list of `uniform`, `bridge-test`, `aligned`,
+    /// `thinning` (machine samples uniform, by the bridge test, square to an obstacle;
+    /// small-step retraction seeded by the operator), `all` for the four, or `off` (one
+    /// planner with --machine-sampler and --aligned-share).
+    #[arg(long, value_name = "METHODS")]
+    pub portfolio: Option<String>,
+    /// Least share of the checks each method of --portfolio gets, in [0, 1/methods).
+    #[arg(long, default_value_t = 0.05)]
+    pub portfolio_floor: f64,
+    /// Collision checks of one thinning turn of --portfolio.
+    #[arg(long, default_value_t = 500)]
+    pub portfolio_slice_checks: u64,
+    /// Object scale of the first thinning stage of --portfolio, in (0, 1); the stages
+    /// grow by --portfolio-thinning-step to the real object.
+    #[arg(long, default_value_t = 0.45)]
+    pub portfolio_thinning: f64,
+    /// Scale step between the thinning stages of --portfolio, in (0, 1).
+    #[arg(long, default_value_t = 0.05)]
+    pub portfolio_thinning_step: f64,
+}
+
+impl PortfolioArgs {
+    /// The portfolio asked for, `default` (a --portfolio value) when none is; `None` when
+    /// off.
+    pub fn params(
+        &self,
+        default: &str,
+    ) -> anyhow::Result<Option<planner::portfolio::PortfolioParams>> {
+        use planner::portfolio::{Method, PortfolioParams};
+        let list = self.portfolio.as_deref().unwrap_or(default);
+        let methods = match list {
+            "off" => return Ok(None),
+            "all" => Method::ALL.to_vec(),
+            list => list
+                .split(',')
+                .map(|m| {
+                    Method::parse(m.trim()).with_context(|| {
+                        format!(
+                            "--portfolio {list}: unknown method `{m}` (uniform, bridge-test, aligned, thinning, all or off)"
+                        )
+                    })
+                })
+                .collect::<anyhow::Result<_>>()?,
+        };
+        let p = PortfolioParams {
+            methods,
+            floor: self.portfolio_floor,
+            slice_checks: self.portfolio_slice_checks,
+            thinning: planner::retraction::ThinningParams::from_first(
+                self.portfolio_thinning,
+                self.portfolio_thinning_step,
+            )
+            .context("--portfolio-thinning / --portfolio-thinning-step")?,
+            ..PortfolioParams::default()
+        };
+        p.validate().context("--portfolio")?;
+        Ok(Some(p))
+    }
+}
+
 /// Operator-driven sampling options (I-RRT §4.2.2 and §6, H-RRT-C Algorithms 1–2).
 #[derive(Debug, Args, Clone)]
 pub struct SamplingArgs {

@@ -2,7 +2,7 @@
 //! host's side of the bridge inside (`--bridge-connect`). The options are validated into a
 //! [`ShellConfig`]; [`planner::shell::run`] does the work.
 
-use crate::common::{CoreArgs, SamplingArgs, non_negative, positive, positive_opt};
+use crate::common::{CoreArgs, PortfolioArgs, SamplingArgs, non_negative, positive, positive_opt};
 use anyhow::bail;
 use clap::Args;
 use hrrtc_bridge::clock::HostClock;
@@ -55,6 +55,9 @@ pub struct ServeArgs {
     /// How the operator's input drives sampling.
     #[command(flatten)]
     pub sampling: SamplingArgs,
+    /// The narrow-passage methods taking turns with the operator's samples.
+    #[command(flatten)]
+    pub portfolio: PortfolioArgs,
     /// How often to poll the haptic state until the receiver has locked onto the loop's
     /// ticks (then it polls once per tick, just after each state is written) and while no
     /// new state comes, Hz.
@@ -175,9 +178,16 @@ impl ServeArgs {
                 positive("roadmap-rate-hz", self.roadmap_rate_hz)?
             },
             duration_s: positive_opt("duration-s", self.duration_s)?,
+            portfolio: self.portfolio.params(SERVE_PORTFOLIO)?,
         })
     }
 }
+
+/// `planner serve`'s --portfolio when none is given: every method. Live, on the routes'
+/// scenes without their routes and the newcomer, it solved the bug trap in 6–9 s where
+/// the single planner took 24–40 s, the tunnels and crossing planes in under 2 s
+/// (docs/guide/planner-and-scenes.md, "Narrow passages, live").
+pub const SERVE_PORTFOLIO: &str = "all";
 
 /// Runs the command until Ctrl-C / SIGTERM or --duration-s; the exit code is 0.
 pub fn run(args: &ServeArgs) -> anyhow::Result<i32> {
@@ -224,6 +234,26 @@ pub fn run(args: &ServeArgs) -> anyhow::Result<i32> {
         kind("operator", o, &t.operator),
         kind("contact", c, &t.contact)
     );
+    if let Some(p) = &report.portfolio {
+        let methods: Vec<String> = p
+            .methods
+            .iter()
+            .map(|m| {
+                format!(
+                    "{} {} turns, {} checks, {} nodes, {} novel, share {:.2}",
+                    m.method, m.turns, m.checks, m.nodes_added, m.novel, m.share
+                )
+            })
+            .collect();
+        tracing::info!(
+            "portfolio: {}; solved on a {} turn",
+            methods.join("; "),
+            p.solved_by.as_deref().unwrap_or("no")
+        );
+        if let Some(e) = &p.thinning_error {
+            tracing::warn!("portfolio: thinning stopped: {e}");
+        }
+    }
     if let Some(p) = &args.json {
         crate::write_json(p, &report)?;
     }

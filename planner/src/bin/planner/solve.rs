@@ -1,7 +1,7 @@
 //! `planner solve`: automatic planning (no operator) against the wall clock. The options
 //! are validated into a [`SolveConfig`]; [`lab::solve::solve`] does the work.
 
-use crate::common::{CoreArgs, positive};
+use crate::common::{CoreArgs, PortfolioArgs, positive};
 use anyhow::{Context, bail};
 use clap::Args;
 use lab::picture::{ColorBy, Plane};
@@ -28,6 +28,9 @@ pub struct SolveArgs {
     /// `--scene bug-trap --thinning 0.45` solves the bug trap. In (0, 1).
     #[arg(long, value_name = "SCALE")]
     pub thinning: Option<f64>,
+    /// The narrow-passage methods taking turns (off by default here).
+    #[command(flatten)]
+    pub portfolio: PortfolioArgs,
     /// Scale step between the stages of --thinning, in (0, 1).
     #[arg(long, default_value_t = 0.05)]
     pub thinning_step: f64,
@@ -75,7 +78,14 @@ impl SolveArgs {
             }
             None => None,
         };
+        let portfolio = self.portfolio.params("off")?;
+        if portfolio.is_some() && (thinning.is_some() || self.png.is_some()) {
+            bail!(
+                "--portfolio plans with its own thinning and roadmaps: not with --thinning or --png"
+            );
+        }
         Ok(SolveConfig {
+            portfolio,
             scene,
             params,
             seed: self.core.seed,
@@ -110,6 +120,17 @@ pub fn run(args: &SolveArgs) -> anyhow::Result<i32> {
             "small-step retraction: {} configurations retracted, {} joins, {} repairs retried, thinned plans restarted {} times after a failed repair and {} times out of iterations",
             t.retracted, t.joins, t.retries, t.restarts, t.replans
         );
+    }
+    if let Some(p) = &report.portfolio {
+        for m in &p.methods {
+            println!(
+                "portfolio {}: {} turns, {} iterations, {} checks, {} nodes, {} on new ground, share {:.2}",
+                m.method, m.turns, m.iterations, m.checks, m.nodes_added, m.novel, m.share
+            );
+        }
+        if let Some(by) = &p.solved_by {
+            println!("portfolio: solved on a {by} turn");
+        }
     }
     if let Some(p) = &args.json {
         crate::write_json(p, &report)?;
