@@ -1367,4 +1367,49 @@ mod tests {
             &Se3::from_xyz(-0.3, 0.0, -0.15)
         ));
     }
+
+    #[test]
+    fn orientation_narrow_scenes_take_each_passage_in_one_turn_only() {
+        use std::f64::consts::FRAC_PI_2;
+        let at = |x: f64, y: f64, z: f64, r: f64, p: f64, w: f64| {
+            Se3::new(
+                Vector3::new(x, y, z),
+                UnitQuaternion::from_euler_angles(r, p, w),
+            )
+        };
+        let roll40 = 40f64.to_radians();
+        // Roll-slot-window: the slot (x = −0.04) takes the bar rolled 40° (±0.05 rad), not
+        // level nor rolled a quarter; the ceiling window (x = 0.06, z = 0.055) takes it on
+        // end (±0.15 rad of yaw), not level nor rolled.
+        let c = CollisionChecker::new(&Scene::roll_slot_window());
+        for d in [-0.05, 0.0, 0.05] {
+            assert!(c.is_free(&at(-0.04, 0.0, 0.0, roll40 + d, 0.0, 0.0)), "{d}");
+        }
+        for r in [0.0, roll40 - 0.2, roll40 + 0.2, FRAC_PI_2] {
+            assert!(!c.is_free(&at(-0.04, 0.0, 0.0, r, 0.0, 0.0)), "{r}");
+        }
+        for w in [-0.15, 0.0, 0.15] {
+            assert!(c.is_free(&at(0.06, 0.0, 0.055, 0.0, FRAC_PI_2, w)), "{w}");
+        }
+        assert!(!c.is_free(&at(0.06, 0.0, 0.055, 0.0, FRAC_PI_2, 0.35)));
+        assert!(!c.is_free(&at(0.06, 0.0, 0.055, FRAC_PI_2, 0.0, 0.0)));
+        assert!(!c.is_free(&at(0.06, 0.0, 0.055, 0.0, 0.0, 0.0)));
+        // Twist-windows: the partition's L (x = −0.04) takes the iron rolled +π/2 only
+        // (±0.1 rad), the side wall's L (y = 0.065) yawed +π/2 only.
+        let c = CollisionChecker::new(&Scene::twist_windows());
+        for d in [-0.1, 0.0, 0.1] {
+            assert!(
+                c.is_free(&at(-0.04, 0.0, 0.0, FRAC_PI_2 + d, 0.0, 0.0)),
+                "{d}"
+            );
+            assert!(c.is_free(&at(0.03, 0.065, 0.0, d, 0.0, FRAC_PI_2)), "{d}");
+        }
+        for r in [0.0, -FRAC_PI_2, 2.0 * FRAC_PI_2, FRAC_PI_2 + 0.3] {
+            assert!(!c.is_free(&at(-0.04, 0.0, 0.0, r, 0.0, 0.0)), "{r}");
+        }
+        for w in [0.0, -FRAC_PI_2] {
+            assert!(!c.is_free(&at(0.03, 0.065, 0.0, 0.0, 0.0, w)), "{w}");
+        }
+        assert!(!c.is_free(&at(0.03, 0.065, 0.0, FRAC_PI_2, 0.0, FRAC_PI_2)));
+    }
 }

@@ -14,7 +14,7 @@ use std::sync::Arc;
 
 /// Built-in scene names accepted by [`Scene::by_name_or_path`] (`default` is
 /// `wall-hole`).
-pub const BUILTIN_NAMES: [&str; 10] = [
+pub const BUILTIN_NAMES: [&str; 12] = [
     "wall-hole",
     "default",
     "maze",
@@ -24,6 +24,8 @@ pub const BUILTIN_NAMES: [&str; 10] = [
     "crossing-planes",
     "silencer",
     "bug-trap",
+    "roll-slot-window",
+    "twist-windows",
     "free",
 ];
 
@@ -54,6 +56,42 @@ fn slotted_plate(t: f64, s: f64, slot: [f64; 2], pose: &Se3) -> Vec<Part> {
         .iter()
         .map(|(h, c)| boxed(*h, pose.compose(&Se3::from_xyz(c[0], c[1], c[2]))))
         .collect()
+}
+
+/// An axis-aligned plate with a rectangular hole, as 4 boxes: the plate spans `min`..`max`
+/// (m, scene frame; its thickness along axis `normal`), the hole `hole_min`..`hole_max` in
+/// the two other axes (their values along `normal` are ignored).
+fn framed_hole(
+    normal: usize,
+    min: [f64; 3],
+    max: [f64; 3],
+    hole_min: [f64; 3],
+    hole_max: [f64; 3],
+) -> Vec<Part> {
+    let (u, v) = ((normal + 1) % 3, (normal + 2) % 3);
+    let piece = |lo: [f64; 3], hi: [f64; 3]| {
+        let h = [0, 1, 2].map(|k| 0.5 * (hi[k] - lo[k]));
+        let c = [0, 1, 2].map(|k| 0.5 * (hi[k] + lo[k]));
+        boxed(h, Se3::from_xyz(c[0], c[1], c[2]))
+    };
+    let with = |mut a: [f64; 3], k: usize, x: f64| {
+        a[k] = x;
+        a
+    };
+    vec![
+        // Below and above the hole along u, full width along v.
+        piece(min, with(max, u, hole_min[u])),
+        piece(with(min, u, hole_max[u]), max),
+        // Beside the hole along v, within its extent along u.
+        piece(
+            with(with(min, u, hole_min[u]), v, min[v]),
+            with(with(max, u, hole_max[u]), v, hole_min[v]),
+        ),
+        piece(
+            with(with(min, u, hole_min[u]), v, hole_max[v]),
+            with(with(max, u, hole_max[u]), v, max[v]),
+        ),
+    ]
 }
 
 /// A square tube along x: inner half size `inner` (m), wall half thickness `t`, from
@@ -107,6 +145,8 @@ impl Scene {
             "crossing-planes" => Scene::crossing_planes(),
             "silencer" => Scene::silencer(),
             "bug-trap" => Scene::bug_trap(),
+            "roll-slot-window" => Scene::roll_slot_window(),
+            "twist-windows" => Scene::twist_windows(),
             "free" => Scene::free(),
             _ => return None,
         })
@@ -423,6 +463,160 @@ impl Scene {
                     RouteStep::to(Se3::from_xyz(0.073, 0.0, 0.0)),
                     RouteStep::to(Se3::new(Vector3::new(0.073, 0.0, 0.0), roll)),
                     RouteStep::to(Se3::new(Vector3::new(0.2, 0.0, 0.0), roll)),
+                ]
+            },
+        }
+    }
+
+    /// Narrow in orientation (ours, after the issue's "a part that must roll about 40° to
+    /// pass a slot, then turn about 90° to pass a window"): the bug trap's 80 × 36 × 10 mm
+    /// bar in a closed duct, 280 mm long with a 100 mm square inside (10 mm walls), split
+    /// at x = −0.04 by a 4 mm partition. Its only opening is a 44 × 16 mm slot rolled by
+    /// 40° (the bar passes along x, rolled to the slot within about 0.1 rad, with 8 and
+    /// 6 mm to spare: the bug trap's clearances; the slot sits in a 56 mm square hole of
+    /// the partition, in a plate small enough to stay inside the walls at that roll). The
+    /// second chamber (x ∈ [−0.038, 0.12], 158 mm) is closed but for an 18 × 44 mm window
+    /// in its ceiling at x = 0.06: the bar leaves upward standing on end, pitched a quarter
+    /// turn (±π/2 about y) within about 0.2 rad in yaw (4 mm to spare each side); the
+    /// chamber is 100 mm high, so the 80 mm bar (80.6 mm across its x–z diagonal) can
+    /// pitch below the window. Start x = −0.10 in the first chamber, goal 0.1 m above the
+    /// window outside the duct, both level. The duct is closed, so the reference point may
+    /// roam above it (bounds up to z = 0.2 m) without a way around.
+    pub fn roll_slot_window() -> Scene {
+        let (inner, w) = (0.05, 0.005); // duct inside half size (y, z), wall half thickness
+        let (x0, x1) = (-0.16, 0.12); // duct inside, along x
+        let (xp, xw) = (-0.04, 0.06); // partition, window centre
+        let (o, cx, hx) = (inner + 2.0 * w, 0.5 * (x0 + x1), 0.5 * (x1 - x0) + 2.0 * w);
+        let roll = 40f64.to_radians();
+        let mut obstacles = vec![
+            boxed([hx, o, w], Se3::from_xyz(cx, 0.0, -(inner + w))),
+            boxed([hx, w, inner], Se3::from_xyz(cx, inner + w, 0.0)),
+            boxed([hx, w, inner], Se3::from_xyz(cx, -(inner + w), 0.0)),
+            boxed([w, inner, inner], Se3::from_xyz(x0 - w, 0.0, 0.0)),
+            boxed([w, inner, inner], Se3::from_xyz(x1 + w, 0.0, 0.0)),
+        ];
+        // The ceiling with the 18 × 44 mm window.
+        obstacles.extend(framed_hole(
+            2,
+            [cx - hx, -o, inner],
+            [cx + hx, o, inner + 2.0 * w],
+            [xw - 0.009, -0.022, 0.0],
+            [xw + 0.009, 0.022, 0.0],
+        ));
+        // The partition: a 56 mm square hole, closed by the rolled slotted plate (half
+        // size 40 mm covers the hole at 40°; its corners, 56.6 mm out, end in the walls).
+        obstacles.extend(framed_hole(
+            0,
+            [xp - 0.002, -inner, -inner],
+            [xp + 0.002, inner, inner],
+            [0.0, -0.028, -0.028],
+            [0.0, 0.028, 0.028],
+        ));
+        let slot_plate = Se3::from_rpy(Vector3::new(xp, 0.0, 0.0), roll, 0.0, 0.0);
+        obstacles.extend(slotted_plate(0.002, 0.04, [0.022, 0.008], &slot_plate));
+        Scene {
+            name: "roll-slot-window".into(),
+            obstacles,
+            moving_object: vec![boxed([0.04, 0.018, 0.005], Se3::identity())],
+            bounds: Bounds {
+                min_m: Vector3::new(-0.13, -0.05, -0.05),
+                max_m: Vector3::new(0.11, 0.05, 0.2),
+            },
+            start: Se3::from_xyz(-0.10, 0.0, 0.0),
+            goal: Se3::from_xyz(xw, 0.0, 0.16),
+            space: SpaceKind::Se3,
+            // Roll 40° before the partition, through the slot, level again under the
+            // window, pitch on end, up through the window.
+            route: {
+                let rolled = UnitQuaternion::from_euler_angles(roll, 0.0, 0.0);
+                let on_end = UnitQuaternion::from_euler_angles(0.0, FRAC_PI_2, 0.0);
+                vec![
+                    RouteStep::to(Se3::new(Vector3::new(-0.09, 0.0, 0.0), rolled)),
+                    RouteStep::to(Se3::new(Vector3::new(xw, 0.0, 0.0), rolled)),
+                    RouteStep::to(Se3::from_xyz(xw, 0.0, 0.0)),
+                    RouteStep::to(Se3::new(Vector3::new(xw, 0.0, 0.0), on_end)),
+                    RouteStep::to(Se3::new(Vector3::new(xw, 0.0, 0.12), on_end)),
+                ]
+            },
+        }
+    }
+
+    /// Two windows a quarter turn apart about different axes (ours): the moving object is
+    /// an angle iron, an L profile 40 × 40 mm with 10 mm legs, 70 mm long along x (the
+    /// reference point at the centre of its bounding box; the legs along −y and −z), so
+    /// each L-shaped window takes it in one orientation only, within about 0.15 rad of
+    /// roll (4 mm to spare around the profile, 28 mm from its centre to its corners). A
+    /// closed duct, 260 mm long with a 120 mm square inside (10 mm walls), is split at
+    /// x = −0.04 by a 4 mm plate whose L window (48 mm square, 30 mm notch) takes the
+    /// iron rolled a quarter turn (+π/2 about x). The second chamber (x ∈ [−0.038, 0.10],
+    /// 138 mm) is closed but for an L window in its +y wall at x = 0.03, which takes the
+    /// iron yawed a quarter turn (+π/2 about z) and leaving along +y. The chamber lets it
+    /// turn about x (28 mm radius) and z (40 mm) with its centre at x = 0.03. Start x =
+    /// −0.10 in the first chamber, goal 0.09 m outside the +y wall, both unturned. The duct
+    /// is closed, so the reference point may roam beside it (bounds up to y = 0.2 m).
+    pub fn twist_windows() -> Scene {
+        let (inner, w) = (0.06, 0.005); // duct inside half size (y, z), wall half thickness
+        let (x0, x1) = (-0.16, 0.10); // duct inside, along x
+        let (xp, xw) = (-0.04, 0.03); // partition, second window centre
+        let (o, cx, hx) = (inner + 2.0 * w, 0.5 * (x0 + x1), 0.5 * (x1 - x0) + 2.0 * w);
+        let mut obstacles = vec![
+            boxed([hx, o, w], Se3::from_xyz(cx, 0.0, inner + w)),
+            boxed([hx, o, w], Se3::from_xyz(cx, 0.0, -(inner + w))),
+            boxed([hx, w, inner], Se3::from_xyz(cx, -(inner + w), 0.0)),
+            boxed([w, inner, inner], Se3::from_xyz(x0 - w, 0.0, 0.0)),
+            boxed([w, inner, inner], Se3::from_xyz(x1 + w, 0.0, 0.0)),
+        ];
+        // The partition's window: the profile rolled +π/2 (legs along +y and −z), grown by
+        // 4 mm: a 48 mm square with the 30 mm notch at (−y, +z) filled.
+        obstacles.extend(framed_hole(
+            0,
+            [xp - 0.002, -inner, -inner],
+            [xp + 0.002, inner, inner],
+            [0.0, -0.024, -0.024],
+            [0.0, 0.024, 0.024],
+        ));
+        obstacles.push(boxed(
+            [0.002, 0.015, 0.015],
+            Se3::from_xyz(xp, -0.009, 0.009),
+        ));
+        // The +y wall's window: the profile yawed +π/2 (legs along +x and −z), grown by
+        // 4 mm: x ∈ [0.006, 0.054], the notch at (−x, +z) filled.
+        obstacles.extend(framed_hole(
+            1,
+            [x0 - 2.0 * w, inner, -inner],
+            [x1 + 2.0 * w, inner + 2.0 * w, inner],
+            [xw - 0.024, 0.0, -0.024],
+            [xw + 0.024, 0.0, 0.024],
+        ));
+        obstacles.push(boxed(
+            [0.015, w, 0.015],
+            Se3::from_xyz(xw - 0.009, inner + w, 0.009),
+        ));
+        Scene {
+            name: "twist-windows".into(),
+            obstacles,
+            moving_object: vec![
+                boxed([0.035, 0.02, 0.005], Se3::from_xyz(0.0, 0.0, -0.015)),
+                boxed([0.035, 0.005, 0.015], Se3::from_xyz(0.0, -0.015, 0.005)),
+            ],
+            bounds: Bounds {
+                min_m: Vector3::new(-0.13, -0.06, -0.06),
+                max_m: Vector3::new(0.07, 0.2, 0.06),
+            },
+            start: Se3::from_xyz(-0.10, 0.0, 0.0),
+            goal: Se3::from_xyz(xw, 0.16, 0.0),
+            space: SpaceKind::Se3,
+            // Roll a quarter before the partition, through it, unroll in the chamber under
+            // the side window, yaw a quarter, out along +y, unturn outside.
+            route: {
+                let rolled = UnitQuaternion::from_euler_angles(FRAC_PI_2, 0.0, 0.0);
+                let yawed = UnitQuaternion::from_euler_angles(0.0, 0.0, FRAC_PI_2);
+                vec![
+                    RouteStep::to(Se3::new(Vector3::new(-0.09, 0.0, 0.0), rolled)),
+                    RouteStep::to(Se3::new(Vector3::new(xw, 0.0, 0.0), rolled)),
+                    RouteStep::to(Se3::from_xyz(xw, 0.0, 0.0)),
+                    RouteStep::to(Se3::new(Vector3::new(xw, 0.0, 0.0), yawed)),
+                    RouteStep::to(Se3::new(Vector3::new(xw, 0.12, 0.0), yawed)),
                 ]
             },
         }
