@@ -306,6 +306,11 @@ impl Portfolio {
         if self.solved() {
             return None;
         }
+        if self.arms.is_empty() {
+            // Thinning was the only method and failed: the main planner goes on alone.
+            self.main.set_machine_sampler(MachineSampler::Uniform, 0.0);
+            return Some(self.main.iterate_input(input));
+        }
         let i = self.draw();
         let method = self.arms[i].method;
         if method == Method::Thinning {
