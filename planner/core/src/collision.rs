@@ -38,6 +38,7 @@ use scene::repair::Surface;
 use scene::shapes::{part_shapes, to_parry};
 use scene::{Bounds, Part, Primitive, Scene};
 use std::cell::Cell;
+use std::sync::Arc;
 
 mod obb_tree;
 mod solid;
@@ -358,8 +359,10 @@ fn parry_intersects(obj_pose: &Pose, obj: &Shape, obs_pose: &Pose, obs: &Shape) 
 /// Collision checker for one scene. Not `Sync` (the check counter is a `Cell`); build one
 /// per thread.
 pub struct CollisionChecker {
-    obstacles: Side,
-    object: Side,
+    /// The two sides' shapes and trees, shared by [`Self::sharing_parts`] copies (a
+    /// mesh's trees take a second or more for 100 k triangles).
+    obstacles: Arc<Side>,
+    object: Arc<Side>,
     space: Space,
     resolution: f64,
     edge_check: EdgeCheck,
@@ -389,8 +392,8 @@ impl CollisionChecker {
             DEFAULT_EDGE_RESOLUTION
         };
         CollisionChecker {
-            obstacles: Side::new(&scene.obstacles),
-            object: Side::new(&scene.moving_object),
+            obstacles: Arc::new(Side::new(&scene.obstacles)),
+            object: Arc::new(Side::new(&scene.moving_object)),
             space: Space::for_scene(scene, weights),
             resolution,
             edge_check: EdgeCheck::default(),
@@ -399,6 +402,29 @@ impl CollisionChecker {
             clearance_queries: Cell::new(0),
             queue: Cell::new(Vec::new()),
             intervals: Cell::new(Vec::new()),
+        }
+    }
+
+    /// A checker of the same object and obstacles (their shapes and trees shared, not
+    /// built again) in `scene`'s space: its bounds and `weights`, at `resolution`, with
+    /// this checker's edge check and its own counts from 0. `scene` must hold the same
+    /// parts (a small-step retraction's join: the same scene between two of its
+    /// configurations, in a box around them).
+    pub fn sharing_parts(&self, scene: &Scene, weights: Weights, resolution: f64) -> Self {
+        CollisionChecker {
+            obstacles: self.obstacles.clone(),
+            object: self.object.clone(),
+            object_radius_m: self.object_radius_m,
+            edge_check: self.edge_check,
+            ..Self::with_params(
+                &Scene {
+                    obstacles: Vec::new(),
+                    moving_object: Vec::new(),
+                    ..scene.clone()
+                },
+                weights,
+                resolution,
+            )
         }
     }
 
@@ -723,6 +749,35 @@ mod tests {
     use nalgebra::{UnitQuaternion, Vector3};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
+
+    #[test]
+    fn a_checker_sharing_parts_gives_the_same_verdicts_in_its_own_bounds() {
+        let scene = Scene::wall_with_hole();
+        let full = CollisionChecker::new(&scene);
+        let mut boxed = scene.clone();
+        boxed.bounds = Bounds {
+            min_m: Vector3::new(-0.05, -0.05, -0.05),
+            max_m: Vector3::new(0.05, 0.05, 0.05),
+        };
+        let shared = full.sharing_parts(&boxed, Weights::default(), DEFAULT_EDGE_RESOLUTION);
+        assert!(Arc::ptr_eq(&full.obstacles, &shared.obstacles));
+        assert!(Arc::ptr_eq(&full.object, &shared.object));
+        assert_eq!(shared.bounds(), &boxed.bounds);
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let (mut free, mut hit) = (0, 0);
+        for _ in 0..2000 {
+            let q = shared.space().sample_uniform(&mut rng);
+            let verdict = shared.is_free(&q);
+            assert_eq!(verdict, full.is_free(&q), "{q:?}");
+            if verdict { free += 1 } else { hit += 1 }
+        }
+        assert!(free > 0 && hit > 0, "{free} free, {hit} colliding");
+        // Its own bounds and its own counts.
+        assert!(!shared.is_free(&Se3::from_xyz(-0.2, 0.0, 0.0)));
+        assert!(full.is_free(&Se3::from_xyz(-0.2, 0.0, 0.0)));
+        assert_eq!(shared.collision_checks(), 2000);
+        assert_eq!(full.collision_checks(), 2001);
+    }
 
     #[test]
     fn reachable_from_contact_leaves_a_surface_but_never_crosses_a_wall() {

@@ -322,6 +322,9 @@ pub struct ThinnedPlanner {
     /// Scales of the stages, the last 1.
     scales: Vec<f64>,
     seed: u64,
+    /// Each stage's scene and a checker of it, built once: the plans, repairs and joins of
+    /// a stage share its parts' shapes and trees ([`CollisionChecker::sharing_parts`]).
+    parts: Vec<Option<(Scene, CollisionChecker)>>,
     /// Seeds used so far (each thinned plan and join takes the next).
     seeds_used: u64,
     stage: Stage,
@@ -341,10 +344,17 @@ impl ThinnedPlanner {
     ) -> Result<Self, PlannerError> {
         thinning.validate()?;
         // Checks the real problem first, so that its errors name the real object.
-        Planner::new(scene, params.clone(), seed)?;
+        let real = Planner::new(scene, params.clone(), seed)?;
         let mut scales = thinning.scales.clone();
         scales.push(1.0);
+        let mut parts: Vec<_> = scales.iter().map(|_| None).collect();
+        parts[scales.len() - 1] = Some((
+            scene.clone(),
+            real.checker()
+                .sharing_parts(scene, params.weights, params.edge_resolution),
+        ));
         let mut me = ThinnedPlanner {
+            parts,
             scene: scene.clone(),
             params,
             thinning,
@@ -367,11 +377,21 @@ impl ThinnedPlanner {
 
     fn thin_plan(&mut self) -> Result<Planner, PlannerError> {
         let seed = self.next_seed();
-        Planner::new(
-            &thinned(&self.scene, self.scales[0]),
-            self.params.clone(),
-            seed,
-        )
+        let params = self.params.clone();
+        let (scene, checker) = self.stage_parts(0);
+        Planner::with_checker(scene, params, seed, checker)
+    }
+
+    /// Stage `k`'s scene (the object at `scales[k]`) and a checker of its parts, built
+    /// the first time.
+    fn stage_parts(&mut self, k: usize) -> (&Scene, &CollisionChecker) {
+        let (scene, scale, p) = (&self.scene, self.scales[k], &self.params);
+        let (s, c) = self.parts[k].get_or_insert_with(|| {
+            let s = thinned(scene, scale);
+            let c = CollisionChecker::with_params(&s, p.weights, p.edge_resolution);
+            (s, c)
+        });
+        (s, c)
     }
 
     /// True once the real object's path is found.
@@ -486,15 +506,17 @@ impl ThinnedPlanner {
     }
 
     /// Starts carrying `path` to `scales[k]` (try `attempt`).
-    fn repair(&self, k: usize, path: Vec<Se3>, attempt: u32) -> Repair {
-        let scene = if self.scales[k] < 1.0 {
-            thinned(&self.scene, self.scales[k])
-        } else {
-            self.scene.clone()
-        };
-        let checker =
-            CollisionChecker::with_params(&scene, self.params.weights, self.params.edge_resolution)
-                .with_edge_check(self.params.edge_check);
+    fn repair(&mut self, k: usize, path: Vec<Se3>, attempt: u32) -> Repair {
+        let (weights, resolution, edge_check) = (
+            self.params.weights,
+            self.params.edge_resolution,
+            self.params.edge_check,
+        );
+        let (scene, base) = self.stage_parts(k);
+        let checker = base
+            .sharing_parts(scene, weights, resolution)
+            .with_edge_check(edge_check);
+        let scene = scene.clone();
         let space = Space::for_scene(&scene, self.params.weights);
         let walk = walk(&space, &path, self.params.edge_resolution);
         Repair {
@@ -595,7 +617,8 @@ impl ThinnedPlanner {
             shortcut_attempts: 0,
             ..self.params.clone()
         };
-        r.join = Some((Box::new(Planner::new(&scene, params, seed)?), to));
+        let join = Planner::with_checker(&scene, params, seed, &r.checker)?;
+        r.join = Some((Box::new(join), to));
         Ok(RepairStep::Working)
     }
 }
@@ -664,7 +687,7 @@ fn descend(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use nalgebra::{UnitQuaternion, Vector3};
 
@@ -752,7 +775,9 @@ mod tests {
 
     /// A 60 × 20 × 20 mm bar that must pass a 24 mm square hole in a 20 mm wall lengthwise,
     /// from and to orientations across it, in a 160 mm square channel.
-    fn slot_scene() -> Scene {
+    /// A 60 × 20 × 20 mm bar that must pass a 24 mm square hole in a wall lengthwise,
+    /// turned across it at the start and the goal.
+    pub(crate) fn slot_scene() -> Scene {
         let mut scene = Scene::wall_with_square_hole(0.024);
         scene.name = "slot".into();
         scene.moving_object = vec![Part::axis_box([0.03, 0.01, 0.01], [0.0, 0.0, 0.0])];

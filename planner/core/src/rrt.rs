@@ -185,6 +185,32 @@ impl Planner {
         scene.validate(&scene.name)?;
         let checker = CollisionChecker::with_params(scene, params.weights, params.edge_resolution)
             .with_edge_check(params.edge_check);
+        Self::build(scene, params, seed, checker)
+    }
+
+    /// [`Planner::new`] with a checker of `scene`'s parts built before, e.g. by
+    /// [`CollisionChecker::sharing_parts`] (so a big mesh's trees are not built again); it
+    /// takes `params`' edge resolution, weights and edge check.
+    pub fn with_checker(
+        scene: &Scene,
+        params: PlannerParams,
+        seed: u64,
+        checker: &CollisionChecker,
+    ) -> Result<Self, PlannerError> {
+        params.validate()?;
+        scene.validate(&scene.name)?;
+        let checker = checker
+            .sharing_parts(scene, params.weights, params.edge_resolution)
+            .with_edge_check(params.edge_check);
+        Self::build(scene, params, seed, checker)
+    }
+
+    fn build(
+        scene: &Scene,
+        params: PlannerParams,
+        seed: u64,
+        checker: CollisionChecker,
+    ) -> Result<Self, PlannerError> {
         if !checker.is_free(&scene.start) {
             return Err(PlannerError::StartInCollision(scene.name.clone()));
         }
