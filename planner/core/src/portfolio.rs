@@ -104,6 +104,14 @@ pub struct PortfolioParams {
     pub memory_checks: f64,
     /// Checks of one thinning turn (default 500: a few milliseconds).
     pub slice_checks: u64,
+    /// Reward of a node a machine sample added (default 0.1; a sample's nodes earn at
+    /// most 1).
+    pub node_reward: f64,
+    /// The thinned plan's authority over the operator's samples, with H-RRT-C: `None`
+    /// keeps the planner's own (the paper's fixed α by default); an adaptive one gives
+    /// the machine a growing share while the operator makes no progress, so an operator
+    /// stuck at an opening does not hold the thinned plan there.
+    pub thinning_authority: Option<crate::authority::Authority>,
     /// σ of the bridge test's second end, weighted m (default 0.01).
     pub bridge_sigma: f64,
     /// The small-step retraction's stages (default from 0.45 in steps of 0.05, the bug
@@ -118,6 +126,8 @@ impl Default for PortfolioParams {
             floor: 0.05,
             memory_checks: 50_000.0,
             slice_checks: 500,
+            node_reward: 0.1,
+            thinning_authority: None,
             bridge_sigma: 0.01,
             thinning: ThinningParams::from_first(0.45, 0.05).expect("valid stages"),
         }
@@ -147,6 +157,12 @@ impl PortfolioParams {
             return bad(
                 "portfolio.memory_checks",
                 format!("must be > 0, got {}", self.memory_checks),
+            );
+        }
+        if !(self.node_reward.is_finite() && self.node_reward >= 0.0) {
+            return bad(
+                "portfolio.node_reward",
+                format!("must be >= 0, got {}", self.node_reward),
             );
         }
         if self.slice_checks == 0 {
@@ -259,6 +275,12 @@ impl Portfolio {
         let mut main = Planner::new(scene, main_params, seed)?;
         main.set_machine_sampler(MachineSampler::Uniform, 0.0);
         let thinning = if portfolio.methods.contains(&Method::Thinning) {
+            let mut params = params;
+            if let (Some(a), crate::sampling::Sampling::Hrrtc { .. }) =
+                (portfolio.thinning_authority, params.sampling)
+            {
+                params.authority = a;
+            }
             Some(ThinnedPlanner::new(
                 scene,
                 params,
@@ -339,7 +361,7 @@ impl Portfolio {
             let checks = checks_of(&self.main) - before;
             let nodes = f64::from(report.nodes_added);
             let reward = f64::from(u8::from(report.novel))
-                + (0.1 * nodes).min(1.0)
+                + (self.params.node_reward * nodes).min(1.0)
                 + f64::from(report.merged);
             let memory = self.params.memory_checks;
             let arm = &mut self.arms[i];
@@ -542,32 +564,20 @@ mod tests {
     use crate::collision::CollisionChecker;
     use crate::sampling::Sampling;
     use crate::space::{ConfigSpace, Space};
-    use nalgebra::{UnitQuaternion, Vector3};
+    use nalgebra::Vector3;
     use scene::pose::Se3;
     use scene::{MeshData, Part, Primitive};
     use std::sync::Arc;
 
-    /// A 60 × 20 × 20 mm bar that must pass a 24 mm square hole in a wall lengthwise,
-    /// turned from across it at the start and the goal.
-    fn slot_scene() -> Scene {
-        let mut scene = Scene::wall_with_square_hole(0.024);
-        scene.name = "slot".into();
-        scene.moving_object = vec![Part::axis_box([0.03, 0.01, 0.01], [0.0, 0.0, 0.0])];
-        scene.route.clear();
-        scene.bounds = scene::Bounds {
-            min_m: Vector3::new(-0.25, -0.08, -0.08),
-            max_m: Vector3::new(0.25, 0.08, 0.08),
-        };
-        let quarter = std::f64::consts::FRAC_PI_2;
-        scene.start = Se3 {
-            pos: Vector3::new(-0.2, 0.05, 0.03),
-            rot: UnitQuaternion::from_euler_angles(0.0, 0.0, quarter),
-        };
-        scene.goal = Se3 {
-            pos: Vector3::new(0.2, -0.05, -0.03),
-            rot: UnitQuaternion::from_euler_angles(0.0, quarter, 0.0),
-        };
-        scene
+    /// The default portfolio on `scene` with default planner parameters.
+    fn default_portfolio(scene: &Scene, seed: u64) -> Portfolio {
+        Portfolio::new(
+            scene,
+            PlannerParams::default(),
+            PortfolioParams::default(),
+            seed,
+        )
+        .expect("portfolio")
     }
 
     /// Every edge of `path` free for the real object, checked 0.2 mm or 0.002 rad apart.
@@ -588,13 +598,7 @@ mod tests {
     #[test]
     fn every_method_takes_turns_and_the_tallies_add_up() {
         let scene = Scene::wall_with_square_hole(0.3);
-        let mut p = Portfolio::new(
-            &scene,
-            PlannerParams::default(),
-            PortfolioParams::default(),
-            3,
-        )
-        .expect("portfolio");
+        let mut p = default_portfolio(&scene, 3);
         let mut turns = 0u64;
         while !p.solved() && turns < 200_000 {
             p.turn(None);
@@ -639,7 +643,7 @@ mod tests {
 
     #[test]
     fn thinning_alone_solves_a_slot_and_its_path_is_the_main_planners() {
-        let scene = slot_scene();
+        let scene = crate::retraction::tests::slot_scene();
         let params = PortfolioParams {
             methods: vec![Method::Thinning],
             thinning: ThinningParams::from_first(0.5, 0.1).expect("valid"),
@@ -670,7 +674,7 @@ mod tests {
     fn the_operators_passage_seeds_the_thinned_plan() {
         // α = 0: the thinned plan samples only the operator, who carries the bar through
         // the hole lengthwise; no machine sample could find it.
-        let scene = slot_scene();
+        let scene = crate::retraction::tests::slot_scene();
         let params = PlannerParams {
             sampling: Sampling::Hrrtc { alpha: 0.0 },
             ..PlannerParams::default()
@@ -718,13 +722,7 @@ mod tests {
     #[test]
     fn shares_follow_reward_per_check_above_the_floor() {
         let scene = Scene::wall_with_square_hole(0.3);
-        let mut p = Portfolio::new(
-            &scene,
-            PlannerParams::default(),
-            PortfolioParams::default(),
-            1,
-        )
-        .expect("portfolio");
+        let mut p = default_portfolio(&scene, 1);
         // Uniform gives 3 per 100 checks, bridge 1, aligned 0, thinning 1 per 100.
         for (arm, (reward, cost)) in
             p.arms
@@ -784,13 +782,7 @@ mod tests {
     fn same_seed_same_turns() {
         let scene = Scene::wall_with_square_hole(0.1);
         let run = || {
-            let mut p = Portfolio::new(
-                &scene,
-                PlannerParams::default(),
-                PortfolioParams::default(),
-                9,
-            )
-            .expect("portfolio");
+            let mut p = default_portfolio(&scene, 9);
             for _ in 0..3000 {
                 p.turn(Some(&UserInput::free(Se3::from_xyz(-0.1, 0.02, 0.0))));
             }

@@ -154,6 +154,9 @@ pub struct ShellReport {
     /// With a portfolio: what each method did, and which one solved.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub portfolio: Option<PortfolioReport>,
+    /// Longest planner iteration or portfolio turn, ms: guidance and roadmap publishing
+    /// wait for it.
+    pub longest_turn_ms: f64,
 }
 
 /// The planner the shell runs: one, or a portfolio whose main planner holds the roadmap
@@ -363,7 +366,12 @@ pub fn run_with_guidance_out(
             report.idle_s += t0.elapsed().as_secs_f64();
         } else if !engine.main().solved() {
             let input = op.state.filter(|_| fresh).and_then(|s| user_input(&s));
-            if let Some(r) = engine.iterate(input.as_ref()) {
+            let t0 = Instant::now();
+            let r = engine.iterate(input.as_ref());
+            // Guidance waits for the turn in progress: its longest is the planner's
+            // worst delay of a guidance sample.
+            report.longest_turn_ms = report.longest_turn_ms.max(t0.elapsed().as_secs_f64() * 1e3);
+            if let Some(r) = r {
                 report.samples.add(&r);
             }
             let planner = engine.main();

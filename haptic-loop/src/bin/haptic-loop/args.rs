@@ -182,8 +182,9 @@ pub struct DemoArgs {
     #[arg(long, default_value = "hrrtc",
           value_parser = ["cs", "pos", "path", "pos+cs", "path+cs", "hrrtc"])]
     pub sampling: String,
-    /// H-RRT-C's authority α: the share of machine (uniform) samples (`planner serve
-    /// --alpha`).
+    /// H-RRT-C's authority α: the share of machine samples (`planner serve --alpha`; by
+    /// default they come from its portfolio of narrow-passage methods; `--planner-args
+    /// "--portfolio off"` runs the papers' single planner with uniform ones).
     #[arg(long)]
     pub alpha: Option<f64>,
     /// Device held by the simulated operator: the arm (`sim`) or a SpaceMouse

@@ -10,8 +10,9 @@ use planner::{PlannerParams, Scene};
 #[derive(Debug, Args, Clone)]
 pub struct CoreArgs {
     /// Scene: a built-in name (`wall-hole` alias `default`, `maze`, `tunnels`,
-    /// `tunnels-1axis`, `tunnels-2axes`, `crossing-planes`, `silencer`, `free`; see
-    /// `planner scenes`) or a TOML scene file.
+    /// `tunnels-1axis`, `tunnels-2axes`, `crossing-planes`, `silencer`, `bug-trap`,
+    /// `roll-slot-window`, `twist-windows`, `free`; see `planner scenes`) or a TOML scene
+    /// file.
     #[arg(long, default_value = "wall-hole")]
     pub scene: String,
     /// RNG seed: the same seed and inputs give the same trees.
@@ -142,6 +143,15 @@ pub struct PortfolioArgs {
     /// Scale step between the thinning stages of --portfolio, in (0, 1).
     #[arg(long, default_value_t = 0.05)]
     pub portfolio_thinning_step: f64,
+    /// Reward of a node a machine sample added, in --portfolio's sharing (new ground
+    /// earns 1).
+    #[arg(long, default_value_t = 0.1)]
+    pub portfolio_node_reward: f64,
+    /// Authority of --portfolio's thinned plan over the operator's samples (H-RRT-C):
+    /// `same` as --authority, or `adaptive` (the machine takes a growing share while the
+    /// operator makes no progress).
+    #[arg(long, default_value = "same", value_parser = ["same", "adaptive"])]
+    pub portfolio_thinning_authority: String,
 }
 
 impl PortfolioArgs {
@@ -176,6 +186,9 @@ impl PortfolioArgs {
                 self.portfolio_thinning_step,
             )
             .context("--portfolio-thinning / --portfolio-thinning-step")?,
+            node_reward: self.portfolio_node_reward,
+            thinning_authority: (self.portfolio_thinning_authority == "adaptive")
+                .then(|| planner::Authority::Adaptive(planner::AdaptiveAuthority::default())),
             ..PortfolioParams::default()
         };
         p.validate().context("--portfolio")?;

@@ -246,9 +246,10 @@ pub fn run(args: &ServeArgs) -> anyhow::Result<i32> {
             })
             .collect();
         tracing::info!(
-            "portfolio: {}; solved on a {} turn",
+            "portfolio: {}; solved on a {} turn; longest turn {:.1} ms",
             methods.join("; "),
-            p.solved_by.as_deref().unwrap_or("no")
+            p.solved_by.as_deref().unwrap_or("no"),
+            report.longest_turn_ms
         );
         if let Some(e) = &p.thinning_error {
             tracing::warn!("portfolio: thinning stopped: {e}");
