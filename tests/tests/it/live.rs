@@ -7,8 +7,10 @@ use std::path::Path;
 use std::time::Duration;
 use tests::{Proc, bin, one_loop_at_a_time, unique_namespace};
 
-/// Generous: the expert reaches every goal within about 10 s at release speed.
-const LIMIT_S: &str = "90";
+/// The demo's own limit, which only a hang reaches: the expert's sessions are solved in
+/// 0.3–6 s at release speed; a loaded CI machine may take several times that, and how long
+/// is not what these tests assert (the sweeps in docs/experiments.md measure it).
+const LIMIT_S: &str = "300";
 
 /// Runs the demo on `scene` (2 mm voxels: a quicker voxmap in this unoptimised build) and
 /// returns its summary; asserts exit code 0 (solved).
@@ -36,7 +38,7 @@ fn demo(scene: &str) -> serde_json::Value {
         ],
     );
     let st = p
-        .wait_timeout(Duration::from_secs(240))
+        .wait_timeout(Duration::from_secs(420))
         .expect("the demo ends by itself");
     let text = std::fs::read_to_string(&summary).expect("summary written");
     let _ = std::fs::remove_file(&summary);
@@ -51,7 +53,7 @@ fn solves_live(scene: &str) {
     let s = demo(scene);
     assert_eq!(s["solved"], true, "{scene}: {s}");
     let t = s["time_to_solve_s"].as_f64().unwrap();
-    assert!(t > 0.0 && t < 90.0, "{scene}: {t} s");
+    assert!(t > 0.0, "{scene}: {t} s");
     let c = &s["contact"];
     let pen_voxels = c["max_penetration_mm"].as_f64().unwrap() / c["voxel_mm"].as_f64().unwrap();
     assert!(pen_voxels <= 2.0, "{scene}: {pen_voxels} voxels deep: {s}");
@@ -97,6 +99,16 @@ fn issue_17_live_hrrtc_solves_silencer() {
 #[test]
 fn issue_17_live_hrrtc_solves_bug_trap() {
     solves_live("bug-trap");
+}
+
+#[test]
+fn issue_46_live_hrrtc_solves_roll_slot_window() {
+    solves_live("roll-slot-window");
+}
+
+#[test]
+fn issue_46_live_hrrtc_solves_twist_windows() {
+    solves_live("twist-windows");
 }
 
 /// The harness on a tiny sweep (the free scene, automatic and H-RRT-C, one seed): a CSV
