@@ -313,12 +313,7 @@ impl TrustTracker {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::space::{Se3Space, Weights};
-    use scene::Scene;
-
-    fn space() -> Se3Space {
-        Se3Space::new(Scene::wall_with_hole().bounds, Weights::default())
-    }
+    use crate::space::tests::space;
 
     #[test]
     fn trust_holds_for_the_patience_then_falls_over_the_ramp() {

@@ -298,13 +298,9 @@ pub const GUIDANCE_CONTACT_SKIP: f64 = 0.003;
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::space::{Se3Space, Weights};
+    use crate::space::Se3Space;
+    use crate::space::tests::space;
     use nalgebra::{UnitQuaternion, Vector3};
-    use scene::Scene;
-
-    fn space() -> Se3Space {
-        Se3Space::new(Scene::wall_with_hole().bounds, Weights::default())
-    }
 
     #[test]
     fn force_points_to_nearby_nodes() {

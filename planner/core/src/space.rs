@@ -402,13 +402,14 @@ impl ConfigSpace for Se3Space {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
     use scene::Scene;
 
-    fn space() -> Se3Space {
+    /// The wall-with-hole scene's SE(3) space with the default weights: the tests' space.
+    pub(crate) fn space() -> Se3Space {
         Se3Space::new(Scene::wall_with_hole().bounds, Weights::default())
     }
 

@@ -298,12 +298,9 @@ impl Tree {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::space::tests::space;
     use crate::space::{Se3Space, Weights};
     use scene::Scene;
-
-    fn space() -> Se3Space {
-        Se3Space::new(Scene::wall_with_hole().bounds, Weights::default())
-    }
 
     fn line_tree() -> Tree {
         // Root at x = 0, then 0.1, 0.2, 0.3 in a chain, and a branch at y = 0.05 off node 1.
