@@ -131,7 +131,7 @@ pub struct PortfolioArgs {
     #[arg(long, value_name = "METHODS")]
     pub portfolio: Option<String>,
     /// Least share of the checks each method of --portfolio gets, in [0, 1/methods).
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = 0.2)]
     pub portfolio_floor: f64,
     /// Collision checks of one thinning turn of --portfolio.
     #[arg(long, default_value_t = 500)]
