@@ -246,8 +246,6 @@ pub struct Portfolio {
     main: Planner,
     thinning: Option<ThinnedPlanner>,
     params: PortfolioParams,
-    /// The main planner's own machine sampler settings (kept for [`Method::Uniform`]).
-    bridge_sigma: f64,
     arms: Vec<Arm>,
     rng: ChaCha8Rng,
     /// Which method found the solution.
@@ -309,7 +307,6 @@ impl Portfolio {
         Ok(Portfolio {
             main,
             thinning,
-            bridge_sigma: portfolio.bridge_sigma,
             params: portfolio,
             arms,
             rng: ChaCha8Rng::seed_from_u64(seed ^ 0x706f_7274),
@@ -350,7 +347,7 @@ impl Portfolio {
             Method::BridgeTest => (
                 MachineSampler::BridgeTest {
                     share: 1.0,
-                    sigma: self.bridge_sigma,
+                    sigma: self.params.bridge_sigma,
                 },
                 0.0,
             ),
@@ -389,12 +386,12 @@ impl Portfolio {
             return Ok(());
         };
         let before = thin.stats();
-        let work = |s: &crate::retraction::ThinningStats| s.collision_checks + s.clearance_queries;
+        let checks_before = thin.checks();
         let mut steps = 0u64;
         loop {
             thin.step_with(input)?;
             steps += 1;
-            if thin.solved() || work(&thin.stats()) - work(&before) >= self.params.slice_checks {
+            if thin.solved() || thin.checks() - checks_before >= self.params.slice_checks {
                 break;
             }
         }
@@ -404,7 +401,7 @@ impl Portfolio {
         let reward = novel as f64 + STAGE_REWARD * stages as f64;
         let memory = self.params.memory_checks;
         let arm = &mut self.arms[i];
-        arm.record(reward, work(&after) - work(&before), memory);
+        arm.record(reward, thin.checks() - checks_before, memory);
         arm.tally.iterations += steps;
         arm.tally.nodes_added += after.nodes.saturating_sub(before.nodes);
         arm.tally.novel += novel;
@@ -419,42 +416,41 @@ impl Portfolio {
     }
 
     /// The index of the method whose turn it is: drawn with probability proportional
-    /// to its share of the checks over its mean cost per turn.
+    /// to its share of the checks over its mean cost per turn. Called every iteration:
+    /// allocates nothing.
     fn draw(&mut self) -> usize {
-        let shares = self.shares();
-        let weights: Vec<f64> = shares
-            .iter()
-            .zip(&self.arms)
-            .map(|(s, a)| s / a.mean_turn_cost())
-            .collect();
-        let total: f64 = weights.iter().sum();
-        let mut x = self.rng.random::<f64>() * total;
-        for (i, w) in weights.iter().enumerate() {
-            if x < *w {
+        let u = self.rng.random::<f64>();
+        let rates: f64 = self.arms.iter().map(Arm::rate).sum();
+        let weight = |a: &Arm| self.share(a, rates) / a.mean_turn_cost();
+        let total: f64 = self.arms.iter().map(weight).sum();
+        let mut x = u * total;
+        for (i, a) in self.arms.iter().enumerate() {
+            let w = weight(a);
+            if x < w {
                 return i;
             }
             x -= w;
         }
-        weights.len() - 1
+        self.arms.len() - 1
+    }
+
+    /// `arm`'s share of the checks: the floor plus the rest by its part of `rates`, the
+    /// sum of every method's reward per check.
+    fn share(&self, arm: &Arm, rates: f64) -> f64 {
+        let n = self.arms.len() as f64;
+        let floor = self.params.floor;
+        if rates > 0.0 {
+            floor + (1.0 - n * floor) * arm.rate() / rates
+        } else {
+            1.0 / n
+        }
     }
 
     /// Each method's share of the checks now: the floor plus the rest by reward per
     /// check. Same order as [`PortfolioParams::methods`].
     pub fn shares(&self) -> Vec<f64> {
-        let n = self.arms.len() as f64;
-        let floor = self.params.floor;
-        let rates: Vec<f64> = self.arms.iter().map(Arm::rate).collect();
-        let sum: f64 = rates.iter().sum();
-        rates
-            .iter()
-            .map(|r| {
-                if sum > 0.0 {
-                    floor + (1.0 - n * floor) * r / sum
-                } else {
-                    1.0 / n
-                }
-            })
-            .collect()
+        let rates: f64 = self.arms.iter().map(Arm::rate).sum();
+        self.arms.iter().map(|a| self.share(a, rates)).collect()
     }
 
     /// What each method did, same order as [`PortfolioParams::methods`].
@@ -556,9 +552,11 @@ impl Portfolio {
     }
 }
 
+/// `p`'s collision checks and clearance queries so far (its checker's counts: O(1), where
+/// [`Planner::stats`] also scans the start tree).
 fn checks_of(p: &Planner) -> u64 {
-    let s = p.stats();
-    s.collision_checks + s.clearance_queries
+    let c = p.checker();
+    c.collision_checks() + c.clearance_queries()
 }
 
 #[cfg(test)]

@@ -432,6 +432,21 @@ impl ThinnedPlanner {
         s
     }
 
+    /// Collision checks and clearance queries so far, the running planners' and the
+    /// repair's included: the sum [`Self::stats`] gives, without its scan of the trees
+    /// (a portfolio reads it after every step).
+    pub fn checks(&self) -> u64 {
+        let of = |c: &CollisionChecker| c.collision_checks() + c.clearance_queries();
+        let done = self.stats.collision_checks + self.stats.clearance_queries;
+        done + match &self.stage {
+            Stage::Plan(p) => of(p.checker()),
+            Stage::Repair(r) => {
+                of(&r.checker) + r.join.as_ref().map_or(0, |(p, _)| of(p.checker()))
+            }
+            Stage::Done(_) => 0,
+        }
+    }
+
     /// One bounded piece of work: a planner iteration, or one configuration of a repair.
     /// Does nothing once solved.
     pub fn step(&mut self) -> Result<(), PlannerError> {
@@ -832,6 +847,32 @@ pub(crate) mod tests {
         assert!(at.y.abs() < 0.012 && at.z.abs() < 0.012, "{at:?}");
         let s = p.stats();
         assert!(s.retracted > 0, "the real object needed retraction: {s:?}");
+    }
+
+    #[test]
+    fn its_check_count_is_the_stats_sum_at_every_stage() {
+        let scene = slot_scene();
+        let thinning = ThinningParams::from_first(0.5, 0.1).expect("valid");
+        let mut p =
+            ThinnedPlanner::new(&scene, PlannerParams::default(), thinning, 4).expect("planner");
+        let mut scales = Vec::new();
+        while !p.solved() {
+            p.step().expect("step");
+            let s = p.stats();
+            assert_eq!(
+                p.checks(),
+                s.collision_checks + s.clearance_queries,
+                "{s:?}"
+            );
+            if scales.last() != Some(&p.scale()) {
+                scales.push(p.scale());
+            }
+        }
+        assert!(
+            scales.len() >= 3,
+            "plan, repairs and the real object: {scales:?}"
+        );
+        assert!(p.stats().joins > 0, "a join ran: {:?}", p.stats());
     }
 
     #[test]
