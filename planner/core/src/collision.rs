@@ -412,14 +412,30 @@ impl CollisionChecker {
     /// configurations, in a box around them).
     pub fn sharing_parts(&self, scene: &Scene, weights: Weights, resolution: f64) -> Self {
         CollisionChecker {
-            obstacles: self.obstacles.clone(),
             object: self.object.clone(),
             object_radius_m: self.object_radius_m,
+            ..self.sharing_obstacles(
+                &Scene {
+                    moving_object: Vec::new(),
+                    ..scene.clone()
+                },
+                weights,
+                resolution,
+            )
+        }
+    }
+
+    /// A checker of the same obstacles (shapes and trees shared) and `scene`'s moving
+    /// object, built, in `scene`'s space at `resolution`, with this checker's edge check and
+    /// its own counts from 0. `scene` must hold the same obstacles (a small-step
+    /// retraction's stage: the object thinned, the obstacles as they are).
+    pub fn sharing_obstacles(&self, scene: &Scene, weights: Weights, resolution: f64) -> Self {
+        CollisionChecker {
+            obstacles: self.obstacles.clone(),
             edge_check: self.edge_check,
             ..Self::with_params(
                 &Scene {
                     obstacles: Vec::new(),
-                    moving_object: Vec::new(),
                     ..scene.clone()
                 },
                 weights,
@@ -777,6 +793,25 @@ mod tests {
         assert!(full.is_free(&Se3::from_xyz(-0.2, 0.0, 0.0)));
         assert_eq!(shared.collision_checks(), 2000);
         assert_eq!(full.collision_checks(), 2001);
+        // Another object among the same obstacles: the obstacles' trees shared, the
+        // verdicts a checker built afresh gives.
+        let mut small = scene.clone();
+        small.moving_object = vec![Part::axis_box([0.01, 0.01, 0.01], [0.0, 0.0, 0.0])];
+        let other = full.sharing_obstacles(&small, Weights::default(), DEFAULT_EDGE_RESOLUTION);
+        assert!(Arc::ptr_eq(&full.obstacles, &other.obstacles));
+        assert!(!Arc::ptr_eq(&full.object, &other.object));
+        let fresh = CollisionChecker::new(&small);
+        let (mut differ, mut hit) = (0, 0);
+        for _ in 0..2000 {
+            let q = fresh.space().sample_uniform(&mut rng);
+            assert_eq!(other.is_free(&q), fresh.is_free(&q), "{q:?}");
+            hit += u32::from(!fresh.is_free(&q));
+            differ += u32::from(fresh.is_free(&q) != full.is_free(&q));
+        }
+        assert!(
+            hit > 0 && differ > 0,
+            "{hit} colliding, {differ} differ from the big object"
+        );
     }
 
     #[test]

@@ -282,11 +282,12 @@ impl Portfolio {
             {
                 params.authority = a;
             }
-            Some(ThinnedPlanner::new(
+            Some(ThinnedPlanner::with_checker(
                 scene,
                 params,
                 portfolio.thinning.clone(),
                 seed ^ 0x7468_696e,
+                main.checker(),
             )?)
         } else {
             None

@@ -322,8 +322,12 @@ pub struct ThinnedPlanner {
     /// Scales of the stages, the last 1.
     scales: Vec<f64>,
     seed: u64,
-    /// Each stage's scene and a checker of it, built once: the plans, repairs and joins of
-    /// a stage share its parts' shapes and trees ([`CollisionChecker::sharing_parts`]).
+    /// A checker of the real object and the obstacles: the last stage's, and the one
+    /// whose obstacle trees every stage shares ([`CollisionChecker::sharing_obstacles`]).
+    real: CollisionChecker,
+    /// Each thinned stage's scene and a checker of it, built once: the plans, repairs and
+    /// joins of a stage share its parts' shapes and trees
+    /// ([`CollisionChecker::sharing_parts`]).
     parts: Vec<Option<(Scene, CollisionChecker)>>,
     /// Seeds used so far (each thinned plan and join takes the next).
     seeds_used: u64,
@@ -345,16 +349,35 @@ impl ThinnedPlanner {
         thinning.validate()?;
         // Checks the real problem first, so that its errors name the real object.
         let real = Planner::new(scene, params.clone(), seed)?;
+        Self::start(scene, params, thinning, seed, real.checker())
+    }
+
+    /// [`ThinnedPlanner::new`] with a checker of `scene` built before (a portfolio's main
+    /// planner's), whose trees it shares instead of building them again.
+    pub fn with_checker(
+        scene: &Scene,
+        params: PlannerParams,
+        thinning: ThinningParams,
+        seed: u64,
+        checker: &CollisionChecker,
+    ) -> Result<Self, PlannerError> {
+        thinning.validate()?;
+        let real = Planner::with_checker(scene, params.clone(), seed, checker)?;
+        Self::start(scene, params, thinning, seed, real.checker())
+    }
+
+    fn start(
+        scene: &Scene,
+        params: PlannerParams,
+        thinning: ThinningParams,
+        seed: u64,
+        real: &CollisionChecker,
+    ) -> Result<Self, PlannerError> {
         let mut scales = thinning.scales.clone();
         scales.push(1.0);
-        let mut parts: Vec<_> = scales.iter().map(|_| None).collect();
-        parts[scales.len() - 1] = Some((
-            scene.clone(),
-            real.checker()
-                .sharing_parts(scene, params.weights, params.edge_resolution),
-        ));
         let mut me = ThinnedPlanner {
-            parts,
+            real: real.sharing_parts(scene, params.weights, params.edge_resolution),
+            parts: thinning.scales.iter().map(|_| None).collect(),
             scene: scene.clone(),
             params,
             thinning,
@@ -382,13 +405,16 @@ impl ThinnedPlanner {
         Planner::with_checker(scene, params, seed, checker)
     }
 
-    /// Stage `k`'s scene (the object at `scales[k]`) and a checker of its parts, built
-    /// the first time.
+    /// Stage `k`'s scene (the object at `scales[k]`) and a checker of its parts, the
+    /// thinned object's built the first time, the obstacles' shared.
     fn stage_parts(&mut self, k: usize) -> (&Scene, &CollisionChecker) {
-        let (scene, scale, p) = (&self.scene, self.scales[k], &self.params);
-        let (s, c) = self.parts[k].get_or_insert_with(|| {
+        let Some(slot) = self.parts.get_mut(k) else {
+            return (&self.scene, &self.real);
+        };
+        let (scene, scale, p, real) = (&self.scene, self.scales[k], &self.params, &self.real);
+        let (s, c) = slot.get_or_insert_with(|| {
             let s = thinned(scene, scale);
-            let c = CollisionChecker::with_params(&s, p.weights, p.edge_resolution);
+            let c = real.sharing_obstacles(&s, p.weights, p.edge_resolution);
             (s, c)
         });
         (s, c)
