@@ -381,13 +381,7 @@ impl Mesh {
 /// The triangles (indices) sorted by the Morton code of their centroids, quantised to
 /// 2²¹ steps per axis of the vertices' box (ties in input order).
 fn morton_order(triangles: &[[u32; 3]], vertices: &[Vector3<f64>]) -> Vec<u32> {
-    let (lo, hi) = vertices.iter().fold(
-        (
-            Vector3::repeat(f64::INFINITY),
-            Vector3::repeat(f64::NEG_INFINITY),
-        ),
-        |(lo, hi), v| (lo.inf(v), hi.sup(v)),
-    );
+    let (lo, hi) = scene::bounding_box(vertices);
     let steps = f64::from((1u32 << 21) - 1);
     let scale = (hi - lo).map(|e| if e > 0.0 { steps / e } else { 0.0 });
     // Spreads the low 21 bits of `x` to every third bit.

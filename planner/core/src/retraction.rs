@@ -29,10 +29,11 @@ use crate::params::{PlannerError, PlannerParams};
 use crate::rrt::Planner;
 use crate::sampling::UserInput;
 use crate::space::{ConfigSpace, Space};
+use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use scene::pose::Se3;
-use scene::{MeshData, Part, Primitive, Scene};
+use scene::{MeshData, Part, Primitive, Scene, bounding_box};
 use std::sync::Arc;
 
 /// Tuning of the small-step retraction.
@@ -168,9 +169,7 @@ pub fn shrinks_inside(part: &Part, scale: f64) -> bool {
     {
         return false;
     }
-    let (lo, hi) = v
-        .iter()
-        .fold((v[0], v[0]), |(lo, hi), p| (lo.inf(p), hi.sup(p)));
+    let (lo, hi) = bounding_box(v);
     let centre = (lo + hi) * 0.5;
     let tol = 1e-9 * (hi - lo).norm();
     mesh.triangles.iter().all(|t| {
@@ -181,7 +180,7 @@ pub fn shrinks_inside(part: &Part, scale: f64) -> bool {
             return true; // no plane: nothing to be behind
         }
         let n = n / len;
-        let behind = |p: &nalgebra::Vector3<f64>| n.dot(&(p - a)) <= tol;
+        let behind = |p: &Vector3<f64>| n.dot(&(p - a)) <= tol;
         behind(&centre) && v.iter().all(behind)
     })
 }
@@ -195,12 +194,7 @@ fn shrink(part: &Part, s: f64) -> Part {
             radius_m: radius_m * s,
         },
         Primitive::Mesh { mesh } => {
-            let (lo, hi) = mesh
-                .vertices_m
-                .iter()
-                .fold((mesh.vertices_m[0], mesh.vertices_m[0]), |(lo, hi), v| {
-                    (lo.inf(v), hi.sup(v))
-                });
+            let (lo, hi) = bounding_box(&mesh.vertices_m);
             let c = (lo + hi) * 0.5;
             Primitive::Mesh {
                 mesh: Arc::new(MeshData {

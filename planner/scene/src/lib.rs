@@ -38,7 +38,7 @@ mod stl;
 pub mod topology;
 
 pub use builtin::BUILTIN_NAMES;
-pub use mesh::{Bumps, MeshData, MeshError};
+pub use mesh::{Bumps, MeshData, MeshError, bounding_box};
 pub use pose::Se3;
 
 use nalgebra::Vector3;

@@ -59,6 +59,18 @@ pub enum MeshError {
     },
 }
 
+/// Least and greatest corners of the axis-aligned box around `v` (m; (+∞, −∞) when `v`
+/// is empty).
+pub fn bounding_box(v: &[Vector3<f64>]) -> (Vector3<f64>, Vector3<f64>) {
+    v.iter().fold(
+        (
+            Vector3::repeat(f64::INFINITY),
+            Vector3::repeat(f64::NEG_INFINITY),
+        ),
+        |(lo, hi), p| (lo.inf(p), hi.sup(p)),
+    )
+}
+
 impl MeshData {
     /// Builds and validates a mesh; `source` names it in errors.
     pub fn new(
@@ -401,12 +413,7 @@ impl MeshData {
             t.push([centre, centre + 1 + (k + 1) % m, centre + 1 + k]);
         }
         // About the bounding box's centre (z from −30 to 50 mm, y from −41 to 42 mm).
-        let lo = v
-            .iter()
-            .fold(Vector3::repeat(f64::INFINITY), |a, p| a.inf(p));
-        let hi = v
-            .iter()
-            .fold(Vector3::repeat(f64::NEG_INFINITY), |a, p| a.sup(p));
+        let (lo, hi) = bounding_box(&v);
         let mid = (lo + hi) * 0.5;
         for p in &mut v {
             *p -= mid;

@@ -541,13 +541,7 @@ pub fn repair(mesh: &MeshData) -> MeshRepair {
 
     let corner_m =
         |j: usize, k: usize| mesh.vertices_m[mesh.triangles[kept.index[j] as usize][k] as usize];
-    let (mut lo, mut hi) = (
-        Vector3::repeat(f64::INFINITY),
-        Vector3::repeat(f64::NEG_INFINITY),
-    );
-    for v in &mesh.vertices_m {
-        (lo, hi) = (lo.inf(v), hi.sup(v));
-    }
+    let (lo, hi) = crate::bounding_box(&mesh.vertices_m);
     // Volumes about the centre: far from the origin, products of coordinates would lose
     // the digits the sum needs.
     let centre = 0.5 * (lo + hi);
