@@ -526,6 +526,23 @@ pub struct MethodReport {
     pub share: f64,
 }
 
+impl std::fmt::Display for MethodReport {
+    /// One line: turns, iterations, checks, nodes, new ground and share.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} {} turns, {} iterations, {} checks, {} nodes, {} on new ground, share {:.2}",
+            self.method,
+            self.turns,
+            self.iterations,
+            self.checks,
+            self.nodes_added,
+            self.novel,
+            self.share
+        )
+    }
+}
+
 impl Portfolio {
     /// What each method did so far, and which one solved.
     pub fn report(&self) -> PortfolioReport {

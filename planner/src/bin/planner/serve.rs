@@ -236,16 +236,7 @@ pub fn run(args: &ServeArgs) -> anyhow::Result<i32> {
         kind("contact", c, &t.contact)
     );
     if let Some(p) = &report.portfolio {
-        let methods: Vec<String> = p
-            .methods
-            .iter()
-            .map(|m| {
-                format!(
-                    "{} {} turns, {} checks, {} nodes, {} novel, share {:.2}",
-                    m.method, m.turns, m.checks, m.nodes_added, m.novel, m.share
-                )
-            })
-            .collect();
+        let methods: Vec<String> = p.methods.iter().map(ToString::to_string).collect();
         tracing::info!(
             "portfolio: {}; solved on a {} turn; longest turn {:.1} ms",
             methods.join("; "),

@@ -123,10 +123,7 @@ pub fn run(args: &SolveArgs) -> anyhow::Result<i32> {
     }
     if let Some(p) = &report.portfolio {
         for m in &p.methods {
-            println!(
-                "portfolio {}: {} turns, {} iterations, {} checks, {} nodes, {} on new ground, share {:.2}",
-                m.method, m.turns, m.iterations, m.checks, m.nodes_added, m.novel, m.share
-            );
+            println!("portfolio {m}");
         }
         if let Some(by) = &p.solved_by {
             println!("portfolio: solved on a {by} turn");
