@@ -22,8 +22,8 @@
 //! `cargo bench -p benches --bench planner` (all) or `... -- collision` (one group).
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use planner::tree::{NodeId, Tree};
-use planner::{CollisionChecker, ConfigSpace, Planner, PlannerParams, Scene, Space, Weights};
+use planner_core::tree::{NodeId, Tree};
+use planner_core::{CollisionChecker, ConfigSpace, Planner, PlannerParams, Scene, Space, Weights};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::hint::black_box;

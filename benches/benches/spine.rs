@@ -9,7 +9,7 @@ use haptic_loop::guidance::GuidanceConfig;
 use haptic_loop::mapping::MappingConfig;
 use haptic_loop::safety::SafetyConfig;
 use haptic_loop::tick::{NoGuidance, NoSink, PrevTiming, Tick, TickConfig};
-use planner::{CollisionChecker, Scene, Se3};
+use planner_core::{CollisionChecker, Scene, Se3};
 use std::hint::black_box;
 
 fn collision(c: &mut Criterion) {

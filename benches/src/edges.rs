@@ -1,8 +1,8 @@
-//! Discrete against certified edge validation ([`planner::EdgeCheck`]) for the `edges`
+//! Discrete against certified edge validation ([`planner_core::EdgeCheck`]) for the `edges`
 //! harness: time to solve, the checks each spends, and whether the solved paths collide
 //! anywhere when re-checked densely by a checker of their own.
 
-use planner::{CollisionChecker, EdgeCheck, Planner, PlannerParams, Scene, Weights};
+use planner_core::{CollisionChecker, EdgeCheck, Planner, PlannerParams, Scene, Weights};
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::time::Instant;
@@ -40,7 +40,7 @@ pub fn run(
     seed: u64,
     time_limit_s: f64,
     recheck_spacing: f64,
-) -> Result<EdgeRun, planner::PlannerError> {
+) -> Result<EdgeRun, planner_core::PlannerError> {
     let params = PlannerParams {
         edge_check: check,
         ..PlannerParams::default()

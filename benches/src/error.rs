@@ -18,7 +18,7 @@ pub enum BenchError {
     Ipc(#[from] ipc_types::services::ServiceError),
     /// The planner rejected its scene or parameters.
     #[error(transparent)]
-    Planner(#[from] planner::PlannerError),
+    Planner(#[from] planner_core::PlannerError),
     /// Standard output could not be written (the reader child's report).
     #[error("cannot write the report: {0}")]
     Report(#[from] std::io::Error),

@@ -19,7 +19,7 @@ use devices::sim::{SimulatedArm, Waypoint};
 use haptic_loop::contact::{ContactConfig, ContactModel, ContactStage, Coupling, Pointshell};
 use haptic_loop::tick::TickConfig;
 use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
-use planner::CollisionChecker;
+use planner_core::CollisionChecker;
 use scene::{Primitive, Scene, Se3};
 use std::collections::BTreeMap;
 use std::sync::Arc;

@@ -6,7 +6,7 @@
 //! `benches/cad/convert.py`, or a CAD link passing a hole in boxes) at random poses in its
 //! bounds.
 
-use planner::{CollisionChecker, Scene, Se3, Weights};
+use planner_core::{CollisionChecker, Scene, Se3, Weights};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use scene::{Bounds, MeshData, Part, Primitive, SpaceKind};
@@ -142,7 +142,7 @@ pub struct MeshPoint {
     /// Mean clearance query capped at [`FAR_CAP_M`] (the sweep of a long edge), µs.
     pub far_clearance_us: f64,
     /// Mean of the certification's lower bound of it (relative tolerance
-    /// `planner::collision::CERTIFIED_CLEARANCE_REL_TOLERANCE`), µs.
+    /// `planner_core::collision::CERTIFIED_CLEARANCE_REL_TOLERANCE`), µs.
     pub far_bound_us: f64,
 }
 
@@ -277,7 +277,7 @@ pub fn scene_poses(scene: &Scene, n: usize, near: bool) -> Vec<Se3> {
             gap.norm() <= reach
         };
         if !near || boxes.iter().any(reaches) {
-            out.push(Se3::new(p, planner::space::uniform_rotation(&mut rng)));
+            out.push(Se3::new(p, planner_core::space::uniform_rotation(&mut rng)));
         }
     }
     out

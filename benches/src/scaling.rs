@@ -4,7 +4,7 @@
 use crate::BenchError;
 use crate::contact_fixture::{Fixture, Situation};
 use haptic_loop::stats::{NsHistogram, Percentiles};
-use planner::{Planner, PlannerParams, Scene};
+use planner_core::{Planner, PlannerParams, Scene};
 use serde::Serialize;
 use std::path::Path;
 use std::time::{Duration, Instant};

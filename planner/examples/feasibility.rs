@@ -12,7 +12,7 @@
 //! through the wall if need be, like the simulated user of I-RRT §6) at `--user-speed`
 //! m/s of wall-clock time, then stays at the goal.
 
-use planner::{ConfigSpace, Planner, PlannerParams, Scene};
+use planner_core::{ConfigSpace, Planner, PlannerParams, Scene};
 use std::time::Instant;
 
 fn arg<T: std::str::FromStr>(args: &[String], name: &str, default: T) -> T {
@@ -31,7 +31,7 @@ fn main() {
     let first: u64 = arg(&args, "--first-seed", 1);
     let limit_s: f64 = arg(&args, "--limit-s", 60.0);
     let params = PlannerParams {
-        sampling: planner::Sampling::Hrrtc {
+        sampling: planner_core::Sampling::Hrrtc {
             alpha: arg(&args, "--alpha", 1.0),
         },
         user_sigma: arg(&args, "--user-sigma", 0.03),
@@ -84,8 +84,8 @@ fn main() {
         }
         let el = t0.elapsed().as_secs_f64();
         // Re-validate the solution at 1 mm / 0.01 rad with a fresh checker.
-        let fine = planner::CollisionChecker::with_params(&scene, params.weights, 0.001)
-            .with_edge_check(planner::EdgeCheck::Discrete);
+        let fine = planner_core::CollisionChecker::with_params(&scene, params.weights, 0.001)
+            .with_edge_check(planner_core::EdgeCheck::Discrete);
         if let Some(path) = p.solution() {
             let bad: Vec<_> = path
                 .windows(2)

@@ -7,7 +7,7 @@ set -euo pipefail
 cd "$(dirname "$0")"
 seconds="${1:-60}"
 mkdir -p corpus/scene_toml corpus/guidance_sample corpus/spacemouse_report
-cp -n ../../planner/scenes/*.toml corpus/scene_toml/ 2>/dev/null || true
+cp -n ../../scene/scenes/*.toml corpus/scene_toml/ 2>/dev/null || true
 for target in $(cargo fuzz list --fuzz-dir .); do
     echo "== $target (${seconds} s)"
     RUSTC_BOOTSTRAP=1 cargo fuzz run -s none --fuzz-dir . "$target" -- \

@@ -7,7 +7,7 @@
 use anyhow::{Context, bail};
 use benches::edges::{self, EdgeRun};
 use clap::Parser;
-use planner::{EdgeCheck, Scene};
+use planner_core::{EdgeCheck, Scene};
 use std::path::PathBuf;
 
 /// Discrete against certified edges: time to solve and collisions between checked states.

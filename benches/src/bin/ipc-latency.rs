@@ -12,7 +12,7 @@
 //!    real `planner serve` process. State: the loop's stamp just before its blackboard
 //!    write (`HapticState::published_ns`; the bare writers stamp just before theirs) → the
 //!    planner's receiver thread reading the blackboard, phase-locked to the ticks with a
-//!    `--state-spin-us` watch after each early wake-up (`planner::shell::pacing`; `state_latency_us` of the planner's
+//!    `--state-spin-us` watch after each early wake-up (`ipc_types::pacing`; `state_latency_us` of the planner's
 //!    JSON report; from the tick's wake-up instead: `state_age_us`). Guidance: the planner's stamp just before `send_copy` → wake-up of the
 //!    first tick rendering it, through the loop's relay thread (woken by the planner's
 //!    guidance event) and triple buffer

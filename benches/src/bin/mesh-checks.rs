@@ -91,7 +91,7 @@ struct PartOut {
     pose: [f64; 7],
 }
 
-fn pose_row(q: &planner::Se3) -> [f64; 7] {
+fn pose_row(q: &planner_core::Se3) -> [f64; 7] {
     [
         q.pos.x, q.pos.y, q.pos.z, q.rot.w, q.rot.i, q.rot.j, q.rot.k,
     ]
@@ -102,7 +102,7 @@ fn pose_row(q: &planner::Se3) -> [f64; 7] {
 fn export_parts(
     dir: &Path,
     stem: &str,
-    scene: &planner::Scene,
+    scene: &planner_core::Scene,
 ) -> anyhow::Result<[Vec<PartOut>; 2]> {
     use scene::Primitive;
     let mut out = [Vec::new(), Vec::new()];
@@ -154,8 +154,8 @@ fn scenes(args: &Args) -> anyhow::Result<()> {
     let mut cases = Vec::new();
     let mut rows = Vec::new();
     for name in &args.scene {
-        let scene =
-            planner::Scene::by_name_or_path(name).with_context(|| format!("--scene {name}"))?;
+        let scene = planner_core::Scene::by_name_or_path(name)
+            .with_context(|| format!("--scene {name}"))?;
         let object_triangles = mesh_checks::mesh_triangles(&scene.moving_object);
         if object_triangles + mesh_checks::mesh_triangles(&scene.obstacles) == 0 {
             bail!("--scene {name}: has no mesh (this harness measures the mesh pairs)");
@@ -183,7 +183,7 @@ fn scenes(args: &Args) -> anyhow::Result<()> {
                 p.cells()
             );
             if let Some([obstacle, object]) = &parts {
-                let checker = planner::CollisionChecker::new(&scene);
+                let checker = planner_core::CollisionChecker::new(&scene);
                 cases.push(Case {
                     label: format!("{} ({set})", scene.name),
                     triangles: p.triangles,
@@ -270,7 +270,7 @@ fn main() -> anyhow::Result<()> {
             println!("| {} | {} | {} |", pair.name(), p.triangles, p.cells());
             if let Some(dir) = &args.export {
                 let scene = mesh_checks::pair_scene(pair, n);
-                let checker = planner::CollisionChecker::new(&scene);
+                let checker = planner_core::CollisionChecker::new(&scene);
                 let stem = format!("{}-{}", pair.name(), p.triangles);
                 let [obstacle, object] = export_parts(dir, &stem, &scene)?;
                 cases.push(Case {

@@ -3,8 +3,8 @@
 //!
 //! It only reads: the `HapticState` blackboard (pose, proxy, forces, contact), the
 //! `Guidance` and `Path` services, and the planner's `Roadmap` increments
-//! (`ipc_types::services::ROADMAP`, filled by [`feed::RoadmapFeed`] in the
-//! planner's main thread). Neither the haptic loop nor the planner waits for it: a blackboard reader is
+//! (`ipc_types::services::ROADMAP`, filled by `planner_shell::feed::RoadmapFeed` in
+//! the planner's main thread). Neither the haptic loop nor the planner waits for it: a blackboard reader is
 //! invisible to the writer, and the publish-subscribe services overflow safely. The view
 //! may start and stop at any time; a late view gets the whole roadmap from the rolling
 //! window within a few seconds.
@@ -31,12 +31,9 @@
 
 pub mod draw;
 mod error;
-pub mod feed;
 mod merge;
 pub mod model;
 mod run;
-#[cfg(test)]
-mod test_trees;
 #[cfg(test)]
 mod tests;
 

@@ -205,8 +205,8 @@ impl RoadmapModel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::feed::{FeedInfo, RoadmapFeed};
-    use crate::test_trees::chain;
+    use planner_shell::feed::{FeedInfo, RoadmapFeed};
+    use planner_shell::test_trees::chain;
 
     fn info(pid: u32) -> FeedInfo {
         FeedInfo {

@@ -3,13 +3,13 @@
 //! recording of the same run is read back. No wall-clock timing is asserted: waits are
 //! bounded only so that a broken view fails instead of hanging.
 
-use crate::feed::{FeedInfo, RoadmapFeed};
 use crate::{TOPICS, ViewConfig, ViewReport, Viewer};
 use foxglove::Decode;
 use foxglove::messages::{PointCloud, SceneUpdate};
 use ipc_types::services;
 use ipc_types::{Guidance, GuidanceMode, HapticState, Header, Path, monotonic_ns};
 use planner_core::{Planner, PlannerParams, Scene};
+use planner_shell::feed::{FeedInfo, RoadmapFeed};
 use std::collections::BTreeMap;
 use std::net::TcpStream;
 use std::sync::Arc;

@@ -6,7 +6,7 @@
 //! so the closed non-manifold case also runs from a bare checkout.
 
 use haptic_loop::contact::{ContactConfig, ContactModel};
-use planner::{CollisionChecker, Scene, Se3};
+use planner_core::{CollisionChecker, Scene, Se3};
 use scene::repair::{Refusal, Surface, repair};
 use scene::{MeshData, Part, Primitive};
 use sha2::{Digest, Sha256};

@@ -3,7 +3,7 @@
 //! `hrrtc_ros2` participant connected to the gateway over loopback TCP): its poses reach the
 //! loop, the loop's wrench commands come back, and a bad pose or a silent driver makes the
 //! loop latch zero force. (The wire itself is checked against rosbags and zenoh-ext by the
-//! Python tests in `ipc-types/ros2/python`.)
+//! Python tests in `gateways/ros2/python`.)
 
 use hrrtc_ros2::msgs::{Header, Message, Pose, PoseStamped, WrenchStamped};
 use hrrtc_ros2::participant::{Participant, SessionConfig};

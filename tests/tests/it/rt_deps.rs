@@ -1,7 +1,9 @@
 //! Architecture invariant: the real-time binary links only what runs in real time or sets
 //! it up. `haptic-loop`'s normal dependencies (those of its library and binary) may reach
 //! the workspace crates `ipc-types`, `devices` and `scene` and no other, and none of the
-//! crates below, which serve planning, viewing, plotting or networking.
+//! crates below, which serve planning, viewing, plotting or networking. And the planner's
+//! process shell, a library, links neither the viewer nor the laboratory nor the bridge
+//! (the `planner` program does).
 
 use std::collections::BTreeSet;
 use std::process::Command;
@@ -31,15 +33,15 @@ const FORBIDDEN: [&str; 17] = [
     "mcap-foxglove",
 ];
 
-/// `(name, source)` of every package in `haptic-loop`'s normal dependency graph.
-fn rt_packages() -> Vec<(String, String)> {
+/// `(name, source)` of every package in `package`'s normal dependency graph.
+fn normal_packages(package: &str) -> Vec<(String, String)> {
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let out = Command::new(cargo)
         .args([
             "tree",
             "--locked",
             "-p",
-            "haptic-loop",
+            package,
             "-e",
             "normal",
             "--prefix",
@@ -69,7 +71,7 @@ fn rt_packages() -> Vec<(String, String)> {
 
 #[test]
 fn the_rt_binary_reaches_no_planning_viewing_or_network_crate() {
-    let packages = rt_packages();
+    let packages = normal_packages("haptic-loop");
     let names: BTreeSet<&str> = packages.iter().map(|(n, _)| n.as_str()).collect();
     assert!(
         names.contains("haptic-loop") && names.contains("iceoryx2"),
@@ -94,5 +96,23 @@ fn the_rt_binary_reaches_no_planning_viewing_or_network_crate() {
     assert!(
         workspace.is_empty(),
         "haptic-loop depends on workspace crates {workspace:?}; allowed: {WORKSPACE_ALLOWED:?}"
+    );
+}
+
+#[test]
+fn the_planner_shell_library_links_no_viewer_laboratory_or_bridge() {
+    let packages = normal_packages("planner-shell");
+    let names: BTreeSet<&str> = packages.iter().map(|(n, _)| n.as_str()).collect();
+    assert!(
+        names.contains("planner-shell") && names.contains("planner-core"),
+        "cargo tree output not understood: {packages:?}"
+    );
+    let linked: Vec<&str> = ["view", "lab", "hrrtc-bridge", "foxglove", "mcap", "zenoh"]
+        .into_iter()
+        .filter(|f| names.contains(f))
+        .collect();
+    assert!(
+        linked.is_empty(),
+        "planner-shell's normal dependencies reach {linked:?} (see `cargo tree -p planner-shell -e normal -i <crate>`)"
     );
 }
