@@ -14,7 +14,7 @@ use std::hint::black_box;
 use std::time::Duration;
 
 fn ns(tag: &str) -> String {
-    format!("bench_{tag}_{}", std::process::id())
+    services::unique_namespace(&format!("bench_{tag}"))
 }
 
 fn state(c: &mut Criterion) {

@@ -5,8 +5,7 @@
 //! cargo run -p haptic-loop --example sim_driver -- --namespace default
 //! ```
 
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::time::Duration;
 
 use clap::Parser;
@@ -34,12 +33,13 @@ fn main() -> std::process::ExitCode {
         eprintln!("sim_driver: --namespace: {e}");
         return std::process::ExitCode::from(2);
     }
-    let stop = Arc::new(AtomicBool::new(false));
-    let s = stop.clone();
-    if let Err(e) = ctrlc::set_handler(move || s.store(true, Ordering::Release)) {
-        eprintln!("sim_driver: cannot install the signal handler: {e}");
-        return std::process::ExitCode::from(2);
-    }
+    let stop = match ipc_types::startup::stop_on_signal("sim_driver") {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("sim_driver: cannot install the signal handler: {e}");
+            return std::process::ExitCode::from(2);
+        }
+    };
     if let Some(d) = args.duration_s {
         if !(d.is_finite() && d > 0.0) {
             eprintln!("sim_driver: --duration-s must be a finite number > 0, got {d}");

@@ -331,7 +331,7 @@ mod tests {
     use ipc_types::monotonic_ns;
 
     fn namespace(tag: &str) -> String {
-        format!("test_driver_{tag}_{}", std::process::id())
+        services::unique_namespace(&format!("test_driver_{tag}"))
     }
 
     #[test]

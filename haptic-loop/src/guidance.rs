@@ -227,25 +227,18 @@ impl GuidanceFilter {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ipc_types::{GuidanceMode, Header};
+    use ipc_types::Header;
 
     const MS: u64 = 1_000_000;
 
     fn sample(seq: u64, t_ns: u64) -> Guidance {
-        Guidance {
-            header: Header {
-                sequence: seq,
-                timestamp_ns: t_ns,
-                writer_pid: 1,
-                reserved: 0,
-            },
-            attractive: [0.05, 0.0, 0.0, 0.0, 0.0, 0.1],
-            gain_n_per_m: 20.0,
-            gain_nm_per_rad: 0.5,
-            time_to_live_ns: 100 * MS,
-            mode: GuidanceMode::ROADMAP,
-            ..Guidance::default()
-        }
+        Guidance::roadmap(
+            Header::new(seq, t_ns, 1),
+            [0.05, 0.0, 0.0, 0.0, 0.0, 0.1],
+            20.0,
+            0.5,
+            100 * MS,
+        )
     }
 
     /// A filter whose rate limit does not act within a tick (the tests below are about

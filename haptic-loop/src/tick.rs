@@ -405,7 +405,7 @@ mod tests {
     use devices::sim::{
         ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmConfig, Waypoint,
     };
-    use ipc_types::{GuidanceFreshness, GuidanceMode, Header};
+    use ipc_types::{GuidanceFreshness, Header};
 
     fn arm() -> SimulatedArm {
         SimulatedArm::new(SimulatedArmConfig::default()).unwrap()
@@ -415,19 +415,13 @@ mod tests {
 
     /// A sample stamped at t = 0, fresh for 10 s, with F_a = `fa` (m) and k = 40 N/m.
     fn guidance(sequence: u64, fa: [f64; 3]) -> Guidance {
-        Guidance {
-            header: Header {
-                sequence,
-                timestamp_ns: 0,
-                writer_pid: 9,
-                reserved: 0,
-            },
-            attractive: [fa[0], fa[1], fa[2], 0.0, 0.0, 0.0],
-            gain_n_per_m: 40.0,
-            time_to_live_ns: 10_000 * MS,
-            mode: GuidanceMode::ROADMAP,
-            ..Guidance::default()
-        }
+        Guidance::roadmap(
+            Header::new(sequence, 0, 9),
+            [fa[0], fa[1], fa[2], 0.0, 0.0, 0.0],
+            40.0,
+            0.0,
+            10_000 * MS,
+        )
     }
 
     /// The default configuration without the always-on damping and workspace wall, to see guidance alone.

@@ -5,7 +5,7 @@ use devices::record::{Recorder, ReplayDevice};
 use devices::sim::{ScriptedUser, ScriptedUserConfig, SimulatedArm, SimulatedArmConfig, Waypoint};
 use devices::{DeviceError, HapticDevice};
 use haptic_loop::tick::{NoGuidance, NoSink, PrevTiming, Tick, TickConfig};
-use ipc_types::{FaultCode, Guidance, GuidanceMode, HapticState, Header};
+use ipc_types::{FaultCode, Guidance, HapticState, Header};
 use nalgebra::{Isometry3, Translation3};
 
 const MS: u64 = 1_000_000;
@@ -13,20 +13,13 @@ const TICKS: u64 = 2000;
 const FAULT_AT: u64 = 800;
 
 fn guidance() -> Guidance {
-    Guidance {
-        header: Header {
-            sequence: 1,
-            timestamp_ns: 0,
-            writer_pid: 1,
-            reserved: 0,
-        },
-        attractive: [0.02, -0.01, 0.03, 0.0, 0.0, 0.1],
-        gain_n_per_m: 40.0,
-        gain_nm_per_rad: 0.05,
-        time_to_live_ns: 100_000 * MS,
-        mode: GuidanceMode::ROADMAP,
-        ..Guidance::default()
-    }
+    Guidance::roadmap(
+        Header::new(1, 0, 1),
+        [0.02, -0.01, 0.03, 0.0, 0.0, 0.1],
+        40.0,
+        0.05,
+        100_000 * MS,
+    )
 }
 
 fn arm() -> SimulatedArm {

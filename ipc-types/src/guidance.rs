@@ -65,6 +65,27 @@ pub enum GuidanceError {
 }
 
 impl Guidance {
+    /// A sample leading along the roadmap ([`GuidanceMode::ROADMAP`]): F_a = `attractive`
+    /// (m, then rad), gains k (N/m, N·m/rad), fresh for `time_to_live_ns` after
+    /// `header.timestamp_ns`; no statistics, planner id 0.
+    pub fn roadmap(
+        header: Header,
+        attractive: [f64; 6],
+        gain_n_per_m: f64,
+        gain_nm_per_rad: f64,
+        time_to_live_ns: u64,
+    ) -> Self {
+        Guidance {
+            header,
+            attractive,
+            gain_n_per_m,
+            gain_nm_per_rad,
+            time_to_live_ns,
+            mode: GuidanceMode::ROADMAP,
+            ..Guidance::default()
+        }
+    }
+
     /// Largest accepted |F_a| component (m or rad) and gain (N/m or N·m/rad): far above any
     /// scene (metres) or device (kN/m), far below where `F_a · k` could overflow.
     pub const MAX_MAGNITUDE: f64 = 1e6;

@@ -138,6 +138,18 @@ pub struct Header {
     pub reserved: u32,
 }
 
+impl Header {
+    /// Message `sequence` of writer `writer_pid`, written at `timestamp_ns` (`CLOCK_MONOTONIC`).
+    pub const fn new(sequence: u64, timestamp_ns: u64, writer_pid: u32) -> Self {
+        Header {
+            sequence,
+            timestamp_ns,
+            writer_pid,
+            reserved: 0,
+        }
+    }
+}
+
 /// `CLOCK_MONOTONIC` now, ns: the clock of every timestamp on the wire.
 #[inline]
 pub fn monotonic_ns() -> u64 {

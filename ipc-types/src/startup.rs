@@ -6,8 +6,13 @@
 //!
 //! [`crate::services::create_node`] marks the process; a binary marks it itself before it
 //! starts a child process. A signal handler asks [`holds_resources`].
+//!
+//! Also what every program of the system does first: [`init_logging`] and
+//! [`stop_on_signal`].
 
+use std::io::IsTerminal;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, OnceLock};
 
 static HOLDS: AtomicBool = AtomicBool::new(false);
 
@@ -31,6 +36,32 @@ pub fn on_signal(stop: &AtomicBool, program: &str) {
         eprintln!("{program}: stopped during start-up");
         std::process::exit(130);
     }
+}
+
+/// The flag SIGINT / SIGTERM set, the handler installed at the first call in a process
+/// (later calls return the same flag). Until the process holds resources a signal ends it
+/// at once with exit code 130, saying so as `program` ([`on_signal`]).
+pub fn stop_on_signal(program: &'static str) -> Result<Arc<AtomicBool>, ctrlc::Error> {
+    static STOP: OnceLock<Arc<AtomicBool>> = OnceLock::new();
+    if let Some(s) = STOP.get() {
+        return Ok(s.clone());
+    }
+    let stop = Arc::new(AtomicBool::new(false));
+    let s = stop.clone();
+    ctrlc::set_handler(move || on_signal(&s, program))?;
+    Ok(STOP.get_or_init(|| stop).clone())
+}
+
+/// Logs to stderr with `default_filter` (e.g. `info,zenoh=warn`) unless `RUST_LOG` says
+/// otherwise, in colour only on a terminal. A second call does nothing.
+pub fn init_logging(default_filter: &str) {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default_filter));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_ansi(std::io::stderr().is_terminal())
+        .with_writer(std::io::stderr)
+        .try_init();
 }
 
 #[cfg(test)]

@@ -19,7 +19,6 @@ use scenes::ScenesArgs;
 use serde::Serialize;
 use serve::ServeArgs;
 use solve::SolveArgs;
-use std::io::IsTerminal;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
@@ -57,31 +56,12 @@ enum Command {
     MergeRecordings(MergeArgs),
 }
 
-/// Logs to stderr (`RUST_LOG` overrides `info`), in colour only on a terminal.
-fn init_logging() {
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
-    let _ = tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_ansi(std::io::stderr().is_terminal())
-        .with_writer(std::io::stderr)
-        .try_init();
-}
-
-/// The flag SIGINT / SIGTERM set, installed once per process: once the process holds IPC
-/// resources or children the signal sets it; before that (reading a scene, building a
-/// planner's collision trees) it ends the process at once with exit code 130
-/// (`ipc_types::startup`).
+/// The flag SIGINT / SIGTERM set (`ipc_types::startup::stop_on_signal`): installed first
+/// thing, so that a signal during long start-up work (reading a scene, building a
+/// planner's collision trees) ends the process at once with exit code 130.
 fn stop_on_signal() -> anyhow::Result<Arc<AtomicBool>> {
-    static STOP: std::sync::OnceLock<Arc<AtomicBool>> = std::sync::OnceLock::new();
-    if let Some(s) = STOP.get() {
-        return Ok(s.clone());
-    }
-    let stop = Arc::new(AtomicBool::new(false));
-    let s = stop.clone();
-    ctrlc::set_handler(move || ipc_types::startup::on_signal(&s, "planner"))
-        .context("cannot install the SIGINT/SIGTERM handler")?;
-    Ok(STOP.get_or_init(|| stop).clone())
+    ipc_types::startup::stop_on_signal("planner")
+        .context("cannot install the SIGINT/SIGTERM handler")
 }
 
 /// Writes `value` as pretty JSON (and a newline) to `path`.
@@ -106,7 +86,7 @@ where
             return Ok(code);
         }
     };
-    init_logging();
+    ipc_types::startup::init_logging("info");
     match cli.command {
         Command::Serve(a) => serve::run(&a),
         Command::Solve(a) => solve::run(&a),

@@ -66,9 +66,7 @@ pub fn bin(name: &str) -> PathBuf {
 
 /// An IPC namespace no other test or process uses.
 pub fn unique_namespace(tag: &str) -> String {
-    static COUNTER: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-    let n = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    format!("it_{tag}_{}_{n}", std::process::id())
+    ipc_types::services::unique_namespace(&format!("it_{tag}"))
 }
 
 /// A child process stopped when dropped (see `Drop`), so a failing test leaves nothing
@@ -174,12 +172,32 @@ pub fn free_port() -> u16 {
         .port()
 }
 
-/// `haptic-loop run` on namespace `ns` as the tests run it: memory not locked (a shared
-/// test machine), then `extra` (priority, scene, duration, summary, ...).
-pub fn start_loop(ns: &str, extra: &[&str]) -> Proc {
+/// The arguments of `haptic-loop run` on namespace `ns` as the tests run it: memory not
+/// locked (a shared test machine), then `extra` (priority, scene, duration, summary, ...).
+pub fn loop_args<'a>(ns: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
     let mut args = vec!["run", "--namespace", ns, "--no-mlock"];
     args.extend_from_slice(extra);
-    Proc::spawn(&bin("haptic-loop"), &args)
+    args
+}
+
+/// `haptic-loop run` ([`loop_args`]) started as a child.
+pub fn start_loop(ns: &str, extra: &[&str]) -> Proc {
+    Proc::spawn(&bin("haptic-loop"), &loop_args(ns, extra))
+}
+
+/// `haptic-loop run` ([`loop_args`]) as a command to run to its end.
+pub fn loop_command(ns: &str, extra: &[&str]) -> std::process::Command {
+    let mut c = std::process::Command::new(bin("haptic-loop"));
+    c.args(loop_args(ns, extra));
+    c
+}
+
+/// Whether the loop's state shows a planner's guidance: a sample received, fresh, and a
+/// guidance force in the commanded wrench.
+pub fn guidance_fresh(s: &ipc_types::HapticState) -> bool {
+    s.guidance_sequence > 0
+        && s.guidance_freshness == ipc_types::GuidanceFreshness::FRESH
+        && norm(s.guidance_wrench.force_n) > 1e-6
 }
 
 /// |v| of a 3-vector.

@@ -338,7 +338,7 @@ pub fn decode<T: Carried>(bytes: &[u8]) -> Result<(FrameHeader, T), FrameError> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ipc_types::{GuidanceMode, Header};
+    use ipc_types::Header;
 
     /// Every wire struct's fields cover its bytes without a gap (so the `Carried` types,
     /// and the structs inside them, have no padding: `as_bytes` reads only initialised
@@ -371,17 +371,14 @@ mod tests {
 
     fn guidance() -> Guidance {
         Guidance {
-            header: Header {
-                sequence: 3,
-                timestamp_ns: 1_000,
-                writer_pid: 42,
-                reserved: 0,
-            },
-            attractive: [0.1, 0.0, -0.2, 0.0, 0.01, 0.0],
-            gain_n_per_m: 20.0,
-            mode: GuidanceMode::ROADMAP,
             planner_id: 7,
-            ..Guidance::default()
+            ..Guidance::roadmap(
+                Header::new(3, 1_000, 42),
+                [0.1, 0.0, -0.2, 0.0, 0.01, 0.0],
+                20.0,
+                0.0,
+                0,
+            )
         }
     }
 

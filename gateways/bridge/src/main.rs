@@ -7,8 +7,6 @@ use anyhow::Context;
 use clap::{Parser, ValueEnum};
 use hrrtc_bridge::clock::HostClock;
 use hrrtc_bridge::{BridgeConfig, Side};
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Bridge one namespace of the haptic loop and planner between hosts over Zenoh (TCP).
 ///
@@ -73,12 +71,7 @@ enum SideArg {
 }
 
 fn main() -> std::process::ExitCode {
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=warn"));
-    tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .init();
+    ipc_types::startup::init_logging("info,zenoh=warn");
     match run() {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
@@ -129,12 +122,8 @@ fn run() -> anyhow::Result<()> {
         key_namespace: cli.key_namespace,
         ..BridgeConfig::new(side, &cli.namespace)
     };
-    let stop = Arc::new(AtomicBool::new(false));
-    {
-        let stop = stop.clone();
-        ctrlc::set_handler(move || stop.store(true, Ordering::Release))
-            .context("installing the Ctrl-C / SIGTERM handler")?;
-    }
+    let stop = ipc_types::startup::stop_on_signal("hrrtc-bridge")
+        .context("installing the Ctrl-C / SIGTERM handler")?;
     let report = hrrtc_bridge::run(&config, stop)?;
     println!(
         "bridge ({} side) ran {:.1} s; {} peer(s){}",

@@ -10,7 +10,7 @@ use hrrtc_ros2::rmw::Distro;
 use hrrtc_ros2::serve::ServeConfig;
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 
 /// The haptic loop's topics on ROS 2 (rmw_zenoh's wire, no ROS install needed), and ROS 2
 /// arm drivers as its devices.
@@ -213,12 +213,7 @@ struct DeviceArgs {
 }
 
 fn main() -> std::process::ExitCode {
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=warn,zenoh_ext=warn"));
-    tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .init();
+    ipc_types::startup::init_logging("info,zenoh=warn,zenoh_ext=warn");
     let cli = Cli::parse();
     let result = stop_on_signal().and_then(|stop| match cli.command {
         Command::Serve(a) => serve(a, stop),
@@ -233,13 +228,10 @@ fn main() -> std::process::ExitCode {
     }
 }
 
-/// A flag set by SIGINT / SIGTERM.
+/// The flag SIGINT / SIGTERM set (`ipc_types::startup::stop_on_signal`).
 fn stop_on_signal() -> anyhow::Result<Arc<AtomicBool>> {
-    let stop = Arc::new(AtomicBool::new(false));
-    let s = stop.clone();
-    ctrlc::set_handler(move || s.store(true, Ordering::Release))
-        .context("installing the Ctrl-C / SIGTERM handler")?;
-    Ok(stop)
+    ipc_types::startup::stop_on_signal("hrrtc-ros2")
+        .context("installing the Ctrl-C / SIGTERM handler")
 }
 
 fn write_json(path: Option<&PathBuf>, value: &impl serde::Serialize) -> anyhow::Result<()> {

@@ -479,15 +479,19 @@ pub fn guidance_listener(
         .map_err(port_error(service, "listener", String::new()))
 }
 
+/// A namespace no other process and no earlier call in this process uses (`tag`, the
+/// process id and a counter): for tests and benchmarks that run side by side.
+pub fn unique_namespace(tag: &str) -> String {
+    static COUNTER: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+    let n = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    format!("{tag}_{}_{n}", std::process::id())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{GuidanceMode, Header};
+    use crate::Header;
     use iceoryx2::port::update_connections::UpdateConnections;
-
-    fn unique_namespace(tag: &str) -> String {
-        format!("test_{tag}_{}", std::process::id())
-    }
 
     #[test]
     fn namespaces_are_validated() {
@@ -531,14 +535,7 @@ mod tests {
         let ns = unique_namespace("guid");
         let (node, _) = create_node("ipc_types_guidance_test").unwrap();
         let sub = subscriber::<Guidance>(&node, &ns).unwrap();
-        let g = |seq| Guidance {
-            header: Header {
-                sequence: seq,
-                ..Header::default()
-            },
-            mode: GuidanceMode::ROADMAP,
-            ..Guidance::default()
-        };
+        let g = |seq| Guidance::roadmap(Header::new(seq, 0, 0), [0.0; 6], 0.0, 0.0, 0);
         {
             let first = publisher::<Guidance>(&node, &ns).unwrap();
             first.send_copy(g(1)).unwrap();

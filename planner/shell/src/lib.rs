@@ -579,12 +579,7 @@ fn make_guidance(
         (config.gain_n_per_m, config.gain_nm_per_rad)
     };
     Guidance {
-        header: Header {
-            sequence: seq,
-            timestamp_ns: ipc_types::monotonic_ns(),
-            writer_pid: pid,
-            reserved: 0,
-        },
+        header: Header::new(seq, ipc_types::monotonic_ns(), pid),
         attractive,
         gain_n_per_m,
         gain_nm_per_rad,

@@ -7,7 +7,7 @@ use crate::{TOPICS, ViewConfig, ViewReport, Viewer};
 use foxglove::Decode;
 use foxglove::messages::{PointCloud, SceneUpdate};
 use ipc_types::services;
-use ipc_types::{Guidance, GuidanceMode, HapticState, Header, Path, monotonic_ns};
+use ipc_types::{Guidance, HapticState, Header, Path, monotonic_ns};
 use planner_core::{Planner, PlannerParams, Scene};
 use planner_shell::feed::{FeedInfo, RoadmapFeed};
 use std::collections::BTreeMap;
@@ -142,14 +142,13 @@ fn live_view_and_recording_match_the_planner() {
             );
             sample.send().expect("send");
             guidance_p
-                .send_copy(Guidance {
-                    header: header(seq),
-                    attractive: [0.01, 0.0, 0.0, 0.0, 0.0, 0.0],
-                    gain_n_per_m: 20.0,
-                    time_to_live_ns: 10_000_000_000,
-                    mode: GuidanceMode::ROADMAP,
-                    ..Guidance::default()
-                })
+                .send_copy(Guidance::roadmap(
+                    header(seq),
+                    [0.01, 0.0, 0.0, 0.0, 0.0, 0.0],
+                    20.0,
+                    0.0,
+                    10_000_000_000,
+                ))
                 .expect("guidance");
             if seq == 3 {
                 let mut p = Path::EMPTY;

@@ -10,7 +10,7 @@ use haptic_loop::runner::{self, RunnerConfig};
 use haptic_loop::safety::SafetyConfig;
 use haptic_loop::tick::{Tick, TickConfig};
 use ipc_types::services;
-use ipc_types::{Guidance, GuidanceMode, Header};
+use ipc_types::{Guidance, Header};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
@@ -44,20 +44,13 @@ fn rt_thread_allocates_nothing_over_6000_ticks_with_ipc_and_contact() {
                 seen = seen.max(s.header.sequence);
                 seq += 1;
                 publisher
-                    .send_copy(Guidance {
-                        header: Header {
-                            sequence: seq,
-                            timestamp_ns: ipc_types::monotonic_ns(),
-                            writer_pid: std::process::id(),
-                            reserved: 0,
-                        },
-                        attractive: [0.01, -0.02, 0.0, 0.0, 0.1, 0.0],
-                        gain_n_per_m: 20.0,
-                        gain_nm_per_rad: 0.05,
-                        time_to_live_ns: 100_000_000,
-                        mode: GuidanceMode::ROADMAP,
-                        ..Guidance::default()
-                    })
+                    .send_copy(Guidance::roadmap(
+                        Header::new(seq, ipc_types::monotonic_ns(), std::process::id()),
+                        [0.01, -0.02, 0.0, 0.0, 0.1, 0.0],
+                        20.0,
+                        0.05,
+                        100_000_000,
+                    ))
                     .unwrap();
                 std::thread::sleep(Duration::from_millis(5));
             }

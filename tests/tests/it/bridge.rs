@@ -11,7 +11,9 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 use tests::loop_watch::{PHASES, condition};
-use tests::{Proc, bin, free_port, norm, one_loop_at_a_time, unique_namespace, wait_for};
+use tests::{
+    Proc, bin, free_port, guidance_fresh, norm, one_loop_at_a_time, unique_namespace, wait_for,
+};
 
 /// A folder that makes processes started in it "host B": iceoryx2 reads
 /// `config/iceoryx2.toml` from the working directory.
@@ -140,12 +142,6 @@ fn wait_ticks(state: &services::StateReader, n: u64, after: &str) {
         Duration::from_secs(30),
         || (state.get().header.sequence > from + n).then_some(()),
     );
-}
-
-fn guidance_fresh(s: &HapticState) -> bool {
-    s.guidance_sequence > 0
-        && s.guidance_freshness == GuidanceFreshness::FRESH
-        && norm(s.guidance_wrench.force_n) > 1e-6
 }
 
 fn json(path: &Path) -> serde_json::Value {

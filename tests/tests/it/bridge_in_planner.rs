@@ -5,7 +5,7 @@
 //! goes through its export thread.
 
 use hrrtc_bridge::{BridgeConfig, BridgeError, GuidanceSender, Side};
-use ipc_types::{Guidance, GuidanceMode, Header, services};
+use ipc_types::{Guidance, Header, services};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -13,16 +13,14 @@ use tests::free_port;
 
 fn guidance(sequence: u64, writer_pid: u32) -> Guidance {
     Guidance {
-        header: Header {
-            sequence,
-            timestamp_ns: ipc_types::monotonic_ns(),
-            writer_pid,
-            reserved: 0,
-        },
-        mode: GuidanceMode::ROADMAP,
-        time_to_live_ns: 100_000_000,
         planner_id: 7,
-        ..Guidance::default()
+        ..Guidance::roadmap(
+            Header::new(sequence, ipc_types::monotonic_ns(), writer_pid),
+            [0.0; 6],
+            0.0,
+            0.0,
+            100_000_000,
+        )
     }
 }
 

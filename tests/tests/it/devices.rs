@@ -16,7 +16,7 @@ use devices::spacemouse::{SpaceMouse, SpaceMouseConfig, report};
 use haptic_loop::alloc_count;
 use haptic_loop::driver::{DriverConfig, DriverDevice};
 use haptic_loop::tick::{NoSink, PrevTiming, Tick, TickConfig};
-use ipc_types::{FaultCode, Guidance, GuidanceMode, Header};
+use ipc_types::{FaultCode, Guidance, Header};
 
 const MS: u64 = 1_000_000;
 
@@ -66,9 +66,7 @@ fn absent_devices_fail_with_a_message_naming_what_to_check() {
         ),
     ];
     for (args, expected) in cases {
-        let out = Command::new(tests::bin("haptic-loop"))
-            .args(["run", "--namespace", &ns, "--priority", "0", "--no-mlock"])
-            .args(["--duration-s", "1"])
+        let out = tests::loop_command(&ns, &["--priority", "0", "--duration-s", "1"])
             .args(args)
             .output()
             .expect("run haptic-loop");
@@ -90,17 +88,8 @@ fn an_external_driver_process_runs_the_loop() {
         &["--namespace", &ns, "--duration-s", "20"],
     );
     let summary = std::env::temp_dir().join(format!("{ns}.json"));
-    let out = Command::new(tests::bin("haptic-loop"))
-        .args([
-            "run",
-            "--namespace",
-            &ns,
-            "--device",
-            "driver",
-            "--priority",
-            "0",
-        ])
-        .args(["--no-mlock", "--duration-s", "1.5", "--summary-json"])
+    let out = tests::loop_command(&ns, &["--device", "driver", "--priority", "0"])
+        .args(["--duration-s", "1.5", "--summary-json"])
         .arg(&summary)
         .output()
         .expect("run haptic-loop");
@@ -125,20 +114,13 @@ fn an_external_driver_process_runs_the_loop() {
 
 /// A guidance sample that stays fresh for the whole test.
 fn fixed_guidance() -> Guidance {
-    Guidance {
-        header: Header {
-            sequence: 1,
-            timestamp_ns: 0,
-            writer_pid: 1,
-            reserved: 0,
-        },
-        attractive: [0.02, 0.01, -0.01, 0.0, 0.0, 0.05],
-        gain_n_per_m: 40.0,
-        gain_nm_per_rad: 0.05,
-        time_to_live_ns: u64::MAX / 4,
-        mode: GuidanceMode::ROADMAP,
-        ..Guidance::default()
-    }
+    Guidance::roadmap(
+        Header::new(1, 0, 1),
+        [0.02, 0.01, -0.01, 0.0, 0.0, 0.05],
+        40.0,
+        0.05,
+        u64::MAX / 4,
+    )
 }
 
 /// Allocations counted on this thread over `ticks` ticks of `dev` (after 20 warm-up

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use tests::{Proc, bin, bin_dir, one_loop_at_a_time, unique_namespace};
+use tests::{bin_dir, one_loop_at_a_time, unique_namespace};
 
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
@@ -57,19 +57,9 @@ fn issue_19_a_c_program_reads_the_state_and_guides_the_arm() {
     let exe = print_state();
     let _serial = one_loop_at_a_time();
     let ns = unique_namespace("c");
-    let mut lp = Proc::spawn(
-        &bin("haptic-loop"),
-        &[
-            "run",
-            "--namespace",
-            &ns,
-            "--priority",
-            "0",
-            "--no-mlock",
-            "--no-contact",
-            "--duration-s",
-            "60",
-        ],
+    let mut lp = tests::start_loop(
+        &ns,
+        &["--priority", "0", "--no-contact", "--duration-s", "60"],
     );
     // Reading only: 5 lines at least 0.1 s apart (the example sleeps that long between
     // them); the loop ticks meanwhile, so each line shows a later tick.

@@ -43,9 +43,8 @@ fn issue_16_run_reports_the_solution_and_fits_the_scale_quietly() {
             &bin("planner"),
             &["serve", "--namespace", &ns, "--scene", scene],
         );
-        let out = Command::new(bin("haptic-loop"))
-            .args(["run", "--namespace", &ns, "--scene", scene])
-            .args(["--priority", "0", "--no-mlock", "--no-contact"])
+        let out = tests::loop_command(&ns, &["--scene", scene])
+            .args(["--priority", "0", "--no-contact"])
             .args(["--duration-s", "4", "--summary-json", &json_arg])
             .output()
             .expect("run haptic-loop run");

@@ -12,7 +12,7 @@ use ipc_types::{FaultCode, HapticState, services};
 use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
-use tests::{Proc, bin, free_port, norm, one_loop_at_a_time, unique_namespace, wait_for};
+use tests::{free_port, norm, one_loop_at_a_time, unique_namespace, wait_for};
 use zenoh::Wait;
 
 /// What the driver thread sends each millisecond.
@@ -32,15 +32,11 @@ fn a_ros2_driver_is_the_loops_device_and_a_bad_or_silent_one_fails_safe() {
     );
     let (node, _) = services::create_node("it_ros2_watch").unwrap();
     let state = services::state_reader(&node, &ns).unwrap();
-    let _lp = Proc::spawn(
-        &bin("haptic-loop"),
+    let _lp = tests::start_loop(
+        &ns,
         &[
-            "run",
-            "--namespace",
-            &ns,
             "--priority",
             "0",
-            "--no-mlock",
             "--no-contact",
             "--duration-s",
             "60",

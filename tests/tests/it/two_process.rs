@@ -1,9 +1,9 @@
 //! The two real processes, `haptic-loop run` and `planner serve`, on the simulated arm.
 
 use ipc_types::services;
-use ipc_types::{FaultCode, Guidance, GuidanceFreshness, HapticState};
+use ipc_types::{FaultCode, Guidance, GuidanceFreshness};
 use std::time::Duration;
-use tests::{Proc, bin, norm, one_loop_at_a_time, unique_namespace, wait_for};
+use tests::{Proc, bin, guidance_fresh, norm, one_loop_at_a_time, unique_namespace, wait_for};
 
 /// The loop at the normal scheduler for up to 60 s.
 fn start_loop(ns: &str) -> Proc {
@@ -67,12 +67,6 @@ fn planner_receives_haptic_state_at_loop_rate() {
     let _ = std::fs::remove_file(report);
 }
 
-fn guidance_seen(s: &HapticState) -> bool {
-    s.guidance_sequence > 0
-        && s.guidance_freshness == GuidanceFreshness::FRESH
-        && norm(s.guidance_wrench.force_n) > 1e-6
-}
-
 /// (b) guidance reaches the loop and is in the commanded wrench; (c) kill -9 of the
 /// planner: the loop keeps ticking, F_s decays to zero within time-to-live + fade, and a
 /// restarted planner restores guidance.
@@ -111,7 +105,7 @@ fn guidance_reaches_the_arm_fades_on_planner_death_and_returns() {
         if s.fault != FaultCode::NONE {
             last_fault = s.header.sequence;
         }
-        (guidance_seen(&s) && s.header.sequence > 1500 && s.header.sequence > last_fault + ramped)
+        (guidance_fresh(&s) && s.header.sequence > 1500 && s.header.sequence > last_fault + ramped)
             .then_some(s)
     });
     let v = s.device_twist.linear_m_s;
@@ -168,7 +162,7 @@ fn guidance_reaches_the_arm_fades_on_planner_death_and_returns() {
         Duration::from_secs(30),
         || {
             let s = *state.get();
-            guidance_seen(&s).then_some(s)
+            guidance_fresh(&s).then_some(s)
         },
     );
     assert!(s.guidance_sequence > 0);
@@ -207,7 +201,7 @@ fn ten_planner_kills_and_hangs_in_a_row() {
         wait_for(
             &format!("cycle {cycle}: fresh guidance"),
             Duration::from_secs(30),
-            || guidance_seen(&state.get()).then_some(()),
+            || guidance_fresh(&state.get()).then_some(()),
         );
         let hang = cycle % 2 == 1;
         planner.signal(if hang { libc::SIGSTOP } else { libc::SIGKILL });
@@ -268,20 +262,12 @@ fn a_second_loop_on_the_same_namespace_is_refused() {
     wait_for("the first loop publishes", Duration::from_secs(30), || {
         (state.get().header.sequence > 100).then_some(())
     });
-    let out = std::process::Command::new(bin("haptic-loop"))
-        .args([
-            "run",
-            "--namespace",
-            &ns,
-            "--priority",
-            "0",
-            "--no-mlock",
-            "--no-contact",
-            "--duration-s",
-            "5",
-        ])
-        .output()
-        .unwrap();
+    let out = tests::loop_command(
+        &ns,
+        &["--priority", "0", "--no-contact", "--duration-s", "5"],
+    )
+    .output()
+    .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert!(
@@ -341,7 +327,7 @@ fn a_killed_loop_restarts_and_the_planner_follows_it() {
         wait_for(
             "guidance from the planner in the loop's state",
             Duration::from_secs(30),
-            || guidance_seen(&state.get()).then_some(()),
+            || guidance_fresh(&state.get()).then_some(()),
         );
         // Guidance in the new loop's state does not yet show that the planner follows it:
         // for `state_timeout_s` after the old loop's last state the planner still answers

@@ -13,7 +13,6 @@ use args::{DemoArgs, DevicesArgs, RunArgs};
 use clap::{Parser, Subcommand};
 use haptic_loop::alloc_count::CountingAllocator;
 use haptic_loop::session::Summary;
-use std::io::IsTerminal;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -44,26 +43,12 @@ enum Command {
     Devices(DevicesArgs),
 }
 
-/// Logs to stderr (`RUST_LOG` overrides `info`), in colour only on a terminal.
-fn init_logging() {
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
-    let _ = tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_ansi(std::io::stderr().is_terminal())
-        .with_writer(std::io::stderr)
-        .try_init();
-}
-
-/// A flag set by SIGINT / SIGTERM once the process holds IPC resources or a child; before
+/// The flag SIGINT / SIGTERM set once the process holds IPC resources or a child; before
 /// that (reading the scene, building the contact model for a simulated device) the signal
 /// ends the process at once with exit code 130 (`ipc_types::startup`).
 fn stop_on_signal() -> anyhow::Result<Arc<AtomicBool>> {
-    let stop = Arc::new(AtomicBool::new(false));
-    let s = stop.clone();
-    ctrlc::set_handler(move || ipc_types::startup::on_signal(&s, "haptic-loop"))
-        .context("cannot install the SIGINT/SIGTERM handler")?;
-    Ok(stop)
+    ipc_types::startup::stop_on_signal("haptic-loop")
+        .context("cannot install the SIGINT/SIGTERM handler")
 }
 
 /// Shows the contact model's build (a progress line on a terminal, a log line every 2 s
@@ -97,7 +82,7 @@ fn finish(summary: &Summary, json: Option<&std::path::Path>) -> anyhow::Result<(
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
-    init_logging();
+    ipc_types::startup::init_logging("info");
     let result = match cli.command {
         Command::Demo(a) => stop_on_signal().and_then(|stop| demo::run(&a, &stop)),
         Command::Run(a) => stop_on_signal().and_then(|stop| run::run(&a, &stop)),
