@@ -36,10 +36,12 @@ pub mod repair;
 pub mod shapes;
 mod stl;
 pub mod topology;
+mod weld;
 
 pub use builtin::BUILTIN_NAMES;
 pub use mesh::{Bumps, MeshData, MeshError, bounding_box};
 pub use pose::Se3;
+pub use weld::weld;
 
 use nalgebra::Vector3;
 use std::path::Path;

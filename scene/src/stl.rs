@@ -66,9 +66,9 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<Welded, StlError> {
 }
 
 /// The triangles of `corners` (three a triangle) with corners at the same position as one
-/// vertex ([`crate::repair::weld`]: numbered by first appearance, −0 as +0).
+/// vertex ([`crate::weld`]: numbered by first appearance, −0 as +0).
 fn welded(corners: &[Vector3<f64>]) -> Welded {
-    let ids = crate::repair::weld(corners);
+    let ids = crate::weld(corners);
     let mut vertices = Vec::new();
     for (c, &id) in corners.iter().zip(&ids) {
         if id as usize == vertices.len() {

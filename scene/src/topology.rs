@@ -8,7 +8,7 @@
 //! position first (STL repeats them per triangle), so that shared edges are recognised.
 
 use crate::MeshData;
-use crate::repair::{KeyMap, key_map, weld};
+use crate::weld::{KeyMap, key_map, weld};
 use std::fmt;
 
 /// Edge and winding statistics of one mesh.

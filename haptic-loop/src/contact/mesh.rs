@@ -100,7 +100,7 @@ impl Mesh {
     }
 
     fn build(vertices: &[Vector3<f64>], triangles: &[[u32; 3]], spatial: bool) -> Self {
-        let ids = scene::repair::weld(vertices);
+        let ids = scene::weld(vertices);
         let mut unique =
             vec![Vector3::zeros(); ids.iter().map(|&i| i as usize + 1).max().unwrap_or(0)];
         for (v, &i) in vertices.iter().zip(&ids) {
