@@ -5,7 +5,7 @@
 //!
 //! Architecture invariant: this crate is deterministic for a seed and an input sequence.
 //! It reads no clock, does no I/O and starts no threads; it depends on no IPC crate. Time,
-//! IPC and files are the business of the crates around it (`planner::shell`, `view`,
+//! IPC and files are the business of the crates around it (`planner-shell`, `view`,
 //! `lab`), which pass in what it needs.
 //!
 //! Code map:
