@@ -118,6 +118,7 @@ fn plan_and_render(name: &str, mesh: &MeshData) {
 /// around and rendered.
 #[test]
 fn a_closed_non_manifold_export_is_planned_around_and_rendered_as_a_shell() {
+    let _cores = tests::one_loop_at_a_time();
     let path = cad_dir().join("data/puma560-link0.stl");
     let digest = manifest()
         .into_iter()
@@ -145,6 +146,7 @@ fn a_closed_non_manifold_export_is_planned_around_and_rendered_as_a_shell() {
 /// around and rendered.
 #[test]
 fn every_real_cad_export_with_a_surface_is_accepted() {
+    let _cores = tests::one_loop_at_a_time();
     let dir = data_dir();
     let rows = manifest();
     let converted = std::fs::read_to_string(dir.join("converted.tsv")).unwrap_or_else(|e| {

@@ -128,6 +128,8 @@ fn processes_with(needle: &str) -> Vec<u32> {
 /// 130, before any planner was started.
 #[test]
 fn the_loop_stops_on_ctrl_c_while_it_builds_its_voxmap() {
+    // Big scenes: reading and voxmap builds keep both cores busy.
+    let _cores = tests::one_loop_at_a_time();
     let (dir, file) = big_scene("vox", 20_000);
     let ns = unique_namespace("startup");
     let mut demo = Watched::spawn(
@@ -158,6 +160,8 @@ fn the_loop_stops_on_ctrl_c_while_it_builds_its_voxmap() {
 /// with exit code 130 (nothing is held yet to stop in order).
 #[test]
 fn both_programs_stop_on_sigterm_while_they_read_a_big_scene() {
+    // Big scenes: reading and voxmap builds keep both cores busy.
+    let _cores = tests::one_loop_at_a_time();
     let (dir, file) = big_scene("read", 1_310_720);
     let scene_arg = file.to_str().unwrap().to_owned();
     let ns = unique_namespace("startread");
@@ -194,6 +198,8 @@ fn both_programs_stop_on_sigterm_while_they_read_a_big_scene() {
 /// and built again, never read.
 #[test]
 fn the_second_start_reads_the_voxmap_from_the_cache_and_a_damaged_one_is_rebuilt() {
+    // Big scenes: reading and voxmap builds keep both cores busy.
+    let _cores = tests::one_loop_at_a_time();
     let (dir, file) = sphere_scene("cache", 5_000, 0.05);
     let cache = dir.join("cache");
     let start = || {
