@@ -44,6 +44,26 @@
 //! pose is the pose of the object's reference point; its dynamics are about the centre of
 //! mass (the volume centroid of the object's parts, uniform density). The coupling joins the
 //! centre of mass of the device-mapped object to the proxy's.
+//!
+//! # Files, by idea
+//!
+//! `config` ([`ContactConfig`], its checks, the coupling's gains); `model` (what start-up
+//! builds: open meshes as shells, the voxmap cache); `stage` ([`ContactStage`], whose
+//! `step` is a list of stages: search, coupling, implicit Euler, travel bound, integration,
+//! contact state with hysteresis, output); `coherence` (the search's motion budgets: free
+//! motion costs O(1), contact O(points near the surface), whatever the triangle count);
+//! `pointshell` (sampling, clusters with bounding spheres, groups, levels of detail at
+//! about 2, 4, 8, 16 spacings); `level` (which level a tick renders within its point
+//! budget, changing through a 20 ms blend); `mesh` (a repaired mesh as the voxmap build
+//! walks it: triangles in Morton order, each vertex's 1-ring, angle-weighted
+//! pseudo-normals); `voxmap` (8³-cell blocks, `i16` distances in 1/256 voxel, a Chebyshev
+//! block-distance transform) with `build`, `band` (a mesh's narrow band from its surface,
+//! slabs on every core), `cache` (on disk under a SHA-256 of the build's inputs), `query`
+//! and `avx2`; `near` (near clusters, candidate points, eight look-ups at a time) with
+//! `force` (the branch-free force pass in `f32`) and `avx2` (both with gathers, the same
+//! bits as the portable lanes, chosen at run time); `lanes` and `jtj` (the 6×6 sums).
+//! Imports flow one way: `lanes` ← `voxmap` ← `near` ← `stage`, with `pointshell` ←
+//! `near`, and `coherence`, `level`, `config`, `model` ← `stage`.
 
 mod coherence;
 mod config;
