@@ -39,7 +39,7 @@
 use anyhow::{Context, bail};
 use clap::Parser;
 use ipc_types::latency::{NsHistogram, Percentiles};
-use ipc_types::{Guidance, GuidanceMode, HapticState, Header, services};
+use ipc_types::{Guidance, HapticState, Header, services};
 use serde::Serialize;
 use std::io::{BufRead, Write};
 use std::path::PathBuf;
@@ -367,184 +367,255 @@ fn sent_stamps() -> Arc<Vec<AtomicU64>> {
     Arc::new((0..RING).map(|_| AtomicU64::new(0)).collect())
 }
 
-/// Zenoh sessions and bridges of one round, on ports `port .. port + 3`.
+/// One round: the bridges and the bare sessions set up, the state measured on its paths
+/// one at a time, then guidance on all its paths interleaved.
 fn one_round(
     args: &Args,
     bridge: &std::path::Path,
     port: u16,
     round: u32,
 ) -> anyhow::Result<(StateRow, GuidanceRow)> {
-    let pid = std::process::id();
-    let ns_a = format!("bench_bridge_a_{pid}_{round}");
-    let ns_b = format!("bench_bridge_b_{pid}_{round}");
-    let ns_local = format!("bench_local_{pid}_{round}");
-    let keys = format!("bench_bridge_{pid}_{round}");
-    let (bare_port, bare2_port, bridge_port) = (port, port + 1, port + 2);
-    let endpoint = format!("tcp/127.0.0.1:{bridge_port}");
-    let poll = args.state_poll_us.to_string();
-    let spawn = |side: &str, ns: &str, how: &str| -> anyhow::Result<Kill> {
-        let child = Command::new(bridge)
-            .args([
-                "--side",
-                side,
-                "--namespace",
-                ns,
-                "--key-namespace",
-                &keys,
-                how,
-                &endpoint,
-                "--state-poll-us",
-                &poll,
-                "--no-roadmap",
-            ])
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .with_context(|| format!("starting {}", bridge.display()))?;
-        Ok(Kill(child))
-    };
-    // The loop side first: the planner side's state writer, and the ports both open,
-    // exist before this process opens them.
-    let (node, _) = services::create_node("bench_bridge")?;
-    let state_writer = services::state_writer(&node, &ns_a)?;
-    let guidance_b = services::publisher::<Guidance>(&node, &ns_b)?;
-    let event_b = services::guidance_notifier(&node, &ns_b)?;
-    let guidance_local = services::publisher::<Guidance>(&node, &ns_local)?;
-    let event_local = services::guidance_notifier(&node, &ns_local)?;
-    let _a = spawn("loop", &ns_a, "--listen")?;
-    std::thread::sleep(Duration::from_millis(300));
-    let _b = spawn("planner", &ns_b, "--connect")?;
-    let bare_tx = benches::across::zenoh_session(Some(bare_port), None)?;
-    let bare_rx_session = benches::across::zenoh_session(None, Some(bare_port))?;
-    let bare2_tx = benches::across::zenoh_session(Some(bare2_port), None)?;
-    std::thread::sleep(Duration::from_millis(1500));
-
-    // State: one path at a time (the bridged path's reader spins on a core).
-    let bare_one = {
-        let key = "bench/bare/state";
-        let (sub, hist) = stamped_subscriber(&bare_rx_session, key)?;
-        let p = publisher(&bare_tx, key.to_owned())?;
-        std::thread::sleep(Duration::from_millis(500));
-        paced(args.rate_hz, args.seconds, |_| put_stamped(&p, STATE_BYTES));
-        std::thread::sleep(Duration::from_millis(100));
-        drop(sub);
-        hist.lock().unwrap().percentiles_us()
-    };
-    let bare_two = {
-        let key = "bench/bare2/state";
-        let child = ChildSubscriber::start(bare2_port, key)?;
-        let p = publisher(&bare2_tx, key.to_owned())?;
-        std::thread::sleep(Duration::from_millis(500));
-        paced(args.rate_hz, args.seconds, |_| put_stamped(&p, STATE_BYTES));
-        std::thread::sleep(Duration::from_millis(100));
-        child.finish()?
-    };
-    let bridged = state_through_bridges(args, state_writer, &ns_b)?;
-    let state = StateRow {
-        bare_one_process: bare_one,
-        bare_two_processes: bare_two,
-        bridged,
-    };
-
-    // A planner with the planner side of the bridge in its process (`planner serve
-    // --bridge-connect`), on its own namespace; started after the state paths, which it
-    // would otherwise receive too.
-    let in_process_stop = Arc::new(AtomicBool::new(false));
-    let (tx, rx) = std::sync::mpsc::channel();
-    let in_process = {
-        let mut config = hrrtc_bridge::BridgeConfig::new(
-            hrrtc_bridge::Side::Planner,
-            &format!("bench_bridge_c_{pid}_{round}"),
-        );
-        config.key_namespace = Some(keys.clone());
-        config.connect = vec![endpoint.clone()];
-        config.roadmap = false;
-        let stop = in_process_stop.clone();
-        std::thread::spawn(move || hrrtc_bridge::run_in_planner(&config, stop, tx))
-    };
-    let Ok(in_process_sender) = rx.recv() else {
-        let e = in_process
-            .join()
-            .map_err(|_| anyhow::anyhow!("bridge panicked"))?;
-        bail!("the in-process bridge did not start: {:?}", e.err());
-    };
-    std::thread::sleep(Duration::from_millis(500));
-
-    // Guidance: every path interleaved.
-    let sent = sent_stamps();
-    let stop = Arc::new(AtomicBool::new(false));
-    let relay_a = spawn_relay(&ns_a, &sent, &stop);
-    let relay_local = spawn_relay(&ns_local, &sent, &stop);
-    let (sub, bare_hist) = stamped_subscriber(&bare_rx_session, "bench/bare/guidance")?;
-    let child = ChildSubscriber::start(bare2_port, "bench/bare2/guidance")?;
-    let bare_pub = publisher(&bare_tx, "bench/bare/guidance".to_owned())?;
-    let bare2_pub = publisher(&bare2_tx, "bench/bare2/guidance".to_owned())?;
-    std::thread::sleep(Duration::from_millis(500));
-    const PATHS: u64 = 5;
-    paced(args.guidance_rate_hz * PATHS as f64, args.seconds, |i| {
-        let seq = i + 1;
-        // `planner_id` tells the relay of A which path a sample came by.
-        let g = |planner_id| Guidance {
-            header: Header {
-                sequence: seq,
-                timestamp_ns: ipc_types::monotonic_ns(),
-                writer_pid: pid,
-                reserved: 0,
-            },
-            mode: GuidanceMode::ROADMAP,
-            time_to_live_ns: 100_000_000,
-            planner_id,
-            ..Guidance::default()
-        };
-        let stamp =
-            || sent[seq as usize % RING].store(ipc_types::monotonic_ns(), Ordering::Release);
-        match i % PATHS {
-            0 => put_stamped(&bare_pub, GUIDANCE_BYTES),
-            1 => put_stamped(&bare2_pub, GUIDANCE_BYTES),
-            2 => {
-                let g = g(BRIDGED);
-                stamp();
-                let _ = guidance_b.send_copy(g);
-                let _ = event_b.notify();
-            }
-            3 => {
-                let g = g(IN_PROCESS);
-                stamp();
-                in_process_sender.send(&g);
-            }
-            _ => {
-                let g = g(LOCAL);
-                stamp();
-                let _ = guidance_local.send_copy(g);
-                let _ = event_local.notify();
-            }
-        }
-    });
-    std::thread::sleep(Duration::from_millis(100));
-    stop.store(true, Ordering::Release);
-    let a = relay_a
-        .join()
-        .map_err(|_| anyhow::anyhow!("relay panicked"))??;
-    let local = relay_local
-        .join()
-        .map_err(|_| anyhow::anyhow!("relay panicked"))??;
-    drop(sub);
-    let guidance = GuidanceRow {
-        bare_one_process: bare_hist.lock().unwrap().percentiles_us(),
-        bare_two_processes: child.finish()?,
-        bridged: a[BRIDGED as usize].percentiles_us(),
-        in_process_bridge: a[IN_PROCESS as usize].percentiles_us(),
-        local: local[LOCAL as usize].percentiles_us(),
-    };
-    in_process_stop.store(true, Ordering::Release);
-    in_process
-        .join()
-        .map_err(|_| anyhow::anyhow!("bridge panicked"))??;
-    for s in [bare_tx, bare_rx_session, bare2_tx] {
-        let _ = s.close().wait();
-    }
+    let mut rig = Rig::open(bridge, port, round, args.state_poll_us)?;
+    let state = rig.measure_state(args)?;
+    let guidance = rig.measure_guidance(args)?;
+    rig.close();
     Ok((state, guidance))
+}
+
+/// What a round measures through: two bridge processes (loop side on namespace A, planner
+/// side on B), this process's ports on A, B and a local namespace, and bare Zenoh sessions.
+struct Rig {
+    round: u32,
+    keys: String,
+    endpoint: String,
+    bare2_port: u16,
+    ns_a: String,
+    ns_b: String,
+    ns_local: String,
+    _node: iceoryx2::node::Node<services::Ipc>,
+    /// Taken by the state measurement.
+    state_writer: Option<services::StateWriter>,
+    guidance_b: services::Publisher<Guidance>,
+    event_b: services::GuidanceNotifier,
+    guidance_local: services::Publisher<Guidance>,
+    event_local: services::GuidanceNotifier,
+    _bridges: (Kill, Kill),
+    bare_tx: zenoh::Session,
+    bare_rx: zenoh::Session,
+    bare2_tx: zenoh::Session,
+}
+
+impl Rig {
+    /// Starts the bridges (the loop side first: the planner side's state writer, and the
+    /// ports both open, exist before this process opens them) and the bare sessions on
+    /// `port`, `port + 1`; the bridges meet on `port + 2`.
+    fn open(
+        bridge: &std::path::Path,
+        port: u16,
+        round: u32,
+        state_poll_us: u64,
+    ) -> anyhow::Result<Self> {
+        let pid = std::process::id();
+        let ns_a = format!("bench_bridge_a_{pid}_{round}");
+        let ns_b = format!("bench_bridge_b_{pid}_{round}");
+        let ns_local = format!("bench_local_{pid}_{round}");
+        let keys = format!("bench_bridge_{pid}_{round}");
+        let (bare_port, bare2_port, bridge_port) = (port, port + 1, port + 2);
+        let endpoint = format!("tcp/127.0.0.1:{bridge_port}");
+        let poll = state_poll_us.to_string();
+        let spawn = |side: &str, ns: &str, how: &str| -> anyhow::Result<Kill> {
+            let child = Command::new(bridge)
+                .args([
+                    "--side",
+                    side,
+                    "--namespace",
+                    ns,
+                    "--key-namespace",
+                    &keys,
+                    how,
+                    &endpoint,
+                    "--state-poll-us",
+                    &poll,
+                    "--no-roadmap",
+                ])
+                .stdin(Stdio::null())
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .spawn()
+                .with_context(|| format!("starting {}", bridge.display()))?;
+            Ok(Kill(child))
+        };
+        let (node, _) = services::create_node("bench_bridge")?;
+        let state_writer = services::state_writer(&node, &ns_a)?;
+        let guidance_b = services::publisher::<Guidance>(&node, &ns_b)?;
+        let event_b = services::guidance_notifier(&node, &ns_b)?;
+        let guidance_local = services::publisher::<Guidance>(&node, &ns_local)?;
+        let event_local = services::guidance_notifier(&node, &ns_local)?;
+        let a = spawn("loop", &ns_a, "--listen")?;
+        std::thread::sleep(Duration::from_millis(300));
+        let b = spawn("planner", &ns_b, "--connect")?;
+        let bare_tx = benches::across::zenoh_session(Some(bare_port), None)?;
+        let bare_rx = benches::across::zenoh_session(None, Some(bare_port))?;
+        let bare2_tx = benches::across::zenoh_session(Some(bare2_port), None)?;
+        std::thread::sleep(Duration::from_millis(1500));
+        Ok(Rig {
+            round,
+            keys,
+            endpoint,
+            bare2_port,
+            ns_a,
+            ns_b,
+            ns_local,
+            _node: node,
+            state_writer: Some(state_writer),
+            guidance_b,
+            event_b,
+            guidance_local,
+            event_local,
+            _bridges: (a, b),
+            bare_tx,
+            bare_rx,
+            bare2_tx,
+        })
+    }
+
+    /// The state, one path at a time (the bridged path's reader spins on a core): bare
+    /// Zenoh in one process, in two, and through the two bridges.
+    fn measure_state(&mut self, args: &Args) -> anyhow::Result<StateRow> {
+        let bare_one = {
+            let key = "bench/bare/state";
+            let (sub, hist) = stamped_subscriber(&self.bare_rx, key)?;
+            let p = publisher(&self.bare_tx, key.to_owned())?;
+            std::thread::sleep(Duration::from_millis(500));
+            paced(args.rate_hz, args.seconds, |_| put_stamped(&p, STATE_BYTES));
+            std::thread::sleep(Duration::from_millis(100));
+            drop(sub);
+            hist.lock().unwrap().percentiles_us()
+        };
+        let bare_two = {
+            let key = "bench/bare2/state";
+            let child = ChildSubscriber::start(self.bare2_port, key)?;
+            let p = publisher(&self.bare2_tx, key.to_owned())?;
+            std::thread::sleep(Duration::from_millis(500));
+            paced(args.rate_hz, args.seconds, |_| put_stamped(&p, STATE_BYTES));
+            std::thread::sleep(Duration::from_millis(100));
+            child.finish()?
+        };
+        let writer = self
+            .state_writer
+            .take()
+            .context("the state is measured once a round")?;
+        let bridged = state_through_bridges(args, writer, &self.ns_b)?;
+        Ok(StateRow {
+            bare_one_process: bare_one,
+            bare_two_processes: bare_two,
+            bridged,
+        })
+    }
+
+    /// Guidance on every path, interleaved: bare Zenoh in one process and in two, through
+    /// the bridges to A's relay, from a planner with the bridge in its process (`planner
+    /// serve --bridge-connect`, on its own namespace: started after the state paths, which
+    /// it would otherwise receive too) to A's relay, and locally.
+    fn measure_guidance(&mut self, args: &Args) -> anyhow::Result<GuidanceRow> {
+        let pid = std::process::id();
+        let in_process_stop = Arc::new(AtomicBool::new(false));
+        let (tx, rx) = std::sync::mpsc::channel();
+        let in_process = {
+            let mut config = hrrtc_bridge::BridgeConfig::new(
+                hrrtc_bridge::Side::Planner,
+                &format!("bench_bridge_c_{pid}_{}", self.round),
+            );
+            config.key_namespace = Some(self.keys.clone());
+            config.connect = vec![self.endpoint.clone()];
+            config.roadmap = false;
+            let stop = in_process_stop.clone();
+            std::thread::spawn(move || hrrtc_bridge::run_in_planner(&config, stop, tx))
+        };
+        let Ok(in_process_sender) = rx.recv() else {
+            let e = in_process
+                .join()
+                .map_err(|_| anyhow::anyhow!("bridge panicked"))?;
+            bail!("the in-process bridge did not start: {:?}", e.err());
+        };
+        std::thread::sleep(Duration::from_millis(500));
+
+        let sent = sent_stamps();
+        let stop = Arc::new(AtomicBool::new(false));
+        let relay_a = spawn_relay(&self.ns_a, &sent, &stop);
+        let relay_local = spawn_relay(&self.ns_local, &sent, &stop);
+        let (sub, bare_hist) = stamped_subscriber(&self.bare_rx, "bench/bare/guidance")?;
+        let child = ChildSubscriber::start(self.bare2_port, "bench/bare2/guidance")?;
+        let bare_pub = publisher(&self.bare_tx, "bench/bare/guidance".to_owned())?;
+        let bare2_pub = publisher(&self.bare2_tx, "bench/bare2/guidance".to_owned())?;
+        std::thread::sleep(Duration::from_millis(500));
+        const PATHS: u64 = 5;
+        paced(args.guidance_rate_hz * PATHS as f64, args.seconds, |i| {
+            let seq = i + 1;
+            // `planner_id` tells the relay of A which path a sample came by.
+            let g = |planner_id| Guidance {
+                planner_id,
+                ..Guidance::roadmap(
+                    Header::new(seq, ipc_types::monotonic_ns(), pid),
+                    [0.0; 6],
+                    0.0,
+                    0.0,
+                    100_000_000,
+                )
+            };
+            let stamp =
+                || sent[seq as usize % RING].store(ipc_types::monotonic_ns(), Ordering::Release);
+            match i % PATHS {
+                0 => put_stamped(&bare_pub, GUIDANCE_BYTES),
+                1 => put_stamped(&bare2_pub, GUIDANCE_BYTES),
+                2 => {
+                    let g = g(BRIDGED);
+                    stamp();
+                    let _ = self.guidance_b.send_copy(g);
+                    let _ = self.event_b.notify();
+                }
+                3 => {
+                    let g = g(IN_PROCESS);
+                    stamp();
+                    in_process_sender.send(&g);
+                }
+                _ => {
+                    let g = g(LOCAL);
+                    stamp();
+                    let _ = self.guidance_local.send_copy(g);
+                    let _ = self.event_local.notify();
+                }
+            }
+        });
+        std::thread::sleep(Duration::from_millis(100));
+        stop.store(true, Ordering::Release);
+        let a = relay_a
+            .join()
+            .map_err(|_| anyhow::anyhow!("relay panicked"))??;
+        let local = relay_local
+            .join()
+            .map_err(|_| anyhow::anyhow!("relay panicked"))??;
+        drop(sub);
+        let row = GuidanceRow {
+            bare_one_process: bare_hist.lock().unwrap().percentiles_us(),
+            bare_two_processes: child.finish()?,
+            bridged: a[BRIDGED as usize].percentiles_us(),
+            in_process_bridge: a[IN_PROCESS as usize].percentiles_us(),
+            local: local[LOCAL as usize].percentiles_us(),
+        };
+        in_process_stop.store(true, Ordering::Release);
+        in_process
+            .join()
+            .map_err(|_| anyhow::anyhow!("bridge panicked"))??;
+        Ok(row)
+    }
+
+    /// Closes the bare sessions; the bridges stop when dropped.
+    fn close(self) {
+        for s in [self.bare_tx, self.bare_rx, self.bare2_tx] {
+            let _ = s.close().wait();
+        }
+    }
 }
 
 /// `planner_id`s marking the guidance paths that end at a relay.

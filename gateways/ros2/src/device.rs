@@ -40,7 +40,7 @@ use zenoh::Wait;
 use crate::GatewayError;
 use crate::clock::Clocks;
 use crate::msgs::{self, Joy, Message, PoseStamped, TwistStamped, WrenchStamped};
-use crate::participant::{Participant, RosError, SessionConfig};
+use crate::participant::{Participant, RosError, RosPublisher, SessionConfig};
 use crate::rmw::{self, Attachment, Qos};
 
 /// Farthest accepted end-effector position from the base, m.
@@ -433,289 +433,420 @@ fn driver_state(
 
 /// Runs the device gateway until `stop` is set (or `config.duration_s` passes).
 pub fn run(config: &DeviceConfig, stop: Arc<AtomicBool>) -> Result<DeviceReport, GatewayError> {
-    validate(config)?;
-    let started = Instant::now();
-    let participant = Participant::open(&config.session, &config.ros_namespace, &config.node_name)?;
-    let counters = Arc::new(Counters::default());
-    let (node, _) = services::create_node_in::<services::IpcThreadsafe>(&format!(
-        "ros2_device_{}",
-        std::process::id()
-    ))?;
-    let states = Arc::new(services::publisher_in::<
-        services::IpcThreadsafe,
-        DriverState,
-    >(&node, &config.namespace)?);
-    let shared = Arc::new(Mutex::new(Shared {
-        tracker: PoseTracker::new(config.velocity_filter_s),
-        twist: None,
-        buttons: 0,
-        sequence: 0,
-        last_good: ipc_types::Pose::IDENTITY,
-        fault_until_ns: 0,
-        frame: config.wrench_frame.clone().unwrap_or_default(),
-        logged: [None; PoseRejection::KINDS.len()],
-    }));
-    let declare_error = |key: &str| {
-        let key = key.to_owned();
-        move |e: zenoh::Error| RosError::from(zenoh_session::declare_error(&key)(e))
-    };
+    let mut gateway = DeviceGateway::start(config)?;
+    while !stop.load(Ordering::Acquire)
+        && config
+            .duration_s
+            .is_none_or(|d| gateway.started.elapsed().as_secs_f64() < d)
+    {
+        gateway.cycle();
+        std::thread::sleep(Duration::from_micros(250));
+    }
+    Ok(gateway.finish())
+}
 
-    let (pose_topic, pose_key, _pose_token) =
-        participant.subscription_token::<PoseStamped>(&config.pose_topic, Qos::volatile(1))?;
-    let any_type = |topic: &str| {
-        format!(
-            "{}/{}/*/*",
-            config.session.domain,
-            topic.trim_start_matches('/')
-        )
-    };
-    let pose_sub = {
-        let (counters, shared, states, config, pose_key) = (
-            counters.clone(),
-            shared.clone(),
-            states.clone(),
-            config.clone(),
-            pose_key.clone(),
+/// A running device gateway. Its set-up ([`DeviceGateway::start`]) declares the ROS 2
+/// side, whose callbacks turn the driver's poses (and twists, buttons) into the loop's
+/// `DriverState`; its cycle ([`DeviceGateway::cycle`]) turns the loop's newest command
+/// into a `WrenchStamped` (on this thread: the iceoryx2 subscriber is not `Send`).
+struct DeviceGateway<'a> {
+    config: &'a DeviceConfig,
+    started: Instant,
+    counters: Arc<Counters>,
+    shared: Arc<Mutex<Shared>>,
+    participant: Participant,
+    /// The pose, twist and joy subscriptions with their endpoint tokens.
+    subscriptions: Vec<Subscription>,
+    wrenches: RosPublisher<WrenchStamped>,
+    commands: services::Subscriber<DriverCommand>,
+    _nodes: (
+        iceoryx2::node::Node<services::IpcThreadsafe>,
+        iceoryx2::node::Node<services::Ipc>,
+    ),
+    last_command_id: (u64, u32),
+    last_command: Instant,
+    next_zero: Instant,
+    next_log: Instant,
+}
+
+impl<'a> DeviceGateway<'a> {
+    /// Checks the configuration, opens the participant and the loop's driver services, and
+    /// declares the subscriptions and the wrench publisher.
+    fn start(config: &'a DeviceConfig) -> Result<Self, GatewayError> {
+        validate(config)?;
+        let started = Instant::now();
+        let participant =
+            Participant::open(&config.session, &config.ros_namespace, &config.node_name)?;
+        let counters = Arc::new(Counters::default());
+        let pid = std::process::id();
+        let (node, _) =
+            services::create_node_in::<services::IpcThreadsafe>(&format!("ros2_device_{pid}"))?;
+        let states = Arc::new(services::publisher_in::<
+            services::IpcThreadsafe,
+            DriverState,
+        >(&node, &config.namespace)?);
+        let shared = Arc::new(Mutex::new(Shared {
+            tracker: PoseTracker::new(config.velocity_filter_s),
+            twist: None,
+            buttons: 0,
+            sequence: 0,
+            last_good: ipc_types::Pose::IDENTITY,
+            fault_until_ns: 0,
+            frame: config.wrench_frame.clone().unwrap_or_default(),
+            logged: [None; PoseRejection::KINDS.len()],
+        }));
+        let (pose, pose_topic, pose_key) =
+            subscribe_poses(&participant, config, &counters, &shared, states)?;
+        let mut subscriptions = vec![pose];
+        if let Some(t) = &config.twist_topic {
+            subscriptions.push(subscribe_twists(&participant, t, &counters, &shared)?);
+        }
+        if let Some(t) = &config.joy_topic {
+            subscriptions.push(subscribe_buttons(&participant, t, &counters, &shared)?);
+        }
+        let wrenches =
+            participant.publisher::<WrenchStamped>(&config.wrench_topic, Qos::volatile(1), true)?;
+        tracing::info!(
+            "ROS 2 device: {} → the loop's namespace '{}' → {} ({} key {}, {})",
+            pose_topic,
+            config.namespace,
+            wrenches.topic(),
+            if config.session.listen.is_empty() {
+                "no listen endpoint".to_owned()
+            } else {
+                format!("listening on {:?}", config.session.listen)
+            },
+            pose_key,
+            participant.node().token()
         );
-        let keys = any_type(&pose_topic);
-        participant
-            .session()
-            .declare_subscriber(keys.clone())
-            .callback(move |sample| {
-                let now = ipc_types::monotonic_ns();
-                counters.poses_received.fetch_add(1, Ordering::Relaxed);
-                let key = sample.key_expr().as_str();
-                let payload = sample.payload().to_bytes();
-                let attachment = sample.attachment().map(|a| a.to_bytes());
-                let mut sh = lock(&shared);
-                let sh = &mut *sh;
-                let result = (|| {
-                    if key != pose_key {
-                        return Err(PoseRejection::WrongType(key.to_owned()));
-                    }
-                    Attachment::decode(attachment.as_deref())?;
-                    let p = PoseStamped::decode(&payload)?;
-                    // The samples' own stamps time the velocity when the driver sets them.
-                    let t = if p.header.stamp == msgs::Time::default() {
-                        now as i64
-                    } else {
-                        p.header.stamp.as_ns()
-                    };
-                    let (pose, twist) = sh.tracker.update(&p.pose, t)?;
-                    Ok((p.header.frame_id, pose, twist))
-                })();
-                sh.sequence += 1;
-                let state = match result {
-                    Ok((frame, pose, twist)) => {
-                        counters.poses_accepted.fetch_add(1, Ordering::Relaxed);
-                        if config.wrench_frame.is_none() {
-                            sh.frame = frame;
-                        }
-                        sh.last_good = pose;
-                        let twist = sh.twist.unwrap_or(twist);
-                        let status = if now < sh.fault_until_ns {
-                            DriverStatus::FAULT
-                        } else {
-                            DriverStatus::OK
-                        };
-                        driver_state(&config, sh.sequence, now, pose, twist, sh.buttons, status)
-                    }
-                    Err(e) => {
-                        let i = PoseRejection::KINDS
-                            .iter()
-                            .position(|k| *k == e.kind())
-                            .unwrap_or(0);
-                        counters.rejected[i].fetch_add(1, Ordering::Relaxed);
-                        if sh.logged[i].is_none_or(|t| t.elapsed() >= Duration::from_secs(1)) {
-                            tracing::warn!("rejected a pose sample ({}) on {key}: {e}", e.kind());
-                            sh.logged[i] = Some(Instant::now());
-                        }
-                        if matches!(e, PoseRejection::WrongType(_)) {
-                            sh.sequence -= 1;
-                            return;
-                        }
-                        counters.faults_sent.fetch_add(1, Ordering::Relaxed);
-                        sh.fault_until_ns = now + FAULT_HOLD_NS;
-                        driver_state(
-                            &config,
-                            sh.sequence,
-                            now,
-                            sh.last_good,
-                            ipc_types::Twist::default(),
-                            sh.buttons,
-                            DriverStatus::FAULT,
-                        )
-                    }
-                };
-                if let Err(e) = states.send_copy(state) {
-                    tracing::warn!("cannot hand the arm's state to the loop: {e:?}");
-                }
-            })
-            .wait()
-            .map_err(declare_error(&keys))?
-    };
-
-    let mut aux = Vec::new();
-    if let Some(t) = &config.twist_topic {
-        let (_, key, token) =
-            participant.subscription_token::<TwistStamped>(t, Qos::volatile(1))?;
-        let (counters, shared) = (counters.clone(), shared.clone());
-        let sub = participant
-            .session()
-            .declare_subscriber(key.clone())
-            .callback(move |sample| {
-                let attachment = sample.attachment().map(|a| a.to_bytes());
-                let ok = Attachment::decode(attachment.as_deref()).is_ok();
-                match TwistStamped::decode(&sample.payload().to_bytes()) {
-                    Ok(tw) if ok && tw.linear.iter().chain(&tw.angular).all(|v| v.is_finite()) => {
-                        counters.twists.fetch_add(1, Ordering::Relaxed);
-                        lock(&shared).twist = Some(ipc_types::Twist {
-                            linear_m_s: tw.linear,
-                            angular_rad_s: tw.angular,
-                        });
-                    }
-                    _ => {
-                        counters.aux_rejected.fetch_add(1, Ordering::Relaxed);
-                        // A bad velocity is no velocity: back to the poses' own.
-                        lock(&shared).twist = None;
-                    }
-                }
-            })
-            .wait()
-            .map_err(declare_error(&key))?;
-        aux.push((sub, token));
-    }
-    if let Some(t) = &config.joy_topic {
-        let (_, key, token) = participant.subscription_token::<Joy>(t, Qos::volatile(1))?;
-        let (counters, shared) = (counters.clone(), shared.clone());
-        let sub = participant
-            .session()
-            .declare_subscriber(key.clone())
-            .callback(move |sample| {
-                let attachment = sample.attachment().map(|a| a.to_bytes());
-                let ok = Attachment::decode(attachment.as_deref()).is_ok();
-                match Joy::decode(&sample.payload().to_bytes()) {
-                    Ok(j) if ok => {
-                        counters.joys.fetch_add(1, Ordering::Relaxed);
-                        lock(&shared).buttons = j
-                            .buttons
-                            .iter()
-                            .take(32)
-                            .enumerate()
-                            .filter(|(_, b)| **b != 0)
-                            .fold(0u32, |m, (i, _)| m | (1 << i));
-                    }
-                    _ => {
-                        counters.aux_rejected.fetch_add(1, Ordering::Relaxed);
-                    }
-                }
-            })
-            .wait()
-            .map_err(declare_error(&key))?;
-        aux.push((sub, token));
+        let (cmd_node, _) = services::create_node(&format!("ros2_device_cmd_{pid}"))?;
+        let commands = services::subscriber::<DriverCommand>(&cmd_node, &config.namespace)?;
+        let now = Instant::now();
+        Ok(DeviceGateway {
+            config,
+            started,
+            counters,
+            shared,
+            participant,
+            subscriptions,
+            wrenches,
+            commands,
+            _nodes: (node, cmd_node),
+            last_command_id: (0, 0),
+            last_command: now,
+            next_zero: now,
+            next_log: now + Duration::from_secs(5),
+        })
     }
 
-    let wrenches =
-        participant.publisher::<WrenchStamped>(&config.wrench_topic, Qos::volatile(1), true)?;
-    tracing::info!(
-        "ROS 2 device: {} → the loop's namespace '{}' → {} ({} key {}, {})",
-        pose_topic,
-        config.namespace,
-        wrenches.topic(),
-        if config.session.listen.is_empty() {
-            "no listen endpoint".to_owned()
-        } else {
-            format!("listening on {:?}", config.session.listen)
-        },
-        pose_key,
-        participant.node().token()
-    );
-    // The command side runs here: the iceoryx2 subscriber is not `Send`.
-    let (cmd_node, _) = services::create_node(&format!("ros2_device_cmd_{}", std::process::id()))?;
-    let commands = services::subscriber::<DriverCommand>(&cmd_node, &config.namespace)?;
-    let timeout = Duration::from_secs_f64(config.command_timeout_s);
-    let publish = |w: msgs::Wrench, frame: &str| {
+    /// One pass: the newest command to the arm, or zero while commands are stale; and a
+    /// log line every 5 s.
+    fn cycle(&mut self) {
+        self.forward_command();
+        self.log_progress();
+    }
+
+    /// The loop's newest command as a wrench within the limits; when none came for
+    /// `command_timeout_s`, a zero wrench every [`ZERO_REPEAT`].
+    fn forward_command(&mut self) {
+        let mut newest = None;
+        while let Ok(Some(c)) = self.commands.receive() {
+            newest = Some(*c);
+        }
+        match newest {
+            Some(c) if (c.header.sequence, c.header.writer_pid) != self.last_command_id => {
+                self.last_command_id = (c.header.sequence, c.header.writer_pid);
+                self.last_command = Instant::now();
+                self.counters.commands.fetch_add(1, Ordering::Relaxed);
+                self.publish(wrench_for(&c, &self.config.limits));
+            }
+            _ => {
+                let now = Instant::now();
+                let timeout = Duration::from_secs_f64(self.config.command_timeout_s);
+                if now.duration_since(self.last_command) > timeout && now >= self.next_zero {
+                    self.publish(msgs::Wrench::default());
+                    self.next_zero = now + ZERO_REPEAT;
+                }
+            }
+        }
+    }
+
+    /// `w` to the arm, in the frame of its poses (or the configured one).
+    fn publish(&self, w: msgs::Wrench) {
+        let frame = lock(&self.shared).frame.clone();
         let clocks = Clocks::now();
         let msg = WrenchStamped {
             header: msgs::Header {
                 stamp: clocks.to_ros(clocks.monotonic_ns),
-                frame_id: frame.to_owned(),
+                frame_id: frame,
             },
             wrench: w,
         };
-        wrenches.publish(&msg, clocks.realtime_ns);
-        counters.wrenches.fetch_add(1, Ordering::Relaxed);
+        self.wrenches.publish(&msg, clocks.realtime_ns);
+        self.counters.wrenches.fetch_add(1, Ordering::Relaxed);
         if w == msgs::Wrench::default() {
-            counters.zero_wrenches.fetch_add(1, Ordering::Relaxed);
+            self.counters.zero_wrenches.fetch_add(1, Ordering::Relaxed);
         }
-    };
-    let mut last_command_id = (0u64, 0u32);
-    let mut last_command = Instant::now();
-    let mut next_zero = Instant::now();
-    let mut next_log = Instant::now() + Duration::from_secs(5);
-    while !stop.load(Ordering::Acquire)
-        && config
-            .duration_s
-            .is_none_or(|d| started.elapsed().as_secs_f64() < d)
-    {
-        let mut newest = None;
-        while let Ok(Some(c)) = commands.receive() {
-            newest = Some(*c);
+    }
+
+    fn log_progress(&mut self) {
+        if Instant::now() < self.next_log {
+            return;
         }
-        let frame = lock(&shared).frame.clone();
-        match newest {
-            Some(c) if (c.header.sequence, c.header.writer_pid) != last_command_id => {
-                last_command_id = (c.header.sequence, c.header.writer_pid);
-                last_command = Instant::now();
-                counters.commands.fetch_add(1, Ordering::Relaxed);
-                publish(wrench_for(&c, &config.limits), &frame);
+        self.next_log += Duration::from_secs(5);
+        let c = &self.counters;
+        tracing::info!(
+            "poses received {}, accepted {}; commands {}, wrenches {} ({} zero)",
+            c.poses_received.load(Ordering::Relaxed),
+            c.poses_accepted.load(Ordering::Relaxed),
+            c.commands.load(Ordering::Relaxed),
+            c.wrenches.load(Ordering::Relaxed),
+            c.zero_wrenches.load(Ordering::Relaxed)
+        );
+    }
+
+    /// Leaves the arm with no force, closes the ROS 2 side and reports.
+    fn finish(self) -> DeviceReport {
+        self.publish(msgs::Wrench::default());
+        let report = self.counters.report(self.started.elapsed().as_secs_f64());
+        drop(self.subscriptions);
+        drop(self.wrenches);
+        self.participant.close();
+        report
+    }
+}
+
+impl Counters {
+    fn report(&self, seconds: f64) -> DeviceReport {
+        let n = |c: &AtomicU64| c.load(Ordering::Relaxed);
+        DeviceReport {
+            seconds,
+            poses_received: n(&self.poses_received),
+            poses_accepted: n(&self.poses_accepted),
+            poses_rejected: PoseRejection::KINDS
+                .iter()
+                .zip(&self.rejected)
+                .map(|(k, c)| (*k, n(c)))
+                .collect(),
+            faults_sent: n(&self.faults_sent),
+            twists: n(&self.twists),
+            joys: n(&self.joys),
+            aux_rejected: n(&self.aux_rejected),
+            commands: n(&self.commands),
+            wrenches: n(&self.wrenches),
+            zero_wrenches: n(&self.zero_wrenches),
+        }
+    }
+}
+
+impl Shared {
+    /// The loop's `DriverState` for a pose sample on `key` that arrived at `now` (ns), or
+    /// `None` for a sample of another type, which is only counted: a good pose gives the
+    /// arm's state (`FAULT` still while a bad one is recent), a bad one the last good pose
+    /// held, at rest, as `FAULT`.
+    fn state_for_pose(
+        &mut self,
+        config: &DeviceConfig,
+        counters: &Counters,
+        sample: (&str, &str, &[u8], Option<&[u8]>),
+        now: u64,
+    ) -> Option<DriverState> {
+        let (key, pose_key, payload, attachment) = sample;
+        let result = (|| {
+            if key != pose_key {
+                return Err(PoseRejection::WrongType(key.to_owned()));
             }
-            _ => {
-                let now = Instant::now();
-                if now.duration_since(last_command) > timeout && now >= next_zero {
-                    publish(msgs::Wrench::default(), &frame);
-                    next_zero = now + ZERO_REPEAT;
+            Attachment::decode(attachment)?;
+            let p = PoseStamped::decode(payload)?;
+            // The samples' own stamps time the velocity when the driver sets them.
+            let t = if p.header.stamp == msgs::Time::default() {
+                now as i64
+            } else {
+                p.header.stamp.as_ns()
+            };
+            let (pose, twist) = self.tracker.update(&p.pose, t)?;
+            Ok((p.header.frame_id, pose, twist))
+        })();
+        match result {
+            Ok((frame, pose, twist)) => {
+                self.sequence += 1;
+                counters.poses_accepted.fetch_add(1, Ordering::Relaxed);
+                if config.wrench_frame.is_none() {
+                    self.frame = frame;
+                }
+                self.last_good = pose;
+                let twist = self.twist.unwrap_or(twist);
+                let status = if now < self.fault_until_ns {
+                    DriverStatus::FAULT
+                } else {
+                    DriverStatus::OK
+                };
+                Some(driver_state(
+                    config,
+                    self.sequence,
+                    now,
+                    pose,
+                    twist,
+                    self.buttons,
+                    status,
+                ))
+            }
+            Err(e) => {
+                let i = PoseRejection::KINDS
+                    .iter()
+                    .position(|k| *k == e.kind())
+                    .unwrap_or(0);
+                counters.rejected[i].fetch_add(1, Ordering::Relaxed);
+                if self.logged[i].is_none_or(|t| t.elapsed() >= Duration::from_secs(1)) {
+                    tracing::warn!("rejected a pose sample ({}) on {key}: {e}", e.kind());
+                    self.logged[i] = Some(Instant::now());
+                }
+                if matches!(e, PoseRejection::WrongType(_)) {
+                    return None;
+                }
+                self.sequence += 1;
+                counters.faults_sent.fetch_add(1, Ordering::Relaxed);
+                self.fault_until_ns = now + FAULT_HOLD_NS;
+                Some(driver_state(
+                    config,
+                    self.sequence,
+                    now,
+                    self.last_good,
+                    ipc_types::Twist::default(),
+                    self.buttons,
+                    DriverStatus::FAULT,
+                ))
+            }
+        }
+    }
+}
+
+/// A subscription and its endpoint token.
+type Subscription = (
+    zenoh::pubsub::Subscriber<()>,
+    zenoh::liveliness::LivelinessToken,
+);
+
+/// Every sample on the pose topic's keys (of any type, so that a wrong type is named)
+/// becomes a `DriverState` for the loop, from Zenoh's callback. Returns the subscription,
+/// the topic and its key.
+fn subscribe_poses(
+    participant: &Participant,
+    config: &DeviceConfig,
+    counters: &Arc<Counters>,
+    shared: &Arc<Mutex<Shared>>,
+    states: Arc<iceoryx2::port::publisher::Publisher<services::IpcThreadsafe, DriverState, ()>>,
+) -> Result<(Subscription, String, String), GatewayError> {
+    let (pose_topic, pose_key, token) =
+        participant.subscription_token::<PoseStamped>(&config.pose_topic, Qos::volatile(1))?;
+    let keys = format!(
+        "{}/{}/*/*",
+        config.session.domain,
+        pose_topic.trim_start_matches('/')
+    );
+    let (counters, shared, config, key_wanted) = (
+        counters.clone(),
+        shared.clone(),
+        config.clone(),
+        pose_key.clone(),
+    );
+    let sub = participant
+        .session()
+        .declare_subscriber(keys.clone())
+        .callback(move |sample| {
+            let now = ipc_types::monotonic_ns();
+            counters.poses_received.fetch_add(1, Ordering::Relaxed);
+            let payload = sample.payload().to_bytes();
+            let attachment = sample.attachment().map(|a| a.to_bytes());
+            let key = sample.key_expr().as_str();
+            let parts = (
+                key,
+                key_wanted.as_str(),
+                &payload[..],
+                attachment.as_deref(),
+            );
+            let state = lock(&shared).state_for_pose(&config, &counters, parts, now);
+            if let Some(state) = state
+                && let Err(e) = states.send_copy(state)
+            {
+                tracing::warn!("cannot hand the arm's state to the loop: {e:?}");
+            }
+        })
+        .wait()
+        .map_err(crate::participant::declare_error(&keys))?;
+    Ok(((sub, token), pose_topic, pose_key))
+}
+
+/// The driver's velocities, used instead of the ones filtered from its poses while good.
+fn subscribe_twists(
+    participant: &Participant,
+    topic: &str,
+    counters: &Arc<Counters>,
+    shared: &Arc<Mutex<Shared>>,
+) -> Result<Subscription, GatewayError> {
+    let (_, key, token) =
+        participant.subscription_token::<TwistStamped>(topic, Qos::volatile(1))?;
+    let (counters, shared) = (counters.clone(), shared.clone());
+    let sub = participant
+        .session()
+        .declare_subscriber(key.clone())
+        .callback(move |sample| {
+            let attachment = sample.attachment().map(|a| a.to_bytes());
+            let ok = Attachment::decode(attachment.as_deref()).is_ok();
+            match TwistStamped::decode(&sample.payload().to_bytes()) {
+                Ok(tw) if ok && tw.linear.iter().chain(&tw.angular).all(|v| v.is_finite()) => {
+                    counters.twists.fetch_add(1, Ordering::Relaxed);
+                    lock(&shared).twist = Some(ipc_types::Twist {
+                        linear_m_s: tw.linear,
+                        angular_rad_s: tw.angular,
+                    });
+                }
+                _ => {
+                    counters.aux_rejected.fetch_add(1, Ordering::Relaxed);
+                    // A bad velocity is no velocity: back to the poses' own.
+                    lock(&shared).twist = None;
                 }
             }
-        }
-        if Instant::now() >= next_log {
-            next_log += Duration::from_secs(5);
-            tracing::info!(
-                "poses received {}, accepted {}; commands {}, wrenches {} ({} zero)",
-                counters.poses_received.load(Ordering::Relaxed),
-                counters.poses_accepted.load(Ordering::Relaxed),
-                counters.commands.load(Ordering::Relaxed),
-                counters.wrenches.load(Ordering::Relaxed),
-                counters.zero_wrenches.load(Ordering::Relaxed)
-            );
-        }
-        std::thread::sleep(Duration::from_micros(250));
-    }
-    // Leave the arm with no force.
-    let frame = lock(&shared).frame.clone();
-    publish(msgs::Wrench::default(), &frame);
-    drop(pose_sub);
-    drop(aux);
-    let report = DeviceReport {
-        seconds: started.elapsed().as_secs_f64(),
-        poses_received: counters.poses_received.load(Ordering::Relaxed),
-        poses_accepted: counters.poses_accepted.load(Ordering::Relaxed),
-        poses_rejected: PoseRejection::KINDS
-            .iter()
-            .zip(&counters.rejected)
-            .map(|(k, c)| (*k, c.load(Ordering::Relaxed)))
-            .collect(),
-        faults_sent: counters.faults_sent.load(Ordering::Relaxed),
-        twists: counters.twists.load(Ordering::Relaxed),
-        joys: counters.joys.load(Ordering::Relaxed),
-        aux_rejected: counters.aux_rejected.load(Ordering::Relaxed),
-        commands: counters.commands.load(Ordering::Relaxed),
-        wrenches: counters.wrenches.load(Ordering::Relaxed),
-        zero_wrenches: counters.zero_wrenches.load(Ordering::Relaxed),
-    };
-    drop(wrenches);
-    participant.close();
-    Ok(report)
+        })
+        .wait()
+        .map_err(crate::participant::declare_error(&key))?;
+    Ok((sub, token))
+}
+
+/// The arm's buttons from a `sensor_msgs/Joy` topic (the first 32).
+fn subscribe_buttons(
+    participant: &Participant,
+    topic: &str,
+    counters: &Arc<Counters>,
+    shared: &Arc<Mutex<Shared>>,
+) -> Result<Subscription, GatewayError> {
+    let (_, key, token) = participant.subscription_token::<Joy>(topic, Qos::volatile(1))?;
+    let (counters, shared) = (counters.clone(), shared.clone());
+    let sub = participant
+        .session()
+        .declare_subscriber(key.clone())
+        .callback(move |sample| {
+            let attachment = sample.attachment().map(|a| a.to_bytes());
+            let ok = Attachment::decode(attachment.as_deref()).is_ok();
+            match Joy::decode(&sample.payload().to_bytes()) {
+                Ok(j) if ok => {
+                    counters.joys.fetch_add(1, Ordering::Relaxed);
+                    lock(&shared).buttons = j
+                        .buttons
+                        .iter()
+                        .take(32)
+                        .enumerate()
+                        .filter(|(_, b)| **b != 0)
+                        .fold(0u32, |m, (i, _)| m | (1 << i));
+                }
+                _ => {
+                    counters.aux_rejected.fetch_add(1, Ordering::Relaxed);
+                }
+            }
+        })
+        .wait()
+        .map_err(crate::participant::declare_error(&key))?;
+    Ok((sub, token))
 }
 
 #[cfg(test)]

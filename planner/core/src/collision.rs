@@ -40,6 +40,7 @@ use scene::{Bounds, Part, Primitive, Scene};
 use std::cell::Cell;
 use std::sync::Arc;
 
+mod obb;
 mod obb_tree;
 mod solid;
 mod triangle_pair;

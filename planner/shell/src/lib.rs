@@ -270,237 +270,358 @@ pub fn run_with_guidance_out(
     stop: Arc<AtomicBool>,
     out: &dyn Fn(&Guidance),
 ) -> Result<ShellReport, ShellError> {
-    let started = Instant::now();
-    // The planner first (collision trees of big meshes take seconds): until the node below
-    // exists, a signal ends the process at once (`ipc_types::startup`).
-    let built = Instant::now();
-    let mut engine = Engine::new(config)?;
-    if let Some(p) = &config.portfolio {
-        let names: Vec<_> = p.methods.iter().map(|m| m.name()).collect();
-        tracing::info!("portfolio: {} taking turns", names.join(", "));
+    let mut shell = Shell::start(config, stop)?;
+    while shell.running() {
+        shell.cycle(out);
     }
-    tracing::debug!("planner built in {:.2} s", built.elapsed().as_secs_f64());
-    let node_name = format!("planner_{}", std::process::id());
-    let (node, cleaned) = services::create_node(&node_name)?;
-    if cleaned > 0 {
-        tracing::info!("removed resources of {cleaned} dead iceoryx2 node(s)");
-    }
-    let guidance = services::publisher::<ipc_types::Guidance>(&node, &config.namespace)?;
-    let guidance_event = services::guidance_notifier(&node, &config.namespace)?;
-    let path_pub = services::publisher::<ipc_types::Path>(&node, &config.namespace)?;
-    let roadmap_pub = if config.roadmap_rate_hz > 0.0 {
-        Some(services::publisher::<ipc_types::Roadmap>(
-            &node,
-            &config.namespace,
-        )?)
-    } else {
-        None
-    };
-    let mut feed = RoadmapFeed::new();
-    let roadmap_period = Duration::from_secs_f64(1.0 / config.roadmap_rate_hz.max(1e-3));
-    let mut next_roadmap = Instant::now();
-    let mut roadmap_publish_total_us = 0.0;
-    let state_source = services::StateFollower::open(&node, &config.namespace)?;
+    Ok(shell.finish())
+}
 
-    let operator = Arc::new(Mutex::new(Operator::default()));
-    let receiver = {
-        let operator = operator.clone();
-        let stop = stop.clone();
-        let poll_ns = (1e9 / config.state_poll_hz) as u64;
-        let spin_ns = (config.state_spin_us * 1e3) as u64;
-        let priority = config.state_priority;
-        std::thread::Builder::new()
-            .name("planner-rx".into())
-            .spawn(move || {
-                if priority > 0
-                    && let Err(e) = ipc_types::set_thread_fifo_priority(priority)
-                {
-                    tracing::warn!("state receiver: {e}; it keeps the normal scheduler");
-                }
-                receive_states(state_source, operator, &stop, poll_ns, spin_ns)
-            })
-            .map_err(|source| ShellError::Thread {
-                thread: "state receiver (planner-rx)",
-                source,
-            })?
-    };
+/// The services a running planner publishes on, and the node that owns them.
+struct Ports {
+    node: iceoryx2::node::Node<services::Ipc>,
+    guidance: Publisher<Guidance>,
+    guidance_event: GuidanceNotifier,
+    path: Publisher<ipc_types::Path>,
+    /// `None` when no roadmap is published (`roadmap_rate_hz` 0).
+    roadmap: Option<Publisher<ipc_types::Roadmap>>,
+}
 
-    let guidance_period = Duration::from_secs_f64(1.0 / config.guidance_rate_hz);
-    let mut next_guidance = Instant::now();
-    let mut report = ShellReport::default();
-    let mut guidance_seq = 0u64;
-    let mut path_seq = 0u64;
-    let pid = std::process::id();
-    let planner_id = new_planner_id();
-    tracing::info!("planner id {planner_id:08x}");
-    report.planner_id = planner_id;
-    let mut last_connection_update = Instant::now();
-    let mut announced_operator = false;
-    let mut authority_log = AuthorityLog::default();
-    report.authority = config.params.authority.name().to_owned();
+/// When the main thread's periodic steps are next due.
+struct Schedule {
+    started: Instant,
+    guidance_period: Duration,
+    next_guidance: Instant,
+    roadmap_period: Duration,
+    next_roadmap: Instant,
+    last_connection_update: Instant,
+}
 
-    while !stop.load(Ordering::Acquire) {
-        if config
-            .duration_s
-            .is_some_and(|d| started.elapsed().as_secs_f64() >= d)
-        {
-            break;
+/// A running planner process: the engine, its ports, the receiver thread, and what the
+/// main thread counts. [`Shell::start`] sets it up, [`Shell::cycle`] is one pass of the
+/// main thread, [`Shell::finish`] stops the receiver and writes the report.
+struct Shell<'a> {
+    config: &'a ShellConfig,
+    stop: Arc<AtomicBool>,
+    engine: Engine,
+    ports: Ports,
+    operator: Arc<Mutex<Operator>>,
+    receiver: std::thread::JoinHandle<receiver::StateLatency>,
+    feed: RoadmapFeed,
+    schedule: Schedule,
+    pid: u32,
+    guidance_seq: u64,
+    path_seq: u64,
+    roadmap_publish_total_us: f64,
+    announced_operator: bool,
+    authority_log: AuthorityLog,
+    report: ShellReport,
+}
+
+impl<'a> Shell<'a> {
+    /// Builds the planner, then opens the services and starts the state receiver. The
+    /// planner comes first (collision trees of big meshes take seconds): until the node
+    /// exists, a signal ends the process at once (`ipc_types::startup`).
+    fn start(config: &'a ShellConfig, stop: Arc<AtomicBool>) -> Result<Self, ShellError> {
+        let started = Instant::now();
+        let engine = Engine::new(config)?;
+        if let Some(p) = &config.portfolio {
+            let names: Vec<_> = p.methods.iter().map(|m| m.name()).collect();
+            tracing::info!("portfolio: {} taking turns", names.join(", "));
         }
-        let op = *lock(&operator);
-        let fresh = op
-            .fresh_seen_at(Instant::now(), config.state_timeout_s)
-            .is_some();
-        if fresh != announced_operator {
-            if fresh {
-                tracing::info!("haptic loop present: following the operator");
-            } else if config.plan_without_operator {
-                tracing::info!("no fresh haptic state: planning without the operator");
-            } else {
-                tracing::info!("no fresh haptic state: idle until a haptic loop appears");
-            }
-            announced_operator = fresh;
+        tracing::debug!("planner built in {:.2} s", started.elapsed().as_secs_f64());
+        let (node, cleaned) = services::create_node(&format!("planner_{}", std::process::id()))?;
+        if cleaned > 0 {
+            tracing::info!("removed resources of {cleaned} dead iceoryx2 node(s)");
         }
-
-        let idle = !fresh && !config.plan_without_operator;
-        if idle {
-            // No operator to plan with: wake for the next guidance publication only.
-            let t0 = Instant::now();
-            std::thread::sleep(next_guidance.saturating_duration_since(t0));
-            report.idle_s += t0.elapsed().as_secs_f64();
-        } else if !engine.main().solved() {
-            let input = op.state.filter(|_| fresh).and_then(|s| user_input(&s));
-            let t0 = Instant::now();
-            let r = engine.iterate(input.as_ref());
-            // Guidance waits for the turn in progress: its longest is the planner's
-            // worst delay of a guidance sample.
-            report.longest_turn_ms = report.longest_turn_ms.max(t0.elapsed().as_secs_f64() * 1e3);
-            if let Some(r) = r {
-                report.samples.add(&r);
-            }
-            let planner = engine.main();
-            authority_log.update(&planner.authority());
-            if planner.solved() {
-                let t = started.elapsed().as_secs_f64();
-                report.time_to_solve_s = Some(t);
-                if let Some(sol) = planner.solution() {
-                    path_seq += 1;
-                    let path = to_wire_path(sol, planner, path_seq, pid);
-                    report.path_waypoints = path.len;
-                    if let Err(e) = path_pub.send_copy(path) {
-                        tracing::warn!("cannot publish path: {e:?}");
-                    }
-                }
-                let s = planner.stats();
-                let by = match &engine {
-                    Engine::Portfolio(p) => p
-                        .solved_by()
-                        .map(|m| format!(" on a {} turn", m.name()))
-                        .unwrap_or_default(),
-                    Engine::Single(_) => String::new(),
-                };
-                tracing::info!(
-                    "solved after {t:.2} s{by}: {} iterations, {} nodes, {} waypoints",
-                    s.iterations,
-                    s.nodes,
-                    report.path_waypoints
-                );
-            }
+        let ns = &config.namespace;
+        let roadmap = if config.roadmap_rate_hz > 0.0 {
+            Some(services::publisher::<ipc_types::Roadmap>(&node, ns)?)
         } else {
-            // Solved: nothing to grow; wake for the next guidance publication only.
-            std::thread::sleep(next_guidance.saturating_duration_since(Instant::now()));
-        }
-
+            None
+        };
+        let ports = Ports {
+            guidance: services::publisher::<Guidance>(&node, ns)?,
+            guidance_event: services::guidance_notifier(&node, ns)?,
+            path: services::publisher::<ipc_types::Path>(&node, ns)?,
+            roadmap,
+            node,
+        };
+        let operator = Arc::new(Mutex::new(Operator::default()));
+        let receiver = spawn_receiver(config, &ports, operator.clone(), stop.clone())?;
+        let planner_id = new_planner_id();
+        tracing::info!("planner id {planner_id:08x}");
         let now = Instant::now();
-        if now >= next_guidance {
-            // The newest state, not the one this iteration started with.
-            let op = *lock(&operator);
-            let seen_at = op.fresh_seen_at(now, config.state_timeout_s);
-            let q_user = op
-                .state
-                .filter(|_| seen_at.is_some())
-                .and_then(|s| operator_pose(&s));
-            next_guidance = match seen_at {
-                // Phase-locked to the loop's ticks: a little after a state comes, so that
-                // each sample is computed from a tick's state as soon as it is read and
-                // reaches the next tick with most of a period to spare for the relay. (A
-                // free-running timer keeps whatever phase it started with, as the guidance
-                // period is a whole number of ticks: just before a tick, the relay misses
-                // it and the sample is rendered a tick later.)
-                Some(t) => t + guidance_period + GUIDANCE_AFTER_STATE,
-                None => next_guidance + guidance_period,
-            };
-            if next_guidance < now {
-                next_guidance = now + guidance_period;
-            }
-            guidance_seq += 1;
-            let g = make_guidance(
-                config,
-                engine.main(),
-                q_user.as_ref(),
-                &op,
-                guidance_seq,
-                pid,
+        Ok(Shell {
+            config,
+            stop,
+            engine,
+            ports,
+            operator,
+            receiver,
+            feed: RoadmapFeed::new(),
+            schedule: Schedule {
+                started,
+                guidance_period: Duration::from_secs_f64(1.0 / config.guidance_rate_hz),
+                next_guidance: now,
+                roadmap_period: Duration::from_secs_f64(1.0 / config.roadmap_rate_hz.max(1e-3)),
+                next_roadmap: now,
+                last_connection_update: now,
+            },
+            pid: std::process::id(),
+            guidance_seq: 0,
+            path_seq: 0,
+            roadmap_publish_total_us: 0.0,
+            announced_operator: false,
+            authority_log: AuthorityLog::default(),
+            report: ShellReport {
                 planner_id,
-            );
-            out(&g);
-            publish_guidance(&guidance, &guidance_event, g);
-            report.guidance_published += 1;
+                authority: config.params.authority.name().to_owned(),
+                ..ShellReport::default()
+            },
+        })
+    }
+
+    /// Until stopped, or the configured duration is up.
+    fn running(&self) -> bool {
+        let elapsed = self.schedule.started.elapsed().as_secs_f64();
+        !self.stop.load(Ordering::Acquire) && !self.config.duration_s.is_some_and(|d| elapsed >= d)
+    }
+
+    /// One pass of the main thread: see who is at the arm, plan (or wait), and publish
+    /// what is due. Nothing here fails: what cannot be sent is logged and skipped.
+    fn cycle(&mut self, out: &dyn Fn(&Guidance)) {
+        let (op, fresh) = self.operator();
+        self.announce(fresh);
+        self.plan_or_wait(&op, fresh);
+        let now = Instant::now();
+        self.publish_guidance_when_due(now, out);
+        self.publish_roadmap_when_due(now);
+        self.refresh_connections();
+    }
+
+    /// The newest operator state, and whether it is fresh.
+    fn operator(&self) -> (Operator, bool) {
+        let op = *lock(&self.operator);
+        let fresh = op
+            .fresh_seen_at(Instant::now(), self.config.state_timeout_s)
+            .is_some();
+        (op, fresh)
+    }
+
+    /// Says when a haptic loop appears or goes.
+    fn announce(&mut self, fresh: bool) {
+        if fresh == self.announced_operator {
+            return;
         }
-        if let Some(rp) = &roadmap_pub
-            && now >= next_roadmap
-        {
-            next_roadmap = now + roadmap_period;
+        if fresh {
+            tracing::info!("haptic loop present: following the operator");
+        } else if self.config.plan_without_operator {
+            tracing::info!("no fresh haptic state: planning without the operator");
+        } else {
+            tracing::info!("no fresh haptic state: idle until a haptic loop appears");
+        }
+        self.announced_operator = fresh;
+    }
+
+    /// One planner iteration or portfolio turn with the operator's input; with no operator
+    /// to plan with (and `plan_without_operator` off), or once solved, a sleep until the
+    /// next guidance is due.
+    fn plan_or_wait(&mut self, op: &Operator, fresh: bool) {
+        if !fresh && !self.config.plan_without_operator {
             let t0 = Instant::now();
-            let sent = publish_roadmap(rp, &mut feed, engine.main(), pid);
-            let us = t0.elapsed().as_secs_f64() * 1e6;
-            roadmap_publish_total_us += us;
-            report.roadmap_publish_max_us = report.roadmap_publish_max_us.max(us);
-            if sent {
-                report.roadmap_published += 1;
-            } else {
-                report.roadmap_skipped += 1;
-            }
+            self.sleep_until_guidance_is_due();
+            self.report.idle_s += t0.elapsed().as_secs_f64();
+            return;
         }
-        if last_connection_update.elapsed() > Duration::from_millis(200) {
-            // Delivers the path history to subscribers that joined late.
-            use iceoryx2::port::update_connections::UpdateConnections;
-            let _ = path_pub.update_connections();
-            last_connection_update = Instant::now();
+        if self.engine.main().solved() {
+            self.sleep_until_guidance_is_due();
+            return;
+        }
+        let input = op.state.filter(|_| fresh).and_then(|s| user_input(&s));
+        let t0 = Instant::now();
+        let r = self.engine.iterate(input.as_ref());
+        // Guidance waits for the turn in progress: its longest is the planner's worst
+        // delay of a guidance sample.
+        let turn_ms = t0.elapsed().as_secs_f64() * 1e3;
+        self.report.longest_turn_ms = self.report.longest_turn_ms.max(turn_ms);
+        if let Some(r) = r {
+            self.report.samples.add(&r);
+        }
+        self.authority_log.update(&self.engine.main().authority());
+        if self.engine.main().solved() {
+            self.publish_solution();
         }
     }
 
-    stop.store(true, Ordering::Release);
-    if let Ok(latency) = receiver.join() {
-        report.state_latency_us = latency.transport.percentiles_us();
-        report.state_age_us = latency.age.percentiles_us();
+    fn sleep_until_guidance_is_due(&self) {
+        let now = Instant::now();
+        std::thread::sleep(self.schedule.next_guidance.saturating_duration_since(now));
     }
-    let op = *lock(&operator);
-    let planner = engine.main();
-    let s = planner.stats();
-    report.portfolio = engine.report();
-    report.run_s = started.elapsed().as_secs_f64();
-    let attempts = report.roadmap_published + report.roadmap_skipped;
-    if attempts > 0 {
-        report.roadmap_publish_mean_us = roadmap_publish_total_us / attempts as f64;
+
+    /// The path, once, when the planner has just solved; and a log line saying so.
+    fn publish_solution(&mut self) {
+        let t = self.schedule.started.elapsed().as_secs_f64();
+        self.report.time_to_solve_s = Some(t);
+        let planner = self.engine.main();
+        if let Some(sol) = planner.solution() {
+            self.path_seq += 1;
+            let path = to_wire_path(sol, planner, self.path_seq, self.pid);
+            self.report.path_waypoints = path.len;
+            if let Err(e) = self.ports.path.send_copy(path) {
+                tracing::warn!("cannot publish path: {e:?}");
+            }
+        }
+        let s = planner.stats();
+        let by = match &self.engine {
+            Engine::Portfolio(p) => p
+                .solved_by()
+                .map(|m| format!(" on a {} turn", m.name()))
+                .unwrap_or_default(),
+            Engine::Single(_) => String::new(),
+        };
+        tracing::info!(
+            "solved after {t:.2} s{by}: {} iterations, {} nodes, {} waypoints",
+            s.iterations,
+            s.nodes,
+            self.report.path_waypoints
+        );
     }
-    report.solved = planner.solved();
-    report.authority_takeovers = authority_log.takeovers;
-    report.authority_restores = planner.authority().restores;
-    report.iterations = s.iterations;
-    report.nodes = s.nodes as u64;
-    report.touched = s.touched;
-    report.touched_nodes = s.touched_nodes;
-    report.touched_on_path = s.touched_on_path as u64;
-    report.collision_checks = s.collision_checks;
-    report.states_received = op.received;
-    report.states_skipped = op.skipped;
-    report.states_rejected = op.rejected;
-    report.loops_followed = op.loop_generations;
-    report.state_rate_hz = match (op.first_at, op.last_at) {
-        (Some(a), Some(b)) if b > a => (op.received - 1) as f64 / (b - a).as_secs_f64(),
-        _ => 0.0,
-    };
-    Ok(report)
+
+    /// Guidance for the newest state (not the one the iteration started with), when due.
+    fn publish_guidance_when_due(&mut self, now: Instant, out: &dyn Fn(&Guidance)) {
+        let sched = &mut self.schedule;
+        if now < sched.next_guidance {
+            return;
+        }
+        let op = *lock(&self.operator);
+        let seen_at = op.fresh_seen_at(now, self.config.state_timeout_s);
+        let q_user = op
+            .state
+            .filter(|_| seen_at.is_some())
+            .and_then(|s| operator_pose(&s));
+        sched.next_guidance = match seen_at {
+            // Phase-locked to the loop's ticks: a little after a state comes, so that
+            // each sample is computed from a tick's state as soon as it is read and
+            // reaches the next tick with most of a period to spare for the relay. (A
+            // free-running timer keeps whatever phase it started with, as the guidance
+            // period is a whole number of ticks: just before a tick, the relay misses
+            // it and the sample is rendered a tick later.)
+            Some(t) => t + sched.guidance_period + GUIDANCE_AFTER_STATE,
+            None => sched.next_guidance + sched.guidance_period,
+        };
+        if sched.next_guidance < now {
+            sched.next_guidance = now + sched.guidance_period;
+        }
+        self.guidance_seq += 1;
+        let g = make_guidance(
+            self.config,
+            self.engine.main(),
+            q_user.as_ref(),
+            &op,
+            self.guidance_seq,
+            self.pid,
+            self.report.planner_id,
+        );
+        out(&g);
+        publish_guidance(&self.ports.guidance, &self.ports.guidance_event, g);
+        self.report.guidance_published += 1;
+    }
+
+    /// A roadmap increment for viewers, when due.
+    fn publish_roadmap_when_due(&mut self, now: Instant) {
+        let Some(rp) = &self.ports.roadmap else {
+            return;
+        };
+        if now < self.schedule.next_roadmap {
+            return;
+        }
+        self.schedule.next_roadmap = now + self.schedule.roadmap_period;
+        let t0 = Instant::now();
+        let sent = publish_roadmap(rp, &mut self.feed, self.engine.main(), self.pid);
+        let us = t0.elapsed().as_secs_f64() * 1e6;
+        self.roadmap_publish_total_us += us;
+        self.report.roadmap_publish_max_us = self.report.roadmap_publish_max_us.max(us);
+        if sent {
+            self.report.roadmap_published += 1;
+        } else {
+            self.report.roadmap_skipped += 1;
+        }
+    }
+
+    /// Every 200 ms: delivers the path history to subscribers that joined late.
+    fn refresh_connections(&mut self) {
+        if self.schedule.last_connection_update.elapsed() > Duration::from_millis(200) {
+            use iceoryx2::port::update_connections::UpdateConnections;
+            let _ = self.ports.path.update_connections();
+            self.schedule.last_connection_update = Instant::now();
+        }
+    }
+
+    /// Stops the receiver and reports what the process did.
+    fn finish(self) -> ShellReport {
+        self.stop.store(true, Ordering::Release);
+        let mut report = self.report;
+        if let Ok(latency) = self.receiver.join() {
+            report.state_latency_us = latency.transport.percentiles_us();
+            report.state_age_us = latency.age.percentiles_us();
+        }
+        let op = *lock(&self.operator);
+        let planner = self.engine.main();
+        let s = planner.stats();
+        report.portfolio = self.engine.report();
+        report.run_s = self.schedule.started.elapsed().as_secs_f64();
+        let attempts = report.roadmap_published + report.roadmap_skipped;
+        if attempts > 0 {
+            report.roadmap_publish_mean_us = self.roadmap_publish_total_us / attempts as f64;
+        }
+        report.solved = planner.solved();
+        report.authority_takeovers = self.authority_log.takeovers;
+        report.authority_restores = planner.authority().restores;
+        report.iterations = s.iterations;
+        report.nodes = s.nodes as u64;
+        report.touched = s.touched;
+        report.touched_nodes = s.touched_nodes;
+        report.touched_on_path = s.touched_on_path as u64;
+        report.collision_checks = s.collision_checks;
+        report.states_received = op.received;
+        report.states_skipped = op.skipped;
+        report.states_rejected = op.rejected;
+        report.loops_followed = op.loop_generations;
+        report.state_rate_hz = match (op.first_at, op.last_at) {
+            (Some(a), Some(b)) if b > a => (op.received - 1) as f64 / (b - a).as_secs_f64(),
+            _ => 0.0,
+        };
+        report
+    }
+}
+
+/// Starts the thread that receives the haptic state into `operator` (at SCHED_FIFO
+/// `state_priority` when it may).
+fn spawn_receiver(
+    config: &ShellConfig,
+    ports: &Ports,
+    operator: Arc<Mutex<Operator>>,
+    stop: Arc<AtomicBool>,
+) -> Result<std::thread::JoinHandle<receiver::StateLatency>, ShellError> {
+    let state_source = services::StateFollower::open(&ports.node, &config.namespace)?;
+    let poll_ns = (1e9 / config.state_poll_hz) as u64;
+    let spin_ns = (config.state_spin_us * 1e3) as u64;
+    let priority = config.state_priority;
+    std::thread::Builder::new()
+        .name("planner-rx".into())
+        .spawn(move || {
+            if priority > 0
+                && let Err(e) = ipc_types::set_thread_fifo_priority(priority)
+            {
+                tracing::warn!("state receiver: {e}; it keeps the normal scheduler");
+            }
+            receive_states(state_source, operator, &stop, poll_ns, spin_ns)
+        })
+        .map_err(|source| ShellError::Thread {
+            thread: "state receiver (planner-rx)",
+            source,
+        })
 }
 
 /// A random non-zero identity for this planner's guidance ([`Guidance::planner_id`]). The

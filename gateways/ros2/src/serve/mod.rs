@@ -322,30 +322,151 @@ fn validate(config: &ServeConfig) -> Result<(), GatewayError> {
 
 /// Runs the gateway until `stop` is set (or `config.duration_s` passes).
 pub fn run(config: &ServeConfig, stop: Arc<AtomicBool>) -> Result<ServeReport, GatewayError> {
-    validate(config)?;
     let started = Instant::now();
-    let participant = Arc::new(Participant::open(
-        &config.session,
-        &config.ros_namespace,
-        &config.node_name,
-    )?);
-    let frames = Frames::new(&config.ros_namespace);
-    let pubs = StatePubs::declare(&participant)?;
-    let counters = Arc::new(Counters::default());
+    let gateway = ServeGateway::start(config, &stop)?;
+    let mut next_log = Instant::now() + Duration::from_secs(5);
+    while !stop.load(Ordering::Acquire)
+        && config
+            .duration_s
+            .is_none_or(|d| started.elapsed().as_secs_f64() < d)
+    {
+        std::thread::sleep(Duration::from_millis(20));
+        if Instant::now() >= next_log {
+            next_log += Duration::from_secs(5);
+            gateway.log_progress();
+        }
+    }
+    Ok(gateway.finish(&stop, started))
+}
 
-    // Guidance: from Zenoh's callback straight into the loop's service.
+/// A running `hrrtc-ros2 serve`: the participant, the guidance subscription (whose
+/// callback hands samples straight to the loop's guidance service), and the state and
+/// planner threads that publish the session. The main thread only waits and logs.
+struct ServeGateway {
+    participant: Arc<Participant>,
+    pubs: Arc<StatePubs>,
+    counters: Arc<Counters>,
+    guidance: (
+        zenoh::pubsub::Subscriber<()>,
+        zenoh::liveliness::LivelinessToken,
+    ),
+    threads: [std::thread::JoinHandle<Vec<String>>; 2],
+}
+
+impl ServeGateway {
+    /// Checks the configuration, opens the participant, declares the topics and the
+    /// guidance subscription, publishes the static frames, and starts the threads; fails
+    /// if either cannot open its ports (the other is stopped then).
+    fn start(config: &ServeConfig, stop: &Arc<AtomicBool>) -> Result<Self, GatewayError> {
+        validate(config)?;
+        let participant = Arc::new(Participant::open(
+            &config.session,
+            &config.ros_namespace,
+            &config.node_name,
+        )?);
+        let frames = Frames::new(&config.ros_namespace);
+        let pubs = StatePubs::declare(&participant)?;
+        let counters = Arc::new(Counters::default());
+        let guidance = subscribe_guidance(config, &participant, &frames, &counters)?;
+        // Static frames, once (late joiners get them from the publication cache).
+        let statics = static_transforms(config, &frames);
+        if !statics.transforms.is_empty() {
+            pubs.tf_static
+                .publish(&statics, crate::clock::realtime_ns());
+        }
+        let pubs = Arc::new(pubs);
+        let threads = start_threads(config, &frames, &pubs, &counters, stop)?;
+        let n = participant.node();
+        tracing::info!(
+            "ROS 2 node {}{}{} (domain {}, {:?}, session {}) serving namespace '{}': \
+             connect {:?}, listen {:?}",
+            n.namespace,
+            if n.namespace == "/" { "" } else { "/" },
+            n.name,
+            n.domain,
+            participant.distro(),
+            n.session,
+            config.namespace,
+            config.session.connect,
+            config.session.listen
+        );
+        Ok(ServeGateway {
+            participant,
+            pubs,
+            counters,
+            guidance,
+            threads,
+        })
+    }
+
+    fn log_progress(&self) {
+        let g = self.counters.guidance();
+        let rejected: u64 = g.rejected.values().sum();
+        tracing::info!(
+            "ticks seen {}, published {}; guidance received {}, delivered {}, rejected {}",
+            self.counters.ticks_seen.load(Ordering::Relaxed),
+            self.counters.ticks_published.load(Ordering::Relaxed),
+            g.received,
+            g.delivered,
+            rejected
+        );
+    }
+
+    /// Stops the threads, closes the ROS 2 side and reports.
+    fn finish(self, stop: &AtomicBool, started: Instant) -> ServeReport {
+        stop.store(true, Ordering::Release);
+        let boxed = self
+            .threads
+            .into_iter()
+            .flat_map(|t| t.join().unwrap_or_default())
+            .collect();
+        drop(self.guidance);
+        let c = &self.counters;
+        let report = ServeReport {
+            seconds: started.elapsed().as_secs_f64(),
+            ticks_seen: c.ticks_seen.load(Ordering::Relaxed),
+            ticks_published: c.ticks_published.load(Ordering::Relaxed),
+            paths: c.paths.load(Ordering::Relaxed),
+            roadmap_increments: c.roadmap_increments.load(Ordering::Relaxed),
+            topics: self.pubs.counts(),
+            guidance: c.guidance(),
+            boxed_meshes: boxed,
+        };
+        drop(self.pubs);
+        if let Ok(p) = Arc::try_unwrap(self.participant) {
+            p.close();
+        }
+        report
+    }
+}
+
+/// Guidance from ROS 2: every sample on the guidance topic's keys (of any type, so that a
+/// wrong type is named) is checked and goes from Zenoh's callback straight into the loop's
+/// guidance service.
+fn subscribe_guidance(
+    config: &ServeConfig,
+    participant: &Participant,
+    frames: &Frames,
+    counters: &Arc<Counters>,
+) -> Result<
+    (
+        zenoh::pubsub::Subscriber<()>,
+        zenoh::liveliness::LivelinessToken,
+    ),
+    GatewayError,
+> {
     let inlet = services::GuidanceInlet::open(
         &format!("ros2_guidance_{}", std::process::id()),
         &config.namespace,
     )?;
-    let (topic, key, _guidance_token) =
+    let (topic, key, token) =
         participant.subscription_token::<msgs::WrenchStamped>("guidance", Qos::volatile(1))?;
     let state = Mutex::new(GuidanceState {
         input: GuidanceInput::new(
             key.clone(),
             frames.scene.clone(),
             (config.guidance_ttl_s * 1e9) as u64,
-            planner_id(&participant),
+            planner_id(participant),
         ),
         logged: [None; Rejection::KINDS.len()],
     });
@@ -354,64 +475,65 @@ pub fn run(config: &ServeConfig, stop: Arc<AtomicBool>) -> Result<ServeReport, G
         config.session.domain,
         topic.trim_start_matches('/')
     );
-    let guidance_sub = {
-        let counters = counters.clone();
-        participant
-            .session()
-            .declare_subscriber(any_type.clone())
-            .callback(move |sample| {
-                let now = Clocks::now();
-                counters.received.fetch_add(1, Ordering::Relaxed);
-                let payload = sample.payload().to_bytes();
-                let attachment = sample.attachment().map(|a| a.to_bytes());
-                let newest = counters.newest_tick.load(Ordering::Relaxed);
-                let mut st = lock(&state);
-                match st.input.accept(
-                    sample.key_expr().as_str(),
-                    &payload,
-                    attachment.as_deref(),
-                    now,
-                    newest,
-                ) {
-                    Ok(g) => {
-                        drop(st);
-                        if inlet.send(g) {
-                            counters.delivered.fetch_add(1, Ordering::Relaxed);
-                        } else {
-                            counters.dropped.fetch_add(1, Ordering::Relaxed);
-                        }
-                    }
-                    Err(e) => {
-                        let i = Rejection::KINDS
-                            .iter()
-                            .position(|k| *k == e.kind())
-                            .unwrap_or(0);
-                        counters.rejected[i].fetch_add(1, Ordering::Relaxed);
-                        if st.logged[i].is_none_or(|t| t.elapsed() >= Duration::from_secs(1)) {
-                            tracing::warn!(
-                                "rejected a guidance sample ({}) on {}: {e}",
-                                e.kind(),
-                                sample.key_expr()
-                            );
-                            st.logged[i] = Some(Instant::now());
-                        }
+    let counters = counters.clone();
+    let sub = participant
+        .session()
+        .declare_subscriber(any_type.clone())
+        .callback(move |sample| {
+            let now = Clocks::now();
+            counters.received.fetch_add(1, Ordering::Relaxed);
+            let payload = sample.payload().to_bytes();
+            let attachment = sample.attachment().map(|a| a.to_bytes());
+            let newest = counters.newest_tick.load(Ordering::Relaxed);
+            let mut st = lock(&state);
+            match st.input.accept(
+                sample.key_expr().as_str(),
+                &payload,
+                attachment.as_deref(),
+                now,
+                newest,
+            ) {
+                Ok(g) => {
+                    drop(st);
+                    if inlet.send(g) {
+                        counters.delivered.fetch_add(1, Ordering::Relaxed);
+                    } else {
+                        counters.dropped.fetch_add(1, Ordering::Relaxed);
                     }
                 }
-            })
-            .wait()
-            .map_err(crate::participant::declare_error(&any_type))?
-    };
+                Err(e) => {
+                    let i = Rejection::KINDS
+                        .iter()
+                        .position(|k| *k == e.kind())
+                        .unwrap_or(0);
+                    counters.rejected[i].fetch_add(1, Ordering::Relaxed);
+                    if st.logged[i].is_none_or(|t| t.elapsed() >= Duration::from_secs(1)) {
+                        tracing::warn!(
+                            "rejected a guidance sample ({}) on {}: {e}",
+                            e.kind(),
+                            sample.key_expr()
+                        );
+                        st.logged[i] = Some(Instant::now());
+                    }
+                }
+            }
+        })
+        .wait()
+        .map_err(crate::participant::declare_error(&any_type))?;
+    Ok((sub, token))
+}
 
-    // Static frames, once (late joiners get them from the publication cache).
-    let statics = static_transforms(config, &frames);
-    if !statics.transforms.is_empty() {
-        pubs.tf_static
-            .publish(&statics, crate::clock::realtime_ns());
-    }
-
-    // The local thread: state, path, roadmap and markers.
+/// Starts the state and planner threads (each owns its iceoryx2 ports, which are not
+/// `Send`) and waits until both say whether their ports opened; if either could not, both
+/// are stopped and the first error returned.
+fn start_threads(
+    config: &ServeConfig,
+    frames: &Frames,
+    pubs: &Arc<StatePubs>,
+    counters: &Arc<Counters>,
+    stop: &Arc<AtomicBool>,
+) -> Result<[std::thread::JoinHandle<Vec<String>>; 2], GatewayError> {
     let (ready_tx, ready_rx) = std::sync::mpsc::channel();
-    let pubs = Arc::new(pubs);
     let spawn = |name: &'static str, body: ThreadBody| {
         let (config, frames, pubs, counters, stop, ready) = (
             config.clone(),
@@ -429,10 +551,16 @@ pub fn run(config: &ServeConfig, stop: Arc<AtomicBool>) -> Result<ServeReport, G
                 reason: e.to_string(),
             })
     };
-    let threads = [
-        spawn("state", state_thread)?,
-        spawn("planner", planner_thread)?,
-    ];
+    let state = spawn("state", state_thread)?;
+    let planner = match spawn("planner", planner_thread) {
+        Ok(t) => t,
+        Err(e) => {
+            stop.store(true, Ordering::Release);
+            let _ = state.join();
+            return Err(e);
+        }
+    };
+    let threads = [state, planner];
     drop(ready_tx);
     let mut setup = Ok(());
     for _ in 0..threads.len() {
@@ -447,67 +575,14 @@ pub fn run(config: &ServeConfig, stop: Arc<AtomicBool>) -> Result<ServeReport, G
             }
         }
     }
-    if setup.is_ok() {
-        let n = participant.node();
-        tracing::info!(
-            "ROS 2 node {}{}{} (domain {}, {:?}, session {}) serving namespace '{}': \
-             connect {:?}, listen {:?}",
-            n.namespace,
-            if n.namespace == "/" { "" } else { "/" },
-            n.name,
-            n.domain,
-            participant.distro(),
-            n.session,
-            config.namespace,
-            config.session.connect,
-            config.session.listen
-        );
-    }
-    let mut next_log = Instant::now() + Duration::from_secs(5);
-    while setup.is_ok() && !stop.load(Ordering::Acquire) {
-        if config
-            .duration_s
-            .is_some_and(|d| started.elapsed().as_secs_f64() >= d)
-        {
-            break;
+    if let Err(e) = setup {
+        stop.store(true, Ordering::Release);
+        for t in threads {
+            let _ = t.join();
         }
-        std::thread::sleep(Duration::from_millis(20));
-        if Instant::now() >= next_log {
-            next_log += Duration::from_secs(5);
-            let g = counters.guidance();
-            let rejected: u64 = g.rejected.values().sum();
-            tracing::info!(
-                "ticks seen {}, published {}; guidance received {}, delivered {}, rejected {}",
-                counters.ticks_seen.load(Ordering::Relaxed),
-                counters.ticks_published.load(Ordering::Relaxed),
-                g.received,
-                g.delivered,
-                rejected
-            );
-        }
+        return Err(e);
     }
-    stop.store(true, Ordering::Release);
-    let boxed = threads
-        .into_iter()
-        .flat_map(|t| t.join().unwrap_or_default())
-        .collect();
-    drop(guidance_sub);
-    setup?;
-    let report = ServeReport {
-        seconds: started.elapsed().as_secs_f64(),
-        ticks_seen: counters.ticks_seen.load(Ordering::Relaxed),
-        ticks_published: counters.ticks_published.load(Ordering::Relaxed),
-        paths: counters.paths.load(Ordering::Relaxed),
-        roadmap_increments: counters.roadmap_increments.load(Ordering::Relaxed),
-        topics: pubs.counts(),
-        guidance: counters.guidance(),
-        boxed_meshes: boxed,
-    };
-    drop(pubs);
-    if let Ok(p) = Arc::try_unwrap(participant) {
-        p.close();
-    }
-    Ok(report)
+    Ok(threads)
 }
 
 /// `/tf_static`: the scene's start and goal, and `scene` under the parent frame if any.

@@ -3,7 +3,7 @@
 //! distance transform over it that bounds the clearance of the empty blocks. Runs at
 //! start-up, never on the real-time path.
 
-use super::band::{Band, Grid, Limits, Side};
+use super::band::{Band, Grid, Limits, REGION_UNITS_PER_BLOCK, Side};
 use super::{
     B, BLOCK_NODES, FIRST, INSIDE, MAX_BYTES, N, OUTSIDE, Q, Voxmap, VoxmapConfig, VoxmapError,
 };
@@ -436,13 +436,6 @@ fn band_units(mesh: &MeshData, config: &VoxmapConfig) -> u64 {
     mesh.triangles.len() as u64 + nodes.min(1e15) as u64
 }
 
-/// [`Progress`] units a band block takes in a mesh's finishing stages, after the spread:
-/// the sign of the regions beyond the band (`Band::compute`), then reading the band into
-/// the voxmap's blocks ([`add_mesh`]). Weighed by their time against the spread's units
-/// (about 2 µs and 1 µs a block at 1 mm on 2 cores, where the spread does about 0.6 µs a
-/// unit), so that the bar's share and time left count them: without them it sat at
-/// 98 %, "about 0 s left", for the last seconds of a big mesh's build.
-pub(super) const REGION_UNITS_PER_BLOCK: u64 = 4;
 const MERGE_UNITS_PER_BLOCK: u64 = 2;
 
 /// The units of a mesh's finishing stages over the voxmap blocks `lo..=hi` of its box

@@ -8,7 +8,7 @@
 //! box or a ball meets it, a primitive wholly inside a closed mesh does not; touching
 //! counts as meeting.
 
-use super::obb_tree::{Obb, gap, overlap};
+use super::obb::{Obb, gap, overlap};
 use super::triangle_pair::{closest_on_triangle, segments_distance_squared};
 use parry3d_f64::math::{Matrix, Pose, Vector};
 
