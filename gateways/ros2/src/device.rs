@@ -784,33 +784,21 @@ fn subscribe_twists(
     counters: &Arc<Counters>,
     shared: &Arc<Mutex<Shared>>,
 ) -> Result<Subscription, GatewayError> {
-    let (_, key, token) =
-        participant.subscription_token::<TwistStamped>(topic, Qos::volatile(1))?;
     let (counters, shared) = (counters.clone(), shared.clone());
-    let sub = participant
-        .session()
-        .declare_subscriber(key.clone())
-        .callback(move |sample| {
-            let attachment = sample.attachment().map(|a| a.to_bytes());
-            let ok = Attachment::decode(attachment.as_deref()).is_ok();
-            match TwistStamped::decode(&sample.payload().to_bytes()) {
-                Ok(tw) if ok && tw.linear.iter().chain(&tw.angular).all(|v| v.is_finite()) => {
-                    counters.twists.fetch_add(1, Ordering::Relaxed);
-                    lock(&shared).twist = Some(ipc_types::Twist {
-                        linear_m_s: tw.linear,
-                        angular_rad_s: tw.angular,
-                    });
-                }
-                _ => {
-                    counters.aux_rejected.fetch_add(1, Ordering::Relaxed);
-                    // A bad velocity is no velocity: back to the poses' own.
-                    lock(&shared).twist = None;
-                }
-            }
-        })
-        .wait()
-        .map_err(crate::participant::declare_error(&key))?;
-    Ok((sub, token))
+    subscribe::<TwistStamped>(participant, topic, move |tw| match tw {
+        Some(tw) if tw.linear.iter().chain(&tw.angular).all(|v| v.is_finite()) => {
+            counters.twists.fetch_add(1, Ordering::Relaxed);
+            lock(&shared).twist = Some(ipc_types::Twist {
+                linear_m_s: tw.linear,
+                angular_rad_s: tw.angular,
+            });
+        }
+        _ => {
+            counters.aux_rejected.fetch_add(1, Ordering::Relaxed);
+            // A bad velocity is no velocity: back to the poses' own.
+            lock(&shared).twist = None;
+        }
+    })
 }
 
 /// The arm's buttons from a `sensor_msgs/Joy` topic (the first 32).
@@ -820,29 +808,40 @@ fn subscribe_buttons(
     counters: &Arc<Counters>,
     shared: &Arc<Mutex<Shared>>,
 ) -> Result<Subscription, GatewayError> {
-    let (_, key, token) = participant.subscription_token::<Joy>(topic, Qos::volatile(1))?;
     let (counters, shared) = (counters.clone(), shared.clone());
+    subscribe::<Joy>(participant, topic, move |j| match j {
+        Some(j) => {
+            counters.joys.fetch_add(1, Ordering::Relaxed);
+            lock(&shared).buttons = j
+                .buttons
+                .iter()
+                .take(32)
+                .enumerate()
+                .filter(|(_, b)| **b != 0)
+                .fold(0u32, |m, (i, _)| m | (1 << i));
+        }
+        None => {
+            counters.aux_rejected.fetch_add(1, Ordering::Relaxed);
+        }
+    })
+}
+
+/// A subscription to `topic` whose samples reach `on_sample` from Zenoh's callback as the
+/// message, or `None` when its attachment or payload does not decode.
+fn subscribe<M: Message>(
+    participant: &Participant,
+    topic: &str,
+    on_sample: impl Fn(Option<M>) + Send + Sync + 'static,
+) -> Result<Subscription, GatewayError> {
+    let (_, key, token) = participant.subscription_token::<M>(topic, Qos::volatile(1))?;
     let sub = participant
         .session()
         .declare_subscriber(key.clone())
         .callback(move |sample| {
             let attachment = sample.attachment().map(|a| a.to_bytes());
             let ok = Attachment::decode(attachment.as_deref()).is_ok();
-            match Joy::decode(&sample.payload().to_bytes()) {
-                Ok(j) if ok => {
-                    counters.joys.fetch_add(1, Ordering::Relaxed);
-                    lock(&shared).buttons = j
-                        .buttons
-                        .iter()
-                        .take(32)
-                        .enumerate()
-                        .filter(|(_, b)| **b != 0)
-                        .fold(0u32, |m, (i, _)| m | (1 << i));
-                }
-                _ => {
-                    counters.aux_rejected.fetch_add(1, Ordering::Relaxed);
-                }
-            }
+            let message = M::decode(&sample.payload().to_bytes()).ok();
+            on_sample(message.filter(|_| ok));
         })
         .wait()
         .map_err(crate::participant::declare_error(&key))?;
@@ -852,6 +851,82 @@ fn subscribe_buttons(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The button and velocity subscriptions: a good sample sets the shared state, a
+    /// payload that does not decode (or an unfinite velocity) is counted as rejected and,
+    /// for velocities, drops back to the poses' own.
+    #[test]
+    fn buttons_and_velocities_arrive_and_bad_ones_are_rejected() {
+        let session = SessionConfig {
+            connect: Vec::new(),
+            listen: vec!["tcp/127.0.0.1:0".into()],
+            ..SessionConfig::default()
+        };
+        let participant = Participant::open(&session, "/", "aux_test").expect("participant");
+        let counters = Arc::new(Counters::default());
+        let shared = Arc::new(Mutex::new(Shared {
+            tracker: PoseTracker::new(0.0),
+            twist: None,
+            buttons: 0,
+            sequence: 0,
+            last_good: ipc_types::Pose::IDENTITY,
+            fault_until_ns: 0,
+            frame: String::new(),
+            logged: [None; PoseRejection::KINDS.len()],
+        }));
+        let _joy = subscribe_buttons(&participant, "/joy", &counters, &shared).expect("joy");
+        let _twist = subscribe_twists(&participant, "/twist", &counters, &shared).expect("twist");
+        let joy = participant
+            .publisher::<Joy>("/joy", Qos::volatile(1), true)
+            .expect("joy publisher");
+        let twist = participant
+            .publisher::<TwistStamped>("/twist", Qos::volatile(1), true)
+            .expect("twist publisher");
+        let wait = |what: &str, done: &dyn Fn() -> bool| {
+            let until = Instant::now() + Duration::from_secs(10);
+            while !done() {
+                assert!(Instant::now() < until, "{what} never arrived");
+                std::thread::sleep(Duration::from_millis(5));
+            }
+        };
+        let n = |c: &AtomicU64| c.load(Ordering::Relaxed);
+        joy.publish(
+            &Joy {
+                header: msgs::Header::default(),
+                axes: vec![],
+                buttons: vec![1, 0, 1],
+            },
+            0,
+        );
+        wait("the buttons", &|| n(&counters.joys) == 1);
+        assert_eq!(lock(&shared).buttons, 0b101);
+        twist.publish(
+            &TwistStamped {
+                header: msgs::Header::default(),
+                linear: [0.1, 0.0, 0.0],
+                angular: [0.0, 0.0, 0.2],
+            },
+            0,
+        );
+        wait("the velocity", &|| n(&counters.twists) == 1);
+        assert_eq!(
+            lock(&shared).twist.map(|t| t.linear_m_s),
+            Some([0.1, 0.0, 0.0])
+        );
+        twist.publish(
+            &TwistStamped {
+                header: msgs::Header::default(),
+                linear: [f64::NAN, 0.0, 0.0],
+                angular: [0.0; 3],
+            },
+            0,
+        );
+        wait("the bad velocity", &|| n(&counters.aux_rejected) == 1);
+        assert!(lock(&shared).twist.is_none(), "back to the poses' own");
+        joy.publish_payload(vec![1, 2, 3], 0);
+        wait("the bad buttons", &|| n(&counters.aux_rejected) == 2);
+        assert_eq!(lock(&shared).buttons, 0b101, "a bad sample changes nothing");
+    }
 
     fn pose(x: f64, q: [f64; 4]) -> msgs::Pose {
         msgs::Pose {
