@@ -242,7 +242,7 @@ mod tests {
             0
         );
         let silencer =
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/silencer.toml");
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scene/scenes/silencer.toml");
         let silencer = silencer.display().to_string();
         assert_eq!(
             main_with_args(["planner", "scenes", "check", &silencer]).expect("runs"),
@@ -264,7 +264,7 @@ mod tests {
     fn with_mesh_obstacle(dir: &std::path::Path, name: &str, file: &str) -> std::path::PathBuf {
         let toml = dir.join(format!("{name}.toml"));
         let text = std::fs::read_to_string(
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/free.toml"),
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scene/scenes/free.toml"),
         )
         .expect("free.toml")
             + &format!(
