@@ -739,11 +739,7 @@ fn subscribe_poses(
 ) -> Result<(Subscription, String, String), GatewayError> {
     let (pose_topic, pose_key, token) =
         participant.subscription_token::<PoseStamped>(&config.pose_topic, Qos::volatile(1))?;
-    let keys = format!(
-        "{}/{}/*/*",
-        config.session.domain,
-        pose_topic.trim_start_matches('/')
-    );
+    let keys = rmw::topic_key_any_type(config.session.domain, &pose_topic);
     let (counters, shared, config, key_wanted) = (
         counters.clone(),
         shared.clone(),

@@ -259,9 +259,25 @@ pub fn mangle(name: &str) -> String {
 
 /// The key expression of `topic` (fully qualified) of type `ty` on `domain`.
 pub fn topic_key(domain: u32, topic: &str, ty: &TypeInfo) -> String {
+    format!(
+        "{}/{}/{}",
+        topic_prefix(domain, topic),
+        ty.dds_name,
+        ty.hash
+    )
+}
+
+/// The key expression of `topic` (fully qualified) of any type on `domain`: a subscriber
+/// to it also gets samples of the wrong type, so that it can name them.
+pub fn topic_key_any_type(domain: u32, topic: &str) -> String {
+    format!("{}/*/*", topic_prefix(domain, topic))
+}
+
+/// `<domain>/<topic without its outer slashes>`.
+fn topic_prefix(domain: u32, topic: &str) -> String {
     let name = topic.strip_prefix('/').unwrap_or(topic);
     let name = name.strip_suffix('/').unwrap_or(name);
-    format!("{domain}/{name}/{}/{}", ty.dds_name, ty.hash)
+    format!("{domain}/{name}")
 }
 
 /// A node: the identity its endpoints' tokens carry.
@@ -424,6 +440,11 @@ mod tests {
         assert_eq!(
             topic_key(0, "/robot1/chatter", &ty),
             "0/robot1/chatter/std_msgs::msg::dds_::String_/RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18"
+        );
+        // Any type of the same topic: the same prefix, the type and hash as wildcards.
+        assert_eq!(
+            topic_key_any_type(0, "/robot1/chatter"),
+            "0/robot1/chatter/*/*"
         );
         assert_eq!(
             node().token(),

@@ -470,11 +470,7 @@ fn subscribe_guidance(
         ),
         logged: [None; Rejection::KINDS.len()],
     });
-    let any_type = format!(
-        "{}/{}/*/*",
-        config.session.domain,
-        topic.trim_start_matches('/')
-    );
+    let any_type = rmw::topic_key_any_type(config.session.domain, &topic);
     let counters = counters.clone();
     let sub = participant
         .session()
