@@ -810,8 +810,6 @@ pub(crate) mod tests {
 
     /// A 60 × 20 × 20 mm bar that must pass a 24 mm square hole in a 20 mm wall lengthwise,
     /// from and to orientations across it, in a 160 mm square channel.
-    /// A 60 × 20 × 20 mm bar that must pass a 24 mm square hole in a wall lengthwise,
-    /// turned across it at the start and the goal.
     pub(crate) fn slot_scene() -> Scene {
         let mut scene = Scene::wall_with_square_hole(0.024);
         scene.name = "slot".into();

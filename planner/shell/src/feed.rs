@@ -1,6 +1,6 @@
 //! The planner's side of the roadmap stream: fills [`Roadmap`] samples from the trees
-//! (the planner's shell sends them; [`crate::model`] is the reading side, and the tests of
-//! both ends live here).
+//! (the planner's shell sends them; `view::model` is the reading side, and its tests
+//! drive this feed).
 //!
 //! Protocol (see `ipc_types::Roadmap`): a manifest of the live trees, then the nodes added
 //! since the previous sample (at most three quarters of the sample, starting at a

@@ -84,7 +84,7 @@ pub struct ShellConfig {
     pub duration_s: Option<f64>,
     /// Roadmap increments published per second for viewers; 0 publishes none.
     pub roadmap_rate_hz: f64,
-    /// The narrow-passage methods taking turns ([`crate::portfolio`]); `None`: one planner
+    /// The narrow-passage methods taking turns ([`planner_core::portfolio`]); `None`: one planner
     /// with `params`' machine sampler.
     pub portfolio: Option<PortfolioParams>,
 }
@@ -202,7 +202,7 @@ impl Engine {
     }
 }
 
-/// Iterations by where their sample came from ([`crate::Source`]), and what they added:
+/// Iterations by where their sample came from ([`planner_core::Source`]), and what they added:
 /// how much of the trees each kind of sample grew (H-RRT-C's shares at work).
 #[derive(Debug, Clone, Copy, Serialize, Default, PartialEq)]
 pub struct SampleTally {
@@ -669,7 +669,7 @@ impl AuthorityLog {
 
 /// The guidance sample of this moment. Before a solution F_a is I-RRT's barycenter with
 /// the gains `gain_n_per_m` and `gain_nm_per_rad`; after it, the lead along the path
-/// ([`crate::guidance::PathGuide::force`]), whose pull and turn saturate at the core's
+/// ([`planner_core::guidance::PathGuide::force`]), whose pull and turn saturate at the core's
 /// `lead_saturation_m` and `lead_saturation_rad`, with the gains that render those as
 /// `lead_force_n` and `lead_torque_nm`.
 fn make_guidance(
