@@ -298,12 +298,7 @@ impl HapticDevice for DriverDevice {
         let w = self.spec.saturate(wrench);
         self.sequence += 1;
         s.commands.write(DriverCommand {
-            header: Header {
-                sequence: self.sequence,
-                timestamp_ns: self.last_now_ns,
-                writer_pid: self.pid,
-                reserved: 0,
-            },
+            header: Header::new(self.sequence, self.last_now_ns, self.pid),
             wrench: wire::wrench(&w.force, &w.torque),
             output: OutputCode::ON,
             reserved: 0,

@@ -87,12 +87,7 @@ pub fn run(
         let s = arm.read(now).map_err(arm_error)?;
         report.states += 1;
         let mut msg = DriverState {
-            header: Header {
-                sequence: report.states,
-                timestamp_ns: now,
-                writer_pid: std::process::id(),
-                reserved: 0,
-            },
+            header: Header::new(report.states, now, std::process::id()),
             pose: wire::pose(&s.pose),
             twist: wire::twist(&s.linear_velocity, &s.angular_velocity),
             buttons: s.buttons,

@@ -28,12 +28,7 @@ pub struct Path {
 impl Path {
     /// An empty path.
     pub const EMPTY: Self = Self {
-        header: Header {
-            sequence: 0,
-            timestamp_ns: 0,
-            writer_pid: 0,
-            reserved: 0,
-        },
+        header: Header::new(0, 0, 0),
         len: 0,
         length: 0.0,
         waypoints: [Pose::IDENTITY; PATH_CAPACITY],

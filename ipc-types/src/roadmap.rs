@@ -151,12 +151,7 @@ pub struct Roadmap {
 impl Roadmap {
     /// A sample with no trees and no nodes.
     pub const EMPTY: Self = Self {
-        header: Header {
-            sequence: 0,
-            timestamp_ns: 0,
-            writer_pid: 0,
-            reserved: 0,
-        },
+        header: Header::new(0, 0, 0),
         iterations: 0,
         total_nodes: 0,
         trees_len: 0,

@@ -705,12 +705,7 @@ fn state_through_bridges(
                 next += period;
                 ipc_types::sleep_until_ns(next);
                 let mut s = HapticState {
-                    header: Header {
-                        sequence: seq,
-                        timestamp_ns: ipc_types::monotonic_ns(),
-                        writer_pid: pid,
-                        reserved: 0,
-                    },
+                    header: Header::new(seq, ipc_types::monotonic_ns(), pid),
                     user_pose: ipc_types::Pose::IDENTITY,
                     proxy_pose: ipc_types::Pose::IDENTITY,
                     ..HapticState::default()

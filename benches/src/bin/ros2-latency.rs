@@ -357,12 +357,7 @@ fn one_round(args: &Args, gateway: &std::path::Path, round: u32) -> anyhow::Resu
             ipc_types::sleep_until_ns(start + (seq - 1) * period);
             let t = ipc_types::monotonic_ns();
             writer.update_with_copy(HapticState {
-                header: Header {
-                    sequence: seq,
-                    timestamp_ns: t,
-                    writer_pid: pid,
-                    reserved: 0,
-                },
+                header: Header::new(seq, t, pid),
                 published_ns: t,
                 ..HapticState::default()
             });

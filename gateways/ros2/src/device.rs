@@ -407,12 +407,7 @@ fn driver_state(
 ) -> DriverState {
     let l = &config.limits;
     let mut s = DriverState {
-        header: Header {
-            sequence,
-            timestamp_ns: stamp_ns,
-            writer_pid: std::process::id(),
-            reserved: 0,
-        },
+        header: Header::new(sequence, stamp_ns, std::process::id()),
         pose,
         twist,
         buttons,

@@ -159,12 +159,7 @@ mod tests {
 
     fn g(planner: u32, t_ms: u64, distance: f64, solved: bool) -> Guidance {
         Guidance {
-            header: Header {
-                sequence: t_ms + 1,
-                timestamp_ns: t_ms * MS,
-                writer_pid: 100 + planner,
-                reserved: 0,
-            },
+            header: Header::new(t_ms + 1, t_ms * MS, 100 + planner),
             planner_id: planner,
             time_to_live_ns: 100 * MS,
             distance_to_goal: distance,

@@ -40,12 +40,7 @@ pub(super) struct TickResults<'a> {
 #[inline]
 pub(super) fn fill(s: &mut HapticState, r: &TickResults) {
     let (device, g, prev) = (r.device, r.guidance, &r.prev);
-    s.header = Header {
-        sequence: r.sequence,
-        timestamp_ns: r.now_ns,
-        writer_pid: r.pid,
-        reserved: 0,
-    };
+    s.header = Header::new(r.sequence, r.now_ns, r.pid);
     s.device_pose = wire::pose(&device.pose);
     s.device_twist = wire::twist(&device.linear_velocity, &device.angular_velocity);
     s.user_pose = wire::pose(r.user);

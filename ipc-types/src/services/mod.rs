@@ -513,12 +513,7 @@ mod tests {
         assert_eq!(reader.get().header.sequence, 0, "initial value is zeroed");
         let writer = state_writer(&node, &ns).unwrap();
         let s = HapticState {
-            header: Header {
-                sequence: 7,
-                timestamp_ns: 11,
-                writer_pid: 1,
-                reserved: 0,
-            },
+            header: Header::new(7, 11, 1),
             buttons: 3,
             ..HapticState::default()
         };

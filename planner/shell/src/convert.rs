@@ -76,12 +76,7 @@ pub(super) fn to_wire_path(sol: &[Se3], planner: &Planner, seq: u64, pid: u32) -
     }
     path.len = keep as u64;
     path.length = path_length(planner.space(), sol);
-    path.header = Header {
-        sequence: seq,
-        timestamp_ns: ipc_types::monotonic_ns(),
-        writer_pid: pid,
-        reserved: 0,
-    };
+    path.header = Header::new(seq, ipc_types::monotonic_ns(), pid);
     path
 }
 

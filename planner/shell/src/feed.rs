@@ -77,12 +77,7 @@ impl RoadmapFeed {
         debug_assert_eq!(trees.len(), ids.len());
         let n_trees = trees.len().min(ids.len());
         self.sequence += 1;
-        out.header = Header {
-            sequence: self.sequence,
-            timestamp_ns: info.timestamp_ns,
-            writer_pid: info.pid,
-            reserved: 0,
-        };
+        out.header = Header::new(self.sequence, info.timestamp_ns, info.pid);
         out.iterations = info.iterations;
         out.total_nodes = trees.iter().map(|t| t.len() as u64).sum();
         out.solved = u32::from(info.solved);

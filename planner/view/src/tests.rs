@@ -28,12 +28,7 @@ struct Advertised {
 }
 
 fn header(seq: u64) -> Header {
-    Header {
-        sequence: seq,
-        timestamp_ns: monotonic_ns(),
-        writer_pid: 4242,
-        reserved: 0,
-    }
+    Header::new(seq, monotonic_ns(), 4242)
 }
 
 #[test]
