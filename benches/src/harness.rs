@@ -202,7 +202,7 @@ pub(crate) fn scripted_arm(
     let spec = arm_config.spec();
     let user = ScriptedUser::new(
         ScriptedUserConfig {
-            max_force_n: spec.max_force_n,
+            max_force_n: spec.limits.max_force_n,
             linear_speed_m_per_s: 0.05,
             ..ScriptedUserConfig::default()
         },

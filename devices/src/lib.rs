@@ -35,5 +35,8 @@ mod types;
 
 pub use device::HapticDevice;
 pub use error::DeviceError;
+/// The limits every device states (one type for the loop's devices, external drivers and
+/// gateways).
+pub use ipc_types::DeviceLimits;
 pub use spec::{Capabilities, DeviceSpec};
 pub use types::{DeviceState, Wrench, clamp_norm};

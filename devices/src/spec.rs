@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::{DeviceError, Wrench};
+use crate::{DeviceError, DeviceLimits, Wrench};
 
 /// Which inputs and outputs a device has.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -18,58 +18,27 @@ pub struct Capabilities {
     pub buttons: u32,
 }
 
-/// A device's name, limits and capabilities. Every limit is what the device can render
-/// stably at a 1 kHz update rate; the loop must keep its output inside them (contact,
-/// coupling and guidance share this budget).
+/// A device's name, limits and capabilities.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct DeviceSpec {
     /// Human-readable device name (model, or "simulated-arm").
     pub name: String,
-    /// Maximum force norm in N (desktop arms: about 3–12 N).
-    pub max_force_n: f64,
-    /// Maximum torque norm in N·m (desktop 6-DOF arms: about 0.1–1 N·m).
-    pub max_torque_nm: f64,
-    /// Maximum stable translational stiffness at 1 kHz in N/m (real arms: 400–8000).
-    pub max_stiffness_n_per_m: f64,
-    /// Maximum stable rotational stiffness at 1 kHz in N·m/rad (real arms: 0.3–1).
-    pub max_rot_stiffness_nm_per_rad: f64,
-    /// Maximum stable translational damping in N·s/m.
-    pub max_damping_n_s_per_m: f64,
-    /// Maximum stable rotational damping in N·m·s/rad.
-    pub max_rot_damping_nm_s_per_rad: f64,
-    /// Radius in m of the sphere, centred on the base-frame origin, that the end effector
-    /// can reach.
-    pub workspace_radius_m: f64,
+    /// What the device renders stably at 1 kHz; the loop keeps its output inside them
+    /// (contact, coupling and guidance share this budget). Flattened, so a recording's
+    /// spec keeps its fields at the top level.
+    #[serde(flatten)]
+    pub limits: DeviceLimits,
     /// Inputs and outputs the device has.
     pub capabilities: Capabilities,
 }
 
 impl DeviceSpec {
     /// Checks that every limit is finite and non-negative, the workspace radius positive
-    /// and the button count at most 32.
+    /// and the button count at most 32; the error names the field.
     pub fn validate(&self) -> Result<(), DeviceError> {
-        let limits = [
-            (self.max_force_n, "max_force_n"),
-            (self.max_torque_nm, "max_torque_nm"),
-            (self.max_stiffness_n_per_m, "max_stiffness_n_per_m"),
-            (
-                self.max_rot_stiffness_nm_per_rad,
-                "max_rot_stiffness_nm_per_rad",
-            ),
-            (self.max_damping_n_s_per_m, "max_damping_n_s_per_m"),
-            (
-                self.max_rot_damping_nm_s_per_rad,
-                "max_rot_damping_nm_s_per_rad",
-            ),
-        ];
-        for (value, name) in limits {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(DeviceError::InvalidConfig(name));
-            }
-        }
-        if !(self.workspace_radius_m.is_finite() && self.workspace_radius_m > 0.0) {
-            return Err(DeviceError::InvalidConfig("workspace_radius_m"));
-        }
+        self.limits
+            .validate()
+            .map_err(|e| DeviceError::InvalidConfig(e.field()))?;
         if self.capabilities.buttons > 32 {
             return Err(DeviceError::InvalidConfig("capabilities.buttons"));
         }
@@ -81,12 +50,12 @@ impl DeviceSpec {
     /// a non-finite wrench replaced by [`Wrench::ZERO`]. Allocation-free.
     pub fn saturate(&self, wrench: &Wrench) -> Wrench {
         let max_force = if self.capabilities.force_output {
-            self.max_force_n
+            self.limits.max_force_n
         } else {
             0.0
         };
         let max_torque = if self.capabilities.torque_output {
-            self.max_torque_nm
+            self.limits.max_torque_nm
         } else {
             0.0
         };
@@ -99,34 +68,23 @@ mod tests {
     use nalgebra::Vector3;
 
     use super::*;
+    use crate::sim::SimulatedArmConfig;
 
+    /// The simulated arm's spec without torque output.
     fn spec() -> DeviceSpec {
-        DeviceSpec {
-            name: "test".into(),
-            max_force_n: 8.0,
-            max_torque_nm: 0.5,
-            max_stiffness_n_per_m: 2000.0,
-            max_rot_stiffness_nm_per_rad: 0.8,
-            max_damping_n_s_per_m: 5.0,
-            max_rot_damping_nm_s_per_rad: 0.01,
-            workspace_radius_m: 0.12,
-            capabilities: Capabilities {
-                force_output: true,
-                torque_output: false,
-                orientation_input: true,
-                buttons: 2,
-            },
-        }
+        let mut spec = SimulatedArmConfig::default().spec();
+        spec.capabilities.torque_output = false;
+        spec
     }
 
     #[test]
     fn validate_accepts_sane_and_rejects_bad_fields() {
         assert_eq!(spec().validate(), Ok(()));
         let mut s = spec();
-        s.max_force_n = f64::NAN;
+        s.limits.max_force_n = f64::NAN;
         assert_eq!(s.validate(), Err(DeviceError::InvalidConfig("max_force_n")));
         let mut s = spec();
-        s.workspace_radius_m = 0.0;
+        s.limits.workspace_radius_m = 0.0;
         assert_eq!(
             s.validate(),
             Err(DeviceError::InvalidConfig("workspace_radius_m"))
@@ -134,6 +92,20 @@ mod tests {
         let mut s = spec();
         s.capabilities.buttons = 33;
         assert!(s.validate().is_err());
+    }
+
+    #[test]
+    fn a_spec_is_recorded_with_its_limits_at_the_top_level_bit_for_bit() {
+        // Recordings (and their JSON schema) hold the limits as top-level fields.
+        let mut original = spec();
+        original.limits.max_damping_n_s_per_m = 0.1 + 0.2;
+        let json = serde_json::to_value(&original).unwrap();
+        assert_eq!(json["max_force_n"], 8.0);
+        assert_eq!(json["workspace_radius_m"], 0.12);
+        assert!(json.get("limits").is_none());
+        let text = serde_json::to_string(&original).unwrap();
+        let back: DeviceSpec = serde_json::from_str(&text).unwrap();
+        assert_eq!(back, original);
     }
 
     #[test]

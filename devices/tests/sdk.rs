@@ -103,7 +103,7 @@ fn dhd_loads_opens_reads_and_writes_in_our_frame() {
     dev.open().expect("open");
     // Spec of system type 60 (Falcon), name from dhdGetSystemName.
     assert_eq!(dev.spec().name, "fake omega.3");
-    assert_eq!(dev.spec().max_force_n, 8.0);
+    assert_eq!(dev.spec().limits.max_force_n, 8.0);
     let s = dev.read(5 * MS).expect("read");
     // DHD (x toward operator, y right, z up) → ours (X right, Y away, Z up).
     let p = s.pose.translation.vector;
@@ -212,8 +212,8 @@ fn hd_servo_bridge_converts_mm_and_frames_and_never_blocks() {
     .expect("fake libHD loads");
     dev.open().expect("open");
     assert_eq!(dev.spec().name, "Fake Touch");
-    assert_eq!(dev.spec().max_stiffness_n_per_m, 500.0);
-    assert!((dev.spec().workspace_radius_m - 0.06).abs() < 1e-12);
+    assert_eq!(dev.spec().limits.max_stiffness_n_per_m, 500.0);
+    assert!((dev.spec().limits.workspace_radius_m - 0.06).abs() < 1e-12);
     assert!(!dev.spec().capabilities.torque_output);
 
     let s = dev.read(MS).expect("read after the first servo tick");

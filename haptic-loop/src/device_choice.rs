@@ -318,11 +318,11 @@ pub fn describe(spec: &DeviceSpec) -> String {
     let c = &spec.capabilities;
     format!(
         "    max force {:.2} N, max torque {:.2} N·m, stiffness ≤ {:.0} N/m, damping ≤ {:.1} N·s/m, workspace radius {:.3} m\n    outputs: {}{}; orientation input: {}; buttons: {}",
-        spec.max_force_n,
-        spec.max_torque_nm,
-        spec.max_stiffness_n_per_m,
-        spec.max_damping_n_s_per_m,
-        spec.workspace_radius_m,
+        spec.limits.max_force_n,
+        spec.limits.max_torque_nm,
+        spec.limits.max_stiffness_n_per_m,
+        spec.limits.max_damping_n_s_per_m,
+        spec.limits.workspace_radius_m,
         if c.force_output {
             "force"
         } else {

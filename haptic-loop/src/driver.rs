@@ -16,7 +16,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use devices::{Capabilities, DeviceError, DeviceSpec, DeviceState, HapticDevice, Wrench};
+use devices::{
+    Capabilities, DeviceError, DeviceLimits, DeviceSpec, DeviceState, HapticDevice, Wrench,
+};
 use ipc_types::convert as wire;
 use ipc_types::services;
 use ipc_types::{DriverCommand, DriverState, DriverStatus, Header, OutputCode};
@@ -54,13 +56,7 @@ pub fn spec_from_state(s: &DriverState) -> DeviceSpec {
             .name_str()
             .unwrap_or("external driver's device")
             .to_string(),
-        max_force_n: s.max_force_n,
-        max_torque_nm: s.max_torque_nm,
-        max_stiffness_n_per_m: s.max_stiffness_n_per_m,
-        max_rot_stiffness_nm_per_rad: s.max_rot_stiffness_nm_per_rad,
-        max_damping_n_s_per_m: s.max_damping_n_s_per_m,
-        max_rot_damping_nm_s_per_rad: 0.0,
-        workspace_radius_m: s.workspace_radius_m,
+        limits: s.limits(),
         capabilities: Capabilities {
             force_output: s.max_force_n > 0.0,
             torque_output: s.max_torque_nm > 0.0,
@@ -124,13 +120,7 @@ impl DriverDevice {
             config,
             spec: DeviceSpec {
                 name: "external driver's device".into(),
-                max_force_n: 0.0,
-                max_torque_nm: 0.0,
-                max_stiffness_n_per_m: 0.0,
-                max_rot_stiffness_nm_per_rad: 0.0,
-                max_damping_n_s_per_m: 0.0,
-                max_rot_damping_nm_s_per_rad: 0.0,
-                workspace_radius_m: 0.1,
+                limits: DeviceLimits::none(0.1),
                 capabilities: Capabilities {
                     force_output: false,
                     torque_output: false,
@@ -360,7 +350,11 @@ mod tests {
         let mut dev = DriverDevice::new(DriverConfig::new(&ns)).unwrap();
         dev.open().expect("driver is publishing");
         assert_eq!(dev.spec().name, "example driver: simulated arm");
-        assert_eq!(dev.spec().max_force_n, 8.0, "the simulated arm's limit");
+        assert_eq!(
+            dev.spec().limits.max_force_n,
+            8.0,
+            "the simulated arm's limit"
+        );
 
         // Push the remote arm (0.2 kg) along +X with 0.2 N for 0.2 s: it must move that way
         // (about 2 cm, well inside its 0.12 m workspace).

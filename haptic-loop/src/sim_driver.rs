@@ -92,16 +92,11 @@ pub fn run(
             twist: wire::twist(&s.linear_velocity, &s.angular_velocity),
             buttons: s.buttons,
             status: DriverStatus::OK,
-            max_force_n: spec.max_force_n,
-            max_torque_nm: spec.max_torque_nm,
-            max_stiffness_n_per_m: spec.max_stiffness_n_per_m,
-            max_rot_stiffness_nm_per_rad: spec.max_rot_stiffness_nm_per_rad,
-            max_damping_n_s_per_m: spec.max_damping_n_s_per_m,
-            workspace_radius_m: spec.workspace_radius_m,
             button_count: spec.capabilities.buttons,
             orientation_input: u32::from(spec.capabilities.orientation_input),
             ..DriverState::default()
-        };
+        }
+        .with_limits(&spec.limits);
         msg.set_name("example driver: simulated arm");
         if let Err(e) = publ.send_copy(msg) {
             tracing::warn!("example driver: publish failed: {e:?}");

@@ -159,10 +159,15 @@ impl<D: HapticDevice, G: GuidanceSource, S: StateSink> Tick<D, G, S> {
     ) -> Result<Self, DeviceError> {
         device.open()?;
         let spec = device.spec().clone();
+        let limits = spec.limits;
         Ok(Self {
             mapping: Mapping::new(&config.mapping),
-            guidance: GuidanceFilter::new(config.guidance, spec.max_force_n, spec.max_torque_nm),
-            safety: Safety::new(config.safety, spec.max_force_n, spec.max_torque_nm),
+            guidance: GuidanceFilter::new(
+                config.guidance,
+                limits.max_force_n,
+                limits.max_torque_nm,
+            ),
+            safety: Safety::new(config.safety, limits.max_force_n, limits.max_torque_nm),
             spec,
             device,
             guidance_source,

@@ -7,7 +7,7 @@
 //! Z up recommended; the loop's mapping turns it into the scene). Torques are about the
 //! end-effector point. Units SI. Quaternions `[x, y, z, w]` (see the crate docs).
 
-use crate::{Header, Pose, Twist, Wrench};
+use crate::{DeviceLimits, Header, LimitError, Pose, Twist, Wrench};
 use iceoryx2::prelude::ZeroCopySend;
 
 /// Bytes of [`DriverState::name`].
@@ -142,30 +142,46 @@ impl DriverState {
         if !self.pose.is_valid() || !twist_ok {
             return Err(DriverError::NonFinite);
         }
-        let limits = [
-            self.max_force_n,
-            self.max_torque_nm,
-            self.max_stiffness_n_per_m,
-            self.max_rot_stiffness_nm_per_rad,
-            self.max_damping_n_s_per_m,
-        ];
-        if limits
-            .iter()
-            .chain([&self.workspace_radius_m])
-            .any(|v| !v.is_finite())
-        {
-            return Err(DriverError::NonFinite);
+        match self.limits().validate() {
+            Err(LimitError::NotFinite { .. }) => return Err(DriverError::NonFinite),
+            Err(LimitError::OutOfRange { .. }) => return Err(DriverError::BadLimits),
+            Ok(()) => {}
         }
-        if limits.iter().any(|v| *v < 0.0)
-            || self.workspace_radius_m <= 0.0
-            || self.button_count > 32
-        {
+        if self.button_count > 32 {
             return Err(DriverError::BadLimits);
         }
         self.name_str().ok_or(DriverError::BadName)?;
         match self.status {
             DriverStatus::OK | DriverStatus::NOT_READY | DriverStatus::FAULT => Ok(()),
             _ => Err(DriverError::UnknownCode),
+        }
+    }
+
+    /// The limits this state announces. The wire carries no rotational damping limit, so
+    /// it is 0: the loop adds no rotational damping for an external driver's device.
+    pub fn limits(&self) -> DeviceLimits {
+        DeviceLimits {
+            max_force_n: self.max_force_n,
+            max_torque_nm: self.max_torque_nm,
+            max_stiffness_n_per_m: self.max_stiffness_n_per_m,
+            max_rot_stiffness_nm_per_rad: self.max_rot_stiffness_nm_per_rad,
+            max_damping_n_s_per_m: self.max_damping_n_s_per_m,
+            max_rot_damping_nm_s_per_rad: 0.0,
+            workspace_radius_m: self.workspace_radius_m,
+        }
+    }
+
+    /// This state announcing `limits` (all but the rotational damping limit, which the
+    /// wire does not carry).
+    pub fn with_limits(self, limits: &DeviceLimits) -> Self {
+        DriverState {
+            max_force_n: limits.max_force_n,
+            max_torque_nm: limits.max_torque_nm,
+            max_stiffness_n_per_m: limits.max_stiffness_n_per_m,
+            max_rot_stiffness_nm_per_rad: limits.max_rot_stiffness_nm_per_rad,
+            max_damping_n_s_per_m: limits.max_damping_n_s_per_m,
+            workspace_radius_m: limits.workspace_radius_m,
+            ..self
         }
     }
 
@@ -261,6 +277,30 @@ mod tests {
         let mut s = state();
         s.set_name("ééééééééééééééééé"); // 34 bytes: cut at a boundary
         assert_eq!(s.name_str().map(str::len), Some(32));
+    }
+
+    #[test]
+    fn limits_round_trip_through_the_flat_fields_but_rotational_damping() {
+        let limits = DeviceLimits {
+            max_force_n: 3.0,
+            max_torque_nm: 0.2,
+            max_stiffness_n_per_m: 900.0,
+            max_rot_stiffness_nm_per_rad: 0.4,
+            max_damping_n_s_per_m: 4.0,
+            max_rot_damping_nm_s_per_rad: 0.01,
+            workspace_radius_m: 0.07,
+        };
+        let s = state().with_limits(&limits);
+        assert_eq!(s.max_stiffness_n_per_m, 900.0);
+        assert_eq!((s.button_count, s.name_str()), (2, Some("test arm")));
+        assert_eq!(
+            s.limits(),
+            DeviceLimits {
+                max_rot_damping_nm_s_per_rad: 0.0,
+                ..limits
+            }
+        );
+        assert_eq!(s.validate(), Ok(()));
     }
 
     #[test]

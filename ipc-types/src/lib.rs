@@ -28,6 +28,7 @@ mod driver;
 mod guidance;
 pub mod latency;
 pub mod layout;
+mod limits;
 pub mod pacing;
 mod path;
 mod roadmap;
@@ -40,6 +41,7 @@ pub use driver::{
     DRIVER_NAME_LEN, DriverCommand, DriverError, DriverState, DriverStatus, OutputCode,
 };
 pub use guidance::{Guidance, GuidanceError};
+pub use limits::{DeviceLimits, LimitError};
 pub use path::{PATH_CAPACITY, Path};
 pub use roadmap::{
     NO_PARENT, ROADMAP_NODES, ROADMAP_TREES, Roadmap, RoadmapNode, RoadmapTree, TreeKind,

@@ -12,7 +12,9 @@ use libloading::Library;
 use nalgebra::{Isometry3, Matrix3, Translation3, Vector3};
 
 use super::{FrameMap, SdkError, load, sym};
-use crate::{Capabilities, DeviceError, DeviceSpec, DeviceState, HapticDevice, Wrench};
+use crate::{
+    Capabilities, DeviceError, DeviceLimits, DeviceSpec, DeviceState, HapticDevice, Wrench,
+};
 
 /// Environment variable naming the library to load instead of `libdhd.so`.
 pub const LIBRARY_ENV: &str = "HRRTC_DHD_LIB";
@@ -126,13 +128,15 @@ pub fn spec_for_system_type(system_type: i32, name: &str) -> DeviceSpec {
     };
     DeviceSpec {
         name: name.to_string(),
-        max_force_n: f,
-        max_torque_nm: t,
-        max_stiffness_n_per_m: k,
-        max_rot_stiffness_nm_per_rad: kr,
-        max_damping_n_s_per_m: b,
-        max_rot_damping_nm_s_per_rad: if t > 0.0 { 0.01 } else { 0.0 },
-        workspace_radius_m: r,
+        limits: DeviceLimits {
+            max_force_n: f,
+            max_torque_nm: t,
+            max_stiffness_n_per_m: k,
+            max_rot_stiffness_nm_per_rad: kr,
+            max_damping_n_s_per_m: b,
+            max_rot_damping_nm_s_per_rad: if t > 0.0 { 0.01 } else { 0.0 },
+            workspace_radius_m: r,
+        },
         capabilities: Capabilities {
             force_output: true,
             torque_output: t > 0.0,
@@ -345,11 +349,11 @@ mod tests {
     #[test]
     fn specs_by_system_type() {
         let falcon = spec_for_system_type(60, "Falcon");
-        assert_eq!(falcon.max_force_n, 8.0);
+        assert_eq!(falcon.limits.max_force_n, 8.0);
         assert_eq!(falcon.capabilities.buttons, 4);
         assert!(!falcon.capabilities.torque_output);
         let sigma = spec_for_system_type(104, "sigma.7");
-        assert!(sigma.capabilities.torque_output && sigma.max_torque_nm > 0.0);
+        assert!(sigma.capabilities.torque_output && sigma.limits.max_torque_nm > 0.0);
         for t in [-1, 0, 33, 34, 35, 60, 63, 64, 104, 999] {
             spec_for_system_type(t, "x").validate().expect("valid spec");
         }

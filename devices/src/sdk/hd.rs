@@ -22,7 +22,9 @@ use nalgebra::{Isometry3, Matrix3, Translation3, Vector3};
 use triple_buffer::{Input, Output, triple_buffer};
 
 use super::{FrameMap, SdkError, load, sym};
-use crate::{Capabilities, DeviceError, DeviceSpec, DeviceState, HapticDevice, Wrench};
+use crate::{
+    Capabilities, DeviceError, DeviceLimits, DeviceSpec, DeviceState, HapticDevice, Wrench,
+};
 
 /// Environment variable naming the library to load instead of `libHD.so`.
 pub const LIBRARY_ENV: &str = "HRRTC_HD_LIB";
@@ -299,13 +301,15 @@ fn spec_from_device(
     let finite_or = |v: f64, d: f64| if v.is_finite() && v > 0.0 { v } else { d };
     DeviceSpec {
         name: name.to_string(),
-        max_force_n: finite_or(max_force_n, 3.3),
-        max_torque_nm: 0.0,
-        max_stiffness_n_per_m: finite_or(stiffness_n_per_mm * 1000.0, 1000.0),
-        max_rot_stiffness_nm_per_rad: 0.0,
-        max_damping_n_s_per_m: finite_or(damping_n_s_per_mm * 1000.0, 2.0),
-        max_rot_damping_nm_s_per_rad: 0.0,
-        workspace_radius_m: finite_or(radius_m, 0.05),
+        limits: DeviceLimits {
+            max_force_n: finite_or(max_force_n, 3.3),
+            max_torque_nm: 0.0,
+            max_stiffness_n_per_m: finite_or(stiffness_n_per_mm * 1000.0, 1000.0),
+            max_rot_stiffness_nm_per_rad: 0.0,
+            max_damping_n_s_per_m: finite_or(damping_n_s_per_mm * 1000.0, 2.0),
+            max_rot_damping_nm_s_per_rad: 0.0,
+            workspace_radius_m: finite_or(radius_m, 0.05),
+        },
         capabilities: Capabilities {
             force_output: true,
             torque_output: false,
@@ -532,14 +536,14 @@ mod tests {
             0.002,
             [-160.0, -120.0, -60.0, 160.0, 120.0, 60.0],
         );
-        assert_eq!(s.max_stiffness_n_per_m, 500.0);
-        assert!((s.max_damping_n_s_per_m - 2.0).abs() < 1e-12);
-        assert!((s.workspace_radius_m - 0.06).abs() < 1e-12);
+        assert_eq!(s.limits.max_stiffness_n_per_m, 500.0);
+        assert!((s.limits.max_damping_n_s_per_m - 2.0).abs() < 1e-12);
+        assert!((s.limits.workspace_radius_m - 0.06).abs() < 1e-12);
         assert!(s.validate().is_ok());
         // Garbage from the device falls back to conservative values.
         let s = spec_from_device("?", f64::NAN, -1.0, f64::INFINITY, [0.0; 6]);
         assert!(s.validate().is_ok());
-        assert_eq!(s.workspace_radius_m, 0.05);
+        assert_eq!(s.limits.workspace_radius_m, 0.05);
     }
 
     #[test]

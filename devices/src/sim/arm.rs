@@ -373,7 +373,7 @@ mod tests {
     #[test]
     fn workspace_wall_holds_the_arm_near_the_radius() {
         let mut arm = open_arm();
-        let radius = arm.spec().workspace_radius_m;
+        let radius = arm.spec().limits.workspace_radius_m;
         let push = Wrench::from_force(Vector3::new(8.0, 0.0, 0.0));
         let mut max_r: f64 = 0.0;
         arm.read(0).expect("read");

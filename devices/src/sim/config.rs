@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::{Capabilities, DeviceError, DeviceSpec};
+use crate::{Capabilities, DeviceError, DeviceLimits, DeviceSpec};
 
 /// Physical and sensor parameters of [`super::SimulatedArm`]. The defaults model a desktop
 /// 6-DOF arm with a light handle. Every field has a default, so a partial TOML/JSON table
@@ -88,13 +88,15 @@ impl SimulatedArmConfig {
     pub fn spec(&self) -> DeviceSpec {
         DeviceSpec {
             name: self.name.clone(),
-            max_force_n: self.max_force_n,
-            max_torque_nm: self.max_torque_nm,
-            max_stiffness_n_per_m: self.max_stiffness_n_per_m,
-            max_rot_stiffness_nm_per_rad: self.max_rot_stiffness_nm_per_rad,
-            max_damping_n_s_per_m: self.max_damping_n_s_per_m,
-            max_rot_damping_nm_s_per_rad: self.max_rot_damping_nm_s_per_rad,
-            workspace_radius_m: self.workspace_radius_m,
+            limits: DeviceLimits {
+                max_force_n: self.max_force_n,
+                max_torque_nm: self.max_torque_nm,
+                max_stiffness_n_per_m: self.max_stiffness_n_per_m,
+                max_rot_stiffness_nm_per_rad: self.max_rot_stiffness_nm_per_rad,
+                max_damping_n_s_per_m: self.max_damping_n_s_per_m,
+                max_rot_damping_nm_s_per_rad: self.max_rot_damping_nm_s_per_rad,
+                workspace_radius_m: self.workspace_radius_m,
+            },
             capabilities: Capabilities {
                 force_output: true,
                 torque_output: true,
@@ -167,11 +169,12 @@ mod tests {
         let c = SimulatedArmConfig::default();
         assert_eq!(c.validate(), Ok(()));
         let s = c.spec();
-        assert_eq!(s.max_force_n, 8.0);
-        assert_eq!(s.max_torque_nm, 0.5);
-        assert_eq!(s.max_stiffness_n_per_m, 2000.0);
-        assert_eq!(s.max_rot_stiffness_nm_per_rad, 0.8);
-        assert_eq!(s.workspace_radius_m, 0.12);
+        assert_eq!(s.limits.max_force_n, 8.0);
+        assert_eq!(s.limits.max_torque_nm, 0.5);
+        assert_eq!(s.limits.max_stiffness_n_per_m, 2000.0);
+        assert_eq!(s.limits.max_rot_stiffness_nm_per_rad, 0.8);
+        assert_eq!(s.limits.max_rot_damping_nm_s_per_rad, 0.01);
+        assert_eq!(s.limits.workspace_radius_m, 0.12);
         assert!(s.capabilities.force_output && s.capabilities.torque_output);
         assert_eq!(s.capabilities.buttons, 2);
     }

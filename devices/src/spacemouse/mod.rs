@@ -27,7 +27,9 @@ pub use feed::{Feed, Snapshot};
 pub use hid::{ConnectError, Found, ListError, enumerate};
 pub use rate::{AxisMap, RateConfig, RateControl};
 
-use crate::{Capabilities, DeviceError, DeviceSpec, DeviceState, HapticDevice, Wrench};
+use crate::{
+    Capabilities, DeviceError, DeviceLimits, DeviceSpec, DeviceState, HapticDevice, Wrench,
+};
 
 /// SpaceMouse settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -79,17 +81,19 @@ impl SpaceMouseConfig {
     pub fn spec_for(&self, name: &str, buttons: u32) -> DeviceSpec {
         DeviceSpec {
             name: name.to_string(),
-            max_force_n: self.max_pseudo_force_n,
-            max_torque_nm: self.max_pseudo_torque_nm,
-            // Nothing reaches the hand: these budget the virtual coupling whose force moves
-            // the avatar (through `write`, like F_s), so contact can hold it out of
-            // obstacles. The avatar is first order (v = F·admittance): with 0.01 (m/s)/N it
-            // is stable at 1 kHz far beyond these values (k·admittance·dt ≪ 2).
-            max_stiffness_n_per_m: 2000.0,
-            max_rot_stiffness_nm_per_rad: 0.5,
-            max_damping_n_s_per_m: 0.0,
-            max_rot_damping_nm_s_per_rad: 0.0,
-            workspace_radius_m: self.rate.workspace_radius_m,
+            limits: DeviceLimits {
+                max_force_n: self.max_pseudo_force_n,
+                max_torque_nm: self.max_pseudo_torque_nm,
+                // Nothing reaches the hand: these budget the virtual coupling whose force moves
+                // the avatar (through `write`, like F_s), so contact can hold it out of
+                // obstacles. The avatar is first order (v = F·admittance): with 0.01 (m/s)/N it
+                // is stable at 1 kHz far beyond these values (k·admittance·dt ≪ 2).
+                max_stiffness_n_per_m: 2000.0,
+                max_rot_stiffness_nm_per_rad: 0.5,
+                max_damping_n_s_per_m: 0.0,
+                max_rot_damping_nm_s_per_rad: 0.0,
+                workspace_radius_m: self.rate.workspace_radius_m,
+            },
             capabilities: Capabilities {
                 force_output: false,
                 torque_output: false,

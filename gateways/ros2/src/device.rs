@@ -32,7 +32,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use ipc_types::services;
-use ipc_types::{DriverCommand, DriverState, DriverStatus, Header, OutputCode};
+use ipc_types::{DeviceLimits, DriverCommand, DriverState, DriverStatus, Header, OutputCode};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use serde::Serialize;
 use zenoh::Wait;
@@ -51,42 +51,17 @@ pub const FAULT_HOLD_NS: u64 = 50_000_000;
 /// Period of zero wrenches while the loop's commands are stale.
 pub const ZERO_REPEAT: Duration = Duration::from_millis(100);
 
-/// The arm's limits, announced to the loop.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Limits {
-    /// Maximum force norm, N.
-    pub max_force_n: f64,
-    /// Maximum torque norm, N·m (0: no torque output).
-    pub max_torque_nm: f64,
-    /// Maximum stable stiffness at 1 kHz, N/m.
-    pub max_stiffness_n_per_m: f64,
-    /// Maximum stable rotational stiffness, N·m/rad.
-    pub max_rot_stiffness_nm_per_rad: f64,
-    /// Maximum stable damping, N·s/m.
-    pub max_damping_n_s_per_m: f64,
-    /// Radius of the reachable sphere about the base origin, m.
-    pub workspace_radius_m: f64,
-    /// The arm senses orientation.
-    pub orientation_input: bool,
-    /// Buttons (≤ 32).
-    pub buttons: u32,
-}
-
-impl Default for Limits {
-    /// Conservative until measured: 3 N, no torque, 1000 N/m, 5 N·s/m, 5 cm.
-    fn default() -> Self {
-        Limits {
-            max_force_n: 3.0,
-            max_torque_nm: 0.0,
-            max_stiffness_n_per_m: 1000.0,
-            max_rot_stiffness_nm_per_rad: 0.0,
-            max_damping_n_s_per_m: 5.0,
-            workspace_radius_m: 0.05,
-            orientation_input: true,
-            buttons: 0,
-        }
-    }
-}
+/// The arm's limits until it is measured, the gateway's defaults: 3 N, no torque,
+/// 1000 N/m, 5 N·s/m, a 5 cm workspace.
+pub const CONSERVATIVE_LIMITS: DeviceLimits = DeviceLimits {
+    max_force_n: 3.0,
+    max_torque_nm: 0.0,
+    max_stiffness_n_per_m: 1000.0,
+    max_rot_stiffness_nm_per_rad: 0.0,
+    max_damping_n_s_per_m: 5.0,
+    max_rot_damping_nm_s_per_rad: 0.0,
+    workspace_radius_m: 0.05,
+};
 
 /// What the device gateway does.
 #[derive(Debug, Clone)]
@@ -109,8 +84,13 @@ pub struct DeviceConfig {
     pub joy_topic: Option<String>,
     /// The wrench's frame (default: the poses' `frame_id`).
     pub wrench_frame: Option<String>,
-    /// The arm's limits.
-    pub limits: Limits,
+    /// The arm's limits, announced to the loop (all but the rotational damping limit,
+    /// which the driver's state does not carry).
+    pub limits: DeviceLimits,
+    /// The arm senses orientation.
+    pub orientation_input: bool,
+    /// Buttons (≤ 32).
+    pub buttons: u32,
     /// The device's name for the loop (≤ 32 bytes).
     pub name: String,
     /// Commands older than this are replaced by zero force, s.
@@ -122,7 +102,8 @@ pub struct DeviceConfig {
 }
 
 impl DeviceConfig {
-    /// Defaults: node `/hrrtc_device`, limits [`Limits::default`], commands stale after
+    /// Defaults: node `/hrrtc_device`, limits [`CONSERVATIVE_LIMITS`] with orientation
+    /// input and no buttons, commands stale after
     /// 20 ms, velocity filtered over 10 ms.
     pub fn new(namespace: &str, pose_topic: &str, wrench_topic: &str) -> Self {
         DeviceConfig {
@@ -135,7 +116,9 @@ impl DeviceConfig {
             twist_topic: None,
             joy_topic: None,
             wrench_frame: None,
-            limits: Limits::default(),
+            limits: CONSERVATIVE_LIMITS,
+            orientation_input: true,
+            buttons: 0,
             name: format!("ROS 2 {pose_topic}"),
             command_timeout_s: 0.02,
             velocity_filter_s: 0.01,
@@ -275,7 +258,7 @@ impl PoseTracker {
 }
 
 /// The wrench to send for `command` (its validity and code checked), saturated to `limits`.
-pub fn wrench_for(command: &DriverCommand, limits: &Limits) -> msgs::Wrench {
+pub fn wrench_for(command: &DriverCommand, limits: &DeviceLimits) -> msgs::Wrench {
     if command.validate().is_err() || command.output != OutputCode::ON {
         return msgs::Wrench::default();
     }
@@ -363,18 +346,10 @@ fn validate(c: &DeviceConfig) -> Result<(), GatewayError> {
     {
         rmw::validate_absolute("topic", t).map_err(RosError::from)?;
     }
-    let l = &c.limits;
+    c.limits
+        .validate()
+        .map_err(|e| GatewayError::Config(format!("the arm's limit {e}")))?;
     for (name, v, positive) in [
-        ("max force (N)", l.max_force_n, false),
-        ("max torque (N·m)", l.max_torque_nm, false),
-        ("max stiffness (N/m)", l.max_stiffness_n_per_m, false),
-        (
-            "max rotational stiffness (N·m/rad)",
-            l.max_rot_stiffness_nm_per_rad,
-            false,
-        ),
-        ("max damping (N·s/m)", l.max_damping_n_s_per_m, false),
-        ("workspace radius (m)", l.workspace_radius_m, true),
         ("command timeout (s)", c.command_timeout_s, true),
         ("velocity filter (s)", c.velocity_filter_s, false),
     ] {
@@ -386,10 +361,10 @@ fn validate(c: &DeviceConfig) -> Result<(), GatewayError> {
             )));
         }
     }
-    if l.buttons > 32 {
+    if c.buttons > 32 {
         return Err(GatewayError::Config(format!(
             "{} buttons: at most 32",
-            l.buttons
+            c.buttons
         )));
     }
     Ok(())
@@ -405,23 +380,17 @@ fn driver_state(
     buttons: u32,
     status: DriverStatus,
 ) -> DriverState {
-    let l = &config.limits;
     let mut s = DriverState {
         header: Header::new(sequence, stamp_ns, std::process::id()),
         pose,
         twist,
         buttons,
         status,
-        max_force_n: l.max_force_n,
-        max_torque_nm: l.max_torque_nm,
-        max_stiffness_n_per_m: l.max_stiffness_n_per_m,
-        max_rot_stiffness_nm_per_rad: l.max_rot_stiffness_nm_per_rad,
-        max_damping_n_s_per_m: l.max_damping_n_s_per_m,
-        workspace_radius_m: l.workspace_radius_m,
-        button_count: l.buttons,
-        orientation_input: u32::from(l.orientation_input),
+        button_count: config.buttons,
+        orientation_input: u32::from(config.orientation_input),
         ..DriverState::default()
-    };
+    }
+    .with_limits(&config.limits);
     s.set_name(&config.name);
     s
 }
@@ -968,10 +937,10 @@ mod tests {
 
     #[test]
     fn commands_become_saturated_wrenches_or_zero() {
-        let limits = Limits {
+        let limits = DeviceLimits {
             max_force_n: 2.0,
             max_torque_nm: 0.1,
-            ..Limits::default()
+            ..CONSERVATIVE_LIMITS
         };
         let mut c = DriverCommand {
             header: Header {
@@ -995,5 +964,38 @@ mod tests {
         c.output = OutputCode::ON;
         c.wrench.force_n[0] = f64::NAN;
         assert_eq!(wrench_for(&c, &limits), msgs::Wrench::default());
+    }
+
+    #[test]
+    fn the_config_is_checked_and_its_limits_announced() {
+        let mut config = DeviceConfig::new("hrrtc_test", "/arm/pose", "/arm/wrench");
+        config.limits.max_stiffness_n_per_m = 800.0;
+        config.buttons = 3;
+        assert!(validate(&config).is_ok());
+        let s = driver_state(
+            &config,
+            1,
+            5,
+            ipc_types::Pose::IDENTITY,
+            ipc_types::Twist::default(),
+            0,
+            DriverStatus::OK,
+        );
+        assert_eq!(s.validate(), Ok(()));
+        assert_eq!(
+            s.limits(),
+            DeviceLimits {
+                max_stiffness_n_per_m: 800.0,
+                ..CONSERVATIVE_LIMITS
+            }
+        );
+        assert_eq!((s.button_count, s.orientation_input), (3, 1));
+
+        config.limits.max_damping_n_s_per_m = -2.0;
+        let e = validate(&config).unwrap_err().to_string();
+        assert!(e.contains("max_damping_n_s_per_m is -2"), "{e}");
+        config.limits.max_damping_n_s_per_m = 5.0;
+        config.buttons = 33;
+        assert!(validate(&config).is_err());
     }
 }

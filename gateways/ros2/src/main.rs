@@ -4,10 +4,11 @@
 
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
-use hrrtc_ros2::device::{DeviceConfig, Limits};
+use hrrtc_ros2::device::{CONSERVATIVE_LIMITS, DeviceConfig};
 use hrrtc_ros2::participant::SessionConfig;
 use hrrtc_ros2::rmw::Distro;
 use hrrtc_ros2::serve::ServeConfig;
+use ipc_types::DeviceLimits;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
@@ -172,22 +173,22 @@ struct DeviceArgs {
     #[arg(long)]
     wrench_frame: Option<String>,
     /// The arm's maximum force, N.
-    #[arg(long, default_value_t = Limits::default().max_force_n, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = CONSERVATIVE_LIMITS.max_force_n, allow_hyphen_values = true)]
     max_force_n: f64,
     /// The arm's maximum torque, N·m (0: no torque output).
-    #[arg(long, default_value_t = Limits::default().max_torque_nm, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = CONSERVATIVE_LIMITS.max_torque_nm, allow_hyphen_values = true)]
     max_torque_nm: f64,
     /// The arm's maximum stable stiffness at 1 kHz, N/m.
-    #[arg(long, default_value_t = Limits::default().max_stiffness_n_per_m, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = CONSERVATIVE_LIMITS.max_stiffness_n_per_m, allow_hyphen_values = true)]
     stiffness_n_per_m: f64,
     /// The arm's maximum stable rotational stiffness, N·m/rad.
-    #[arg(long, default_value_t = Limits::default().max_rot_stiffness_nm_per_rad, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = CONSERVATIVE_LIMITS.max_rot_stiffness_nm_per_rad, allow_hyphen_values = true)]
     rot_stiffness_nm_per_rad: f64,
     /// The arm's maximum stable damping, N·s/m.
-    #[arg(long, default_value_t = Limits::default().max_damping_n_s_per_m, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = CONSERVATIVE_LIMITS.max_damping_n_s_per_m, allow_hyphen_values = true)]
     damping_n_s_per_m: f64,
     /// Radius of the arm's workspace about its base, m.
-    #[arg(long, default_value_t = Limits::default().workspace_radius_m, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = CONSERVATIVE_LIMITS.workspace_radius_m, allow_hyphen_values = true)]
     workspace_radius_m: f64,
     /// Number of buttons (≤ 32).
     #[arg(long, default_value_t = 0)]
@@ -304,16 +305,18 @@ fn device(a: DeviceArgs, stop: Arc<AtomicBool>) -> anyhow::Result<()> {
         twist_topic: a.twist_topic,
         joy_topic: a.joy_topic,
         wrench_frame: a.wrench_frame,
-        limits: Limits {
+        limits: DeviceLimits {
             max_force_n: a.max_force_n,
             max_torque_nm: a.max_torque_nm,
             max_stiffness_n_per_m: a.stiffness_n_per_m,
             max_rot_stiffness_nm_per_rad: a.rot_stiffness_nm_per_rad,
             max_damping_n_s_per_m: a.damping_n_s_per_m,
+            // The driver's state does not carry it (the loop adds no rotational damping).
+            max_rot_damping_nm_s_per_rad: 0.0,
             workspace_radius_m: a.workspace_radius_m,
-            orientation_input: !a.no_orientation,
-            buttons: a.buttons,
         },
+        orientation_input: !a.no_orientation,
+        buttons: a.buttons,
         name: a.name.unwrap_or(config.name),
         command_timeout_s: a.command_timeout_ms / 1e3,
         velocity_filter_s: a.velocity_filter_ms / 1e3,

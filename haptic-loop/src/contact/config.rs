@@ -137,10 +137,10 @@ impl Coupling {
     /// translational gains are divided by the scale; rotations are not scaled.
     pub fn from_spec(spec: &DeviceSpec, position_scale: f64, fraction: f64) -> Self {
         Self {
-            k_n_per_m: fraction * spec.max_stiffness_n_per_m / position_scale,
-            b_n_s_per_m: fraction * spec.max_damping_n_s_per_m / position_scale,
-            k_nm_per_rad: fraction * spec.max_rot_stiffness_nm_per_rad,
-            b_nm_s_per_rad: fraction * spec.max_rot_damping_nm_s_per_rad,
+            k_n_per_m: fraction * spec.limits.max_stiffness_n_per_m / position_scale,
+            b_n_s_per_m: fraction * spec.limits.max_damping_n_s_per_m / position_scale,
+            k_nm_per_rad: fraction * spec.limits.max_rot_stiffness_nm_per_rad,
+            b_nm_s_per_rad: fraction * spec.limits.max_rot_damping_nm_s_per_rad,
         }
     }
 }

@@ -98,16 +98,19 @@ pub(crate) fn wanted_wrench(
     force: &Vector3<f64>,
     torque: &Vector3<f64>,
 ) -> Wrench {
+    let limits = &spec.limits;
     let p = device.pose.translation.vector;
-    let outside = p.norm() - spec.workspace_radius_m;
+    let outside = p.norm() - limits.workspace_radius_m;
     let boundary = if outside > 0.0 {
-        -p.normalize() * (outside * config.boundary_stiffness_fraction * spec.max_stiffness_n_per_m)
+        -p.normalize()
+            * (outside * config.boundary_stiffness_fraction * limits.max_stiffness_n_per_m)
     } else {
         Vector3::zeros()
     };
-    let damping = -device.linear_velocity * (config.damping_fraction * spec.max_damping_n_s_per_m);
+    let damping =
+        -device.linear_velocity * (config.damping_fraction * limits.max_damping_n_s_per_m);
     let rot_damping =
-        -device.angular_velocity * (config.damping_fraction * spec.max_rot_damping_nm_s_per_rad);
+        -device.angular_velocity * (config.damping_fraction * limits.max_rot_damping_nm_s_per_rad);
     Wrench {
         force: mapping.vector_to_device(force) + boundary + damping,
         torque: mapping.vector_to_device(torque) + rot_damping,

@@ -94,6 +94,7 @@ fn guidance_reaches_the_arm_fades_on_planner_death_and_returns() {
     let c = haptic_loop::safety::SafetyConfig::default().damping_fraction
         * devices::sim::SimulatedArmConfig::default()
             .spec()
+            .limits
             .max_damping_n_s_per_m;
     // Forces ramped in: no fault for the ramp and then some. (Without real-time rights a
     // busy machine can make the loop miss five deadlines in a row; it then latches
