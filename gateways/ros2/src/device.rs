@@ -41,6 +41,7 @@ use crate::GatewayError;
 use crate::clock::Clocks;
 use crate::msgs::{self, Joy, Message, PoseStamped, TwistStamped, WrenchStamped};
 use crate::participant::{Participant, RosError, RosPublisher, SessionConfig};
+use crate::rejections::{Rejected, Rejections};
 use crate::rmw::{self, Attachment, Qos};
 
 /// Farthest accepted end-effector position from the base, m.
@@ -156,9 +157,18 @@ pub enum PoseRejection {
     },
 }
 
-impl PoseRejection {
-    /// Its kind, as counted.
-    pub fn kind(&self) -> &'static str {
+impl Rejected for PoseRejection {
+    const WHAT: &'static str = "pose sample";
+    const KINDS: &'static [&'static str] = &[
+        "wrong_type",
+        "attachment",
+        "cdr",
+        "non_finite",
+        "not_unit",
+        "absurd",
+    ];
+
+    fn kind(&self) -> &'static str {
         match self {
             PoseRejection::WrongType(_) => "wrong_type",
             PoseRejection::Attachment(_) => "attachment",
@@ -168,16 +178,6 @@ impl PoseRejection {
             PoseRejection::Absurd { .. } => "absurd",
         }
     }
-
-    /// Every kind.
-    pub const KINDS: [&'static str; 6] = [
-        "wrong_type",
-        "attachment",
-        "cdr",
-        "non_finite",
-        "not_unit",
-        "absurd",
-    ];
 }
 
 /// Checks a pose and turns successive poses into a velocity (finite differences through a
@@ -308,7 +308,7 @@ pub struct DeviceReport {
 struct Counters {
     poses_received: AtomicU64,
     poses_accepted: AtomicU64,
-    rejected: [AtomicU64; PoseRejection::KINDS.len()],
+    rejected: Rejections<PoseRejection>,
     faults_sent: AtomicU64,
     twists: AtomicU64,
     joys: AtomicU64,
@@ -328,7 +328,6 @@ struct Shared {
     /// Until when good poses are still reported as `FAULT` (after a bad one), ns.
     fault_until_ns: u64,
     frame: String,
-    logged: [Option<Instant>; PoseRejection::KINDS.len()],
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
@@ -457,7 +456,6 @@ impl<'a> DeviceGateway<'a> {
             last_good: ipc_types::Pose::IDENTITY,
             fault_until_ns: 0,
             frame: config.wrench_frame.clone().unwrap_or_default(),
-            logged: [None; PoseRejection::KINDS.len()],
         }));
         let (pose, pose_topic, pose_key) =
             subscribe_poses(&participant, config, &counters, &shared, states)?;
@@ -587,11 +585,7 @@ impl Counters {
             seconds,
             poses_received: n(&self.poses_received),
             poses_accepted: n(&self.poses_accepted),
-            poses_rejected: PoseRejection::KINDS
-                .iter()
-                .zip(&self.rejected)
-                .map(|(k, c)| (*k, n(c)))
-                .collect(),
+            poses_rejected: self.rejected.counts(),
             faults_sent: n(&self.faults_sent),
             twists: n(&self.twists),
             joys: n(&self.joys),
@@ -656,15 +650,7 @@ impl Shared {
                 ))
             }
             Err(e) => {
-                let i = PoseRejection::KINDS
-                    .iter()
-                    .position(|k| *k == e.kind())
-                    .unwrap_or(0);
-                counters.rejected[i].fetch_add(1, Ordering::Relaxed);
-                if self.logged[i].is_none_or(|t| t.elapsed() >= Duration::from_secs(1)) {
-                    tracing::warn!("rejected a pose sample ({}) on {key}: {e}", e.kind());
-                    self.logged[i] = Some(Instant::now());
-                }
+                counters.rejected.count(&e, key);
                 if matches!(e, PoseRejection::WrongType(_)) {
                     return None;
                 }
@@ -832,7 +818,6 @@ mod tests {
             last_good: ipc_types::Pose::IDENTITY,
             fault_until_ns: 0,
             frame: String::new(),
-            logged: [None; PoseRejection::KINDS.len()],
         }));
         let _joy = subscribe_buttons(&participant, "/joy", &counters, &shared).expect("joy");
         let _twist = subscribe_twists(&participant, "/twist", &counters, &shared).expect("twist");

@@ -8,7 +8,7 @@
 //!   (`haptic-loop run --device ros2:...` starts it).
 //! - The wire: [`rmw`] (keys, liveliness tokens, QoS text, attachments, GIDs), [`cdr`] and
 //!   [`msgs`] (payloads), [`typehash`] (RIHS01), [`participant`] (session and endpoints),
-//!   [`clock`] (ROS time).
+//!   [`clock`] (ROS time); [`rejections`] counts and logs refused samples by kind.
 #![warn(missing_docs)]
 
 pub mod cdr;
@@ -17,6 +17,7 @@ pub mod device;
 mod error;
 pub mod msgs;
 pub mod participant;
+pub mod rejections;
 pub mod rmw;
 pub mod serve;
 pub mod typehash;

@@ -27,6 +27,7 @@ use ipc_types::{Guidance, GuidanceError, GuidanceMode, Header};
 use crate::cdr::CdrError;
 use crate::clock::Clocks;
 use crate::msgs::{Message, Time, WrenchStamped};
+use crate::rejections::Rejected;
 use crate::rmw::{Attachment, AttachmentError};
 
 /// Largest lead of a stamp over our clock, ns (the bridge's limit, `hrrtc-bridge`).
@@ -76,9 +77,19 @@ pub enum Rejection {
     Invalid(GuidanceError),
 }
 
-impl Rejection {
-    /// Its kind, as counted.
-    pub fn kind(&self) -> &'static str {
+impl Rejected for Rejection {
+    const WHAT: &'static str = "guidance sample";
+    const KINDS: &'static [&'static str] = &[
+        "wrong_type",
+        "attachment",
+        "cdr",
+        "frame",
+        "future",
+        "stale",
+        "invalid",
+    ];
+
+    fn kind(&self) -> &'static str {
         match self {
             Rejection::WrongType { .. } => "wrong_type",
             Rejection::Attachment(_) => "attachment",
@@ -89,17 +100,6 @@ impl Rejection {
             Rejection::Invalid(_) => "invalid",
         }
     }
-
-    /// Every kind, in a fixed order.
-    pub const KINDS: [&'static str; 7] = [
-        "wrong_type",
-        "attachment",
-        "cdr",
-        "frame",
-        "future",
-        "stale",
-        "invalid",
-    ];
 }
 
 /// Turns WrenchStamped samples into the loop's guidance.

@@ -40,6 +40,7 @@ use crate::GatewayError;
 use crate::clock::Clocks;
 use crate::msgs::{self, Header, Message, TfMessage, TransformStamped};
 use crate::participant::{Participant, RosError, RosPublisher, SessionConfig};
+use crate::rejections::Rejections;
 use crate::rmw::{self, Qos};
 use guidance::{GuidanceInput, Rejection};
 use markers::RoadmapModel;
@@ -242,7 +243,7 @@ struct Counters {
     received: AtomicU64,
     delivered: AtomicU64,
     dropped: AtomicU64,
-    rejected: [AtomicU64; Rejection::KINDS.len()],
+    rejected: Rejections<Rejection>,
     ticks_seen: AtomicU64,
     ticks_published: AtomicU64,
     paths: AtomicU64,
@@ -256,19 +257,9 @@ impl Counters {
             received: self.received.load(Ordering::Relaxed),
             delivered: self.delivered.load(Ordering::Relaxed),
             dropped: self.dropped.load(Ordering::Relaxed),
-            rejected: Rejection::KINDS
-                .iter()
-                .zip(&self.rejected)
-                .map(|(k, c)| (*k, c.load(Ordering::Relaxed)))
-                .collect(),
+            rejected: self.rejected.counts(),
         }
     }
-}
-
-struct GuidanceState {
-    input: GuidanceInput,
-    /// When each kind was last logged (at most once a second per kind).
-    logged: [Option<Instant>; Rejection::KINDS.len()],
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
@@ -461,15 +452,12 @@ fn subscribe_guidance(
     )?;
     let (topic, key, token) =
         participant.subscription_token::<msgs::WrenchStamped>("guidance", Qos::volatile(1))?;
-    let state = Mutex::new(GuidanceState {
-        input: GuidanceInput::new(
-            key.clone(),
-            frames.scene.clone(),
-            (config.guidance_ttl_s * 1e9) as u64,
-            planner_id(participant),
-        ),
-        logged: [None; Rejection::KINDS.len()],
-    });
+    let input = Mutex::new(GuidanceInput::new(
+        key.clone(),
+        frames.scene.clone(),
+        (config.guidance_ttl_s * 1e9) as u64,
+        planner_id(participant),
+    ));
     let any_type = rmw::topic_key_any_type(config.session.domain, &topic);
     let counters = counters.clone();
     let sub = participant
@@ -481,8 +469,8 @@ fn subscribe_guidance(
             let payload = sample.payload().to_bytes();
             let attachment = sample.attachment().map(|a| a.to_bytes());
             let newest = counters.newest_tick.load(Ordering::Relaxed);
-            let mut st = lock(&state);
-            match st.input.accept(
+            let mut input = lock(&input);
+            match input.accept(
                 sample.key_expr().as_str(),
                 &payload,
                 attachment.as_deref(),
@@ -490,28 +478,14 @@ fn subscribe_guidance(
                 newest,
             ) {
                 Ok(g) => {
-                    drop(st);
+                    drop(input);
                     if inlet.send(g) {
                         counters.delivered.fetch_add(1, Ordering::Relaxed);
                     } else {
                         counters.dropped.fetch_add(1, Ordering::Relaxed);
                     }
                 }
-                Err(e) => {
-                    let i = Rejection::KINDS
-                        .iter()
-                        .position(|k| *k == e.kind())
-                        .unwrap_or(0);
-                    counters.rejected[i].fetch_add(1, Ordering::Relaxed);
-                    if st.logged[i].is_none_or(|t| t.elapsed() >= Duration::from_secs(1)) {
-                        tracing::warn!(
-                            "rejected a guidance sample ({}) on {}: {e}",
-                            e.kind(),
-                            sample.key_expr()
-                        );
-                        st.logged[i] = Some(Instant::now());
-                    }
-                }
+                Err(e) => counters.rejected.count(&e, sample.key_expr().as_str()),
             }
         })
         .wait()
