@@ -149,17 +149,20 @@ pub struct PortfolioArgs {
     pub portfolio_node_reward: f64,
     /// Authority of --portfolio's thinned plan over the operator's samples (H-RRT-C):
     /// `same` as --authority, or `adaptive` (the machine takes a growing share while the
-    /// operator makes no progress).
+    /// operator makes no progress; with --authority-patience-s, --authority-ramp-s and
+    /// --authority-max-machine where the command has them).
     #[arg(long, default_value = "same", value_parser = ["same", "adaptive"])]
     pub portfolio_thinning_authority: String,
 }
 
 impl PortfolioArgs {
     /// The portfolio asked for, `default` (a --portfolio value) when none is; `None` when
-    /// off.
+    /// off. `adaptive` is the adaptive authority's parameters, for
+    /// --portfolio-thinning-authority adaptive.
     pub fn params(
         &self,
         default: &str,
+        adaptive: planner_core::AdaptiveAuthority,
     ) -> anyhow::Result<Option<planner_core::portfolio::PortfolioParams>> {
         use planner_core::portfolio::{Method, PortfolioParams};
         let list = self.portfolio.as_deref().unwrap_or(default);
@@ -187,9 +190,8 @@ impl PortfolioArgs {
             )
             .context("--portfolio-thinning / --portfolio-thinning-step")?,
             node_reward: self.portfolio_node_reward,
-            thinning_authority: (self.portfolio_thinning_authority == "adaptive").then(|| {
-                planner_core::Authority::Adaptive(planner_core::AdaptiveAuthority::default())
-            }),
+            thinning_authority: (self.portfolio_thinning_authority == "adaptive")
+                .then_some(planner_core::Authority::Adaptive(adaptive)),
             ..PortfolioParams::default()
         };
         p.validate().context("--portfolio")?;
@@ -293,18 +295,25 @@ impl SamplingArgs {
                 self.sampling
             );
         }
+        Ok(planner_core::Authority::Adaptive(
+            self.adaptive_authority()?,
+        ))
+    }
+
+    /// The adaptive authority's parameters from --authority-patience-s, --authority-ramp-s
+    /// and --authority-max-machine, checked (for --authority adaptive and
+    /// --portfolio-thinning-authority adaptive alike).
+    pub fn adaptive_authority(&self) -> anyhow::Result<planner_core::AdaptiveAuthority> {
         let max = self.authority_max_machine;
         if !(0.0..=1.0).contains(&max) {
             bail!("--authority-max-machine must be in [0, 1], got {max}");
         }
-        Ok(planner_core::Authority::Adaptive(
-            planner_core::AdaptiveAuthority {
-                patience_s: positive("authority-patience-s", self.authority_patience_s)?,
-                ramp_s: positive("authority-ramp-s", self.authority_ramp_s)?,
-                max_machine_share: max,
-                ..planner_core::AdaptiveAuthority::default()
-            },
-        ))
+        Ok(planner_core::AdaptiveAuthority {
+            patience_s: positive("authority-patience-s", self.authority_patience_s)?,
+            ramp_s: positive("authority-ramp-s", self.authority_ramp_s)?,
+            max_machine_share: max,
+            ..planner_core::AdaptiveAuthority::default()
+        })
     }
 }
 
@@ -364,6 +373,8 @@ mod tests {
     struct Cli {
         #[command(flatten)]
         sampling: SamplingArgs,
+        #[command(flatten)]
+        portfolio: PortfolioArgs,
     }
 
     fn apply(args: &[&str]) -> anyhow::Result<PlannerParams> {
@@ -403,5 +414,35 @@ mod tests {
         }
         let e = apply(&["--authority", "sometimes"]).unwrap_err();
         assert!(e.to_string().contains("--authority"), "{e}");
+    }
+
+    #[test]
+    fn the_thinned_plans_adaptive_authority_takes_the_authority_flags() {
+        let cli = Cli::try_parse_from([
+            "t",
+            "--portfolio-thinning-authority",
+            "adaptive",
+            "--authority-patience-s",
+            "2",
+            "--authority-max-machine",
+            "0.8",
+        ])
+        .unwrap();
+        let adaptive = cli.sampling.adaptive_authority().unwrap();
+        let p = cli.portfolio.params("all", adaptive).unwrap().unwrap();
+        match p.thinning_authority {
+            Some(planner_core::Authority::Adaptive(a)) => {
+                assert_eq!(
+                    (a.patience_s, a.ramp_s, a.max_machine_share),
+                    (2.0, 0.5, 0.8)
+                )
+            }
+            other => panic!("{other:?}"),
+        }
+        // `same` leaves the thinned plan with the main planner's authority.
+        let cli = Cli::try_parse_from(["t", "--authority-patience-s", "2"]).unwrap();
+        let adaptive = cli.sampling.adaptive_authority().unwrap();
+        let p = cli.portfolio.params("all", adaptive).unwrap().unwrap();
+        assert_eq!(p.thinning_authority, None);
     }
 }

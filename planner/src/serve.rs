@@ -178,7 +178,9 @@ impl ServeArgs {
                 positive("roadmap-rate-hz", self.roadmap_rate_hz)?
             },
             duration_s: positive_opt("duration-s", self.duration_s)?,
-            portfolio: self.portfolio.params(SERVE_PORTFOLIO)?,
+            portfolio: self
+                .portfolio
+                .params(SERVE_PORTFOLIO, self.sampling.adaptive_authority()?)?,
         })
     }
 }

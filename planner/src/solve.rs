@@ -78,7 +78,10 @@ impl SolveArgs {
             }
             None => None,
         };
-        let portfolio = self.portfolio.params("off")?;
+        // Offline there is no operator: the thinned plan's authority has nothing to share.
+        let portfolio = self
+            .portfolio
+            .params("off", planner_core::AdaptiveAuthority::default())?;
         if portfolio.is_some() && (thinning.is_some() || self.png.is_some()) {
             bail!(
                 "--portfolio plans with its own thinning and roadmaps: not with --thinning or --png"
