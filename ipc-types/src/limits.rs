@@ -104,13 +104,14 @@ impl DeviceLimits {
         if let Some(&(field, value)) = named.iter().find(|(_, v)| !v.is_finite()) {
             return Err(LimitError::NotFinite { field, value });
         }
-        for (field, value) in named {
-            let radius = field == "workspace_radius_m";
-            let ok = if radius { value > 0.0 } else { value >= 0.0 };
-            if !ok {
-                let rule = if radius { "> 0" } else { "≥ 0" };
-                return Err(LimitError::OutOfRange { field, value, rule });
-            }
+        let [bounds @ .., (field, radius)] = named;
+        if let Some((field, value)) = bounds.into_iter().find(|(_, v)| *v < 0.0) {
+            let rule = "≥ 0";
+            return Err(LimitError::OutOfRange { field, value, rule });
+        }
+        if radius <= 0.0 {
+            let (value, rule) = (radius, "> 0");
+            return Err(LimitError::OutOfRange { field, value, rule });
         }
         Ok(())
     }
