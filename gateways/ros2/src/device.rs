@@ -40,7 +40,7 @@ use zenoh::Wait;
 use crate::GatewayError;
 use crate::clock::Clocks;
 use crate::msgs::{self, Joy, Message, PoseStamped, TwistStamped, WrenchStamped};
-use crate::participant::{Participant, RosError, RosPublisher, SessionConfig};
+use crate::participant::{Participant, RosError, RosPublisher, SessionConfig, Subscription};
 use crate::rejections::{Rejected, Rejections};
 use crate::rmw::{self, Attachment, Qos};
 
@@ -670,12 +670,6 @@ impl Shared {
         }
     }
 }
-
-/// A subscription and its endpoint token.
-type Subscription = (
-    zenoh::pubsub::Subscriber<()>,
-    zenoh::liveliness::LivelinessToken,
-);
 
 /// Every sample on the pose topic's keys (of any type, so that a wrong type is named)
 /// becomes a `DriverState` for the loop, from Zenoh's callback. Returns the subscription,

@@ -95,6 +95,13 @@ pub fn open_session(config: &SessionConfig) -> Result<zenoh::Session, RosError> 
     Ok(zenoh_session::open(&settings)?)
 }
 
+/// A subscription's Zenoh subscriber (declared by the caller, see
+/// [`Participant::subscription_token`]) and its endpoint token; dropping it undeclares both.
+pub type Subscription = (
+    zenoh::pubsub::Subscriber<()>,
+    zenoh::liveliness::LivelinessToken,
+);
+
 /// A ROS 2 node: a Zenoh session, its node token and the ids of its endpoints.
 pub struct Participant {
     session: zenoh::Session,

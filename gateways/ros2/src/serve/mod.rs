@@ -39,7 +39,7 @@ use zenoh::Wait;
 use crate::GatewayError;
 use crate::clock::Clocks;
 use crate::msgs::{self, Header, Message, TfMessage, TransformStamped};
-use crate::participant::{Participant, RosError, RosPublisher, SessionConfig};
+use crate::participant::{Participant, RosError, RosPublisher, SessionConfig, Subscription};
 use crate::rejections::Rejections;
 use crate::rmw::{self, Qos};
 use guidance::{GuidanceInput, Rejection};
@@ -337,10 +337,7 @@ struct ServeGateway {
     participant: Arc<Participant>,
     pubs: Arc<StatePubs>,
     counters: Arc<Counters>,
-    guidance: (
-        zenoh::pubsub::Subscriber<()>,
-        zenoh::liveliness::LivelinessToken,
-    ),
+    guidance: Subscription,
     threads: [std::thread::JoinHandle<Vec<String>>; 2],
 }
 
@@ -439,13 +436,7 @@ fn subscribe_guidance(
     participant: &Participant,
     frames: &Frames,
     counters: &Arc<Counters>,
-) -> Result<
-    (
-        zenoh::pubsub::Subscriber<()>,
-        zenoh::liveliness::LivelinessToken,
-    ),
-    GatewayError,
-> {
+) -> Result<Subscription, GatewayError> {
     let inlet = services::GuidanceInlet::open(
         &format!("ros2_guidance_{}", std::process::id()),
         &config.namespace,
