@@ -275,6 +275,10 @@ fn a_remote_planner_is_served_across_hosts_and_followed_once_it_solves() {
     assert_eq!(local_report["solved"], false, "{local_report}");
     // The local planner served too: its guidance reached host A after the remote solved.
     assert_eq!(local_report["planner_id"], other, "{local_report}");
+    assert!(
+        local_report["guidance_published"].as_u64().unwrap() > 100,
+        "the local planner served too: {local_report}"
+    );
     assert_eq!(
         summary["planner_id"], remote_report["planner_id"],
         "the loop follows the planner that solved: {summary}"
