@@ -52,7 +52,9 @@ pub struct UnknownDevice(pub String, pub String);
 /// `max_force` (N), `max_torque` (N·m), `stiffness` (N/m), `rot_stiffness` (N·m/rad),
 /// `damping` (N·s/m), `workspace` (radius, m), `buttons`; `stale_ms` (a pose older than this
 /// is a fault, default 20); and the ROS 2 side's `domain`, `connect`, `listen` (Zenoh
-/// endpoints) and `distro` (jazzy, kilted, humble). See `hrrtc-ros2 device --help`.
+/// endpoints), `distro` (jazzy, kilted, humble), `zenoh_config`, `tls_ca`, `tls_cert`,
+/// `tls_key` (files) and `insecure` (`true` to allow plain TCP, e.g. to rmw_zenoh's default
+/// router). See `hrrtc-ros2 device --help`.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Ros2Device {
     /// The options in the order given, keys checked, values checked per key.
@@ -73,7 +75,20 @@ const ROS2_NUMBER_KEYS: [&str; 8] = [
     "stale_ms",
 ];
 /// Keys that take another value (checked by `hrrtc-ros2`).
-const ROS2_OTHER_KEYS: [&str; 6] = ["frame", "domain", "connect", "listen", "distro", "name"];
+const ROS2_OTHER_KEYS: [&str; 10] = [
+    "frame",
+    "domain",
+    "connect",
+    "listen",
+    "distro",
+    "name",
+    "zenoh_config",
+    "tls_ca",
+    "tls_cert",
+    "tls_key",
+];
+/// Keys that take `true` or `false`.
+const ROS2_SWITCH_KEYS: [&str; 1] = ["insecure"];
 
 impl Ros2Device {
     /// Parses the text after `ros2:`; the error says which key or value is wrong.
@@ -87,6 +102,7 @@ impl Ros2Device {
                 .iter()
                 .chain(&ROS2_NUMBER_KEYS)
                 .chain(&ROS2_OTHER_KEYS)
+                .chain(&ROS2_SWITCH_KEYS)
                 .any(|key| *key == k);
             if !known {
                 return Err(format!("unknown key {k:?}"));
@@ -109,6 +125,9 @@ impl Ros2Device {
                 && !v.parse::<f64>().is_ok_and(|x| x.is_finite() && x >= 0.0)
             {
                 return Err(format!("{k}={v:?}: must be a number ≥ 0"));
+            }
+            if ROS2_SWITCH_KEYS.contains(&k) && v != "true" && v != "false" {
+                return Err(format!("{k}={v:?}: must be true or false"));
             }
             if v.is_empty() {
                 return Err(format!("{k}: empty value"));
@@ -371,6 +390,9 @@ mod tests {
         assert_eq!(d.get("max_force"), Some("8"));
         assert_eq!(d.options.iter().filter(|(k, _)| k == "connect").count(), 2);
         assert_eq!(d.stale_s(), 0.05);
+        let secure = Ros2Device::parse("pose=/a,wrench=/b,tls_ca=c.pem,insecure=false").unwrap();
+        assert_eq!(secure.get("tls_ca"), Some("c.pem"));
+        assert_eq!(secure.get("insecure"), Some("false"));
         assert_eq!(
             Ros2Device::parse("pose=/a,wrench=/b").unwrap().stale_s(),
             0.02
@@ -387,6 +409,7 @@ mod tests {
             ),
             ("ros2:pose=/a,wrench=/b,pose=/c", "pose given twice"),
             ("ros2:pose=/a,wrench", "not KEY=VALUE"),
+            ("ros2:pose=/a,wrench=/b,insecure=yes", "true or false"),
         ] {
             let e = spec.parse::<DeviceChoice>().unwrap_err().to_string();
             assert!(e.contains(says), "{spec}: {e}");

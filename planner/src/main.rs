@@ -37,7 +37,7 @@ enum Command {
     /// Run next to a haptic loop: read its state over iceoryx2, grow the trees, publish
     /// guidance, the solution path and roadmap increments (for `planner view`). Stops on
     /// Ctrl-C / SIGTERM or after --duration-s.
-    Serve(ServeArgs),
+    Serve(Box<ServeArgs>),
     /// Plan automatically (no operator) with RRT-Connect or RRT (--algorithm) and report.
     Solve(SolveArgs),
     /// List the built-in scenes, write them as TOML files (with OBJ meshes), or check

@@ -101,7 +101,8 @@ pub struct ServeArgs {
 #[derive(Debug, Args, Clone)]
 pub struct BridgeArgs {
     /// Zenoh endpoint of the loop host's `hrrtc-bridge --side loop`, e.g.
-    /// `tcp/ARM-HOST:7447` (repeatable). Runs this host's side of the bridge inside this
+    /// `tls/ARM-HOST:7447` (repeatable), with the --bridge-tls-* files and
+    /// --bridge-allow-peer naming the loop's certificate. Runs this host's side of the bridge inside this
     /// process instead of `hrrtc-bridge --side planner`: the haptic state arrives in this
     /// host's state blackboard as through that bridge, paths and roadmaps leave through
     /// it, and guidance goes on Zenoh straight from the planning thread (no bridge thread
@@ -114,6 +115,29 @@ pub struct BridgeArgs {
     /// Give up when no --bridge-connect endpoint answers within this at start, s.
     #[arg(long, default_value_t = 10.0)]
     pub bridge_connect_timeout_s: f64,
+    /// Common name of the loop host's certificate (repeatable): the only peer allowed to put
+    /// the state here and to receive this planner's guidance, paths and roadmaps
+    /// (as `hrrtc-bridge --allow-peer`).
+    #[arg(long, value_name = "CN")]
+    pub bridge_allow_peer: Vec<String>,
+    /// Zenoh configuration file (JSON5) for the bridge: any Zenoh setting; the flags apply on
+    /// top of it (as `hrrtc-bridge --zenoh-config`).
+    #[arg(long, value_name = "FILE")]
+    pub bridge_zenoh_config: Option<PathBuf>,
+    /// The lab's CA certificate (PEM) for the bridge's mutual TLS (as `hrrtc-bridge
+    /// --tls-ca`; with --bridge-tls-cert and --bridge-tls-key).
+    #[arg(long, value_name = "FILE", requires_all = ["bridge_tls_cert", "bridge_tls_key"])]
+    pub bridge_tls_ca: Option<PathBuf>,
+    /// This host's certificate (PEM), signed by the lab's CA.
+    #[arg(long, value_name = "FILE", requires_all = ["bridge_tls_ca", "bridge_tls_key"])]
+    pub bridge_tls_cert: Option<PathBuf>,
+    /// This host's private key (PEM).
+    #[arg(long, value_name = "FILE", requires_all = ["bridge_tls_ca", "bridge_tls_cert"])]
+    pub bridge_tls_key: Option<PathBuf>,
+    /// Allow bridge links that are not mutually authenticated TLS (plain tcp/ endpoints):
+    /// anyone who reaches them can read the operator's state and push guidance.
+    #[arg(long)]
+    pub bridge_insecure: bool,
     /// Testing: present this host's clock to the loop's host shifted by this many
     /// seconds (as `hrrtc-bridge --clock-offset-s`).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, hide = true)]
@@ -132,9 +156,19 @@ impl BridgeArgs {
             "--bridge-clock-offset-s {}: must be a finite number",
             self.bridge_clock_offset_s
         );
+        let security = hrrtc_bridge::SecurityArgs {
+            zenoh_config: self.bridge_zenoh_config.clone(),
+            tls_ca: self.bridge_tls_ca.clone(),
+            tls_cert: self.bridge_tls_cert.clone(),
+            tls_key: self.bridge_tls_key.clone(),
+            insecure: self.bridge_insecure,
+        }
+        .security("bridge-");
         Ok(Some(BridgeConfig {
             listen: self.bridge_listen.clone(),
             connect: self.bridge_connect.clone(),
+            security,
+            allow_peers: self.bridge_allow_peer.clone(),
             connect_timeout_s: timeout,
             roadmap,
             clock: HostClock::simulated(self.bridge_clock_offset_s, 0.0),

@@ -64,6 +64,46 @@ pub fn bin(name: &str) -> PathBuf {
     p
 }
 
+/// A lab's certificates for the tests' hosts, made once per test process by `hrrtc-bridge
+/// certs`: the CA, `loop` (valid for 127.0.0.1, as the planner side connects to it),
+/// `planner` and `planner-2` (two planners' hosts) and `intruder` (signed by the lab's CA
+/// but allowed nowhere).
+pub fn lab() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = std::env::temp_dir().join(format!("hrrtc-it-lab-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let out = Command::new(bin("hrrtc-bridge"))
+            .args(["certs", "--out"])
+            .arg(&dir)
+            .args(["--name", "loop=127.0.0.1", "--name", "planner"])
+            .args(["--name", "planner-2", "--name", "intruder"])
+            .output()
+            .expect("run hrrtc-bridge certs");
+        assert!(
+            out.status.success(),
+            "hrrtc-bridge certs: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        dir
+    })
+}
+
+/// `--tls-ca`, `--tls-cert` and `--tls-key` (each flag after `prefix`, e.g. `bridge-` for
+/// `planner serve`) for the lab's host `name`.
+pub fn tls_args(prefix: &str, name: &str) -> Vec<String> {
+    let lab = lab();
+    let file = |f: &str| lab.join(f).to_string_lossy().into_owned();
+    vec![
+        format!("--{prefix}tls-ca"),
+        file("ca.pem"),
+        format!("--{prefix}tls-cert"),
+        file(&format!("{name}.pem")),
+        format!("--{prefix}tls-key"),
+        file(&format!("{name}.key")),
+    ]
+}
+
 /// An IPC namespace no other test or process uses.
 pub fn unique_namespace(tag: &str) -> String {
     ipc_types::services::unique_namespace(&format!("it_{tag}"))

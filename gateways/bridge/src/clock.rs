@@ -81,20 +81,39 @@ pub fn age_at_send_ns(stamp_ns: u64, sent_ns: u64) -> i64 {
     sent_ns.wrapping_sub(stamp_ns) as i64
 }
 
-/// Round trips to each peer bridge, by the peer's id.
+/// How recently a peer bridge must have answered this bridge's probes for its samples to be
+/// handed on, ns: 20 probes at the default 10 Hz, so that a burst of lost probes on a busy
+/// link does not cut a live peer off, while a peer that stopped answering (or never did)
+/// is not listened to.
+pub const ANSWERED_WITHIN_NS: u64 = 2_000_000_000;
+
+/// Round trips to each peer bridge, by the peer's id, and when each last answered.
 #[derive(Debug, Default)]
 pub struct PeerDelays {
     peers: HashMap<u64, VecDeque<u64>>,
+    answered_ns: HashMap<u64, u64>,
 }
 
 impl PeerDelays {
-    /// Records one round trip to `peer`, ns.
-    pub fn record(&mut self, peer: u64, rtt_ns: u64) {
+    /// Records one round trip to `peer`, ns, whose answer arrived at `at_ns` (local
+    /// monotonic clock).
+    pub fn record(&mut self, peer: u64, rtt_ns: u64, at_ns: u64) {
         let w = self.peers.entry(peer).or_default();
         if w.len() == RTT_WINDOW {
             w.pop_front();
         }
         w.push_back(rtt_ns);
+        let last = self.answered_ns.entry(peer).or_default();
+        *last = (*last).max(at_ns);
+    }
+
+    /// Whether `peer` answered a probe within [`ANSWERED_WITHIN_NS`] before `now_ns` (local
+    /// monotonic clock). A liveness check, not authentication: a frame's sender id is
+    /// whatever the sender says, and only a peer that answers probes under it is heard.
+    pub fn answered_recently(&self, peer: u64, now_ns: u64) -> bool {
+        self.answered_ns
+            .get(&peer)
+            .is_some_and(|&t| now_ns.saturating_sub(t) <= ANSWERED_WITHIN_NS)
     }
 
     /// Smallest recent round trip to `peer`, ns; `None` before the first probe returned.
@@ -158,15 +177,33 @@ mod tests {
         let mut d = PeerDelays::default();
         assert_eq!(d.one_way_ns(1), 0);
         for rtt in [900, 400, 2_000] {
-            d.record(1, rtt);
+            d.record(1, rtt, 0);
         }
         assert_eq!(d.one_way_ns(1), 200);
         // The small one falls out of the window.
         for _ in 0..RTT_WINDOW {
-            d.record(1, 1_000);
+            d.record(1, 1_000, 0);
         }
         assert_eq!(d.one_way_ns(1), 500);
         assert_eq!(d.one_way_ns(2), 0);
         assert_eq!(d.peers(), 1);
+    }
+
+    #[test]
+    fn a_peer_is_heard_while_it_answers_probes() {
+        let mut d = PeerDelays::default();
+        let t = 50 * ANSWERED_WITHIN_NS;
+        assert!(!d.answered_recently(7, t), "never answered");
+        d.record(7, 1_000, t);
+        assert!(d.answered_recently(7, t));
+        assert!(d.answered_recently(7, t + ANSWERED_WITHIN_NS));
+        assert!(
+            !d.answered_recently(7, t + ANSWERED_WITHIN_NS + 1),
+            "fell silent"
+        );
+        assert!(!d.answered_recently(8, t), "another id");
+        // An answer that arrives late (recorded out of order) does not move it back.
+        d.record(7, 1_000, t - 10);
+        assert!(d.answered_recently(7, t + ANSWERED_WITHIN_NS));
     }
 }

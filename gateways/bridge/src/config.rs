@@ -34,10 +34,16 @@ pub struct BridgeConfig {
     /// bridges of one host on different namespaces can so be joined, e.g. to measure the
     /// bridge with one clock.)
     pub key_namespace: Option<String>,
-    /// Zenoh endpoints to listen on, e.g. `tcp/0.0.0.0:7447`.
+    /// Zenoh endpoints to listen on, e.g. `tls/0.0.0.0:7447`.
     pub listen: Vec<String>,
-    /// Zenoh endpoints of the other bridges to connect to, e.g. `tcp/10.0.0.2:7447`.
+    /// Zenoh endpoints of the other bridges to connect to, e.g. `tls/10.0.0.2:7447`.
     pub connect: Vec<String>,
+    /// The Zenoh file, mutual TLS and `--insecure` ([`zenoh_session::Security`]).
+    pub security: zenoh_session::Security,
+    /// Common names of the certificates of the peers allowed in ([`crate::access`]):
+    /// planners on the loop's side, the loop on a planner's. Required with TLS unless the
+    /// Zenoh file brings its own access control.
+    pub allow_peers: Vec<String>,
     /// How long to try the `connect` endpoints at start before failing, s.
     pub connect_timeout_s: f64,
     /// Loop side: send at most this many states per second (`None`: every new tick).
@@ -65,6 +71,8 @@ impl BridgeConfig {
             key_namespace: None,
             listen: Vec::new(),
             connect: Vec::new(),
+            security: zenoh_session::Security::default(),
+            allow_peers: Vec::new(),
             connect_timeout_s: 10.0,
             state_rate_hz: None,
             state_poll_us: 100,
@@ -82,6 +90,15 @@ impl BridgeConfig {
             services::validate_namespace(k)?;
         }
         zenoh_session::check_endpoints(self.listen.iter().chain(&self.connect))?;
+        if let Some(bad) = self
+            .allow_peers
+            .iter()
+            .find(|cn| cn.trim().is_empty() || cn.contains(['"', '\\']))
+        {
+            return Err(BridgeError::Config(format!(
+                "--allow-peer {bad:?}: not a certificate common name"
+            )));
+        }
         if let Some(r) = self.state_rate_hz
             && !(r.is_finite() && r > 0.0)
         {

@@ -129,8 +129,10 @@ fn to_local_time<T: Carried>(
     Ok(())
 }
 
-/// Decodes one frame into a `T` in local time, counting a rejection (logged at most once a
-/// second per kind, so a flood cannot flood the log).
+/// Decodes one frame into a `T` in local time, from a bridge that has answered this
+/// bridge's probes lately ([`PeerDelays::answered_recently`]); counts a rejection or an
+/// unanswered sender (each logged at most once a second per kind, so a flood cannot flood
+/// the log).
 pub(crate) fn accept<T: Carried>(
     incoming: &Incoming,
     counters: &Counters,
@@ -142,7 +144,21 @@ pub(crate) fn accept<T: Carried>(
         Ok((h, v))
     });
     match result {
-        Ok(ok) => Some(ok),
+        Ok((h, v)) if lock(delays).answered_recently(h.sender, incoming.arrival_ns) => Some((h, v)),
+        Ok((h, _)) => {
+            bump(&counters.unverified, T::KIND);
+            if last_warning.is_none_or(|t| t.elapsed() >= Duration::from_secs(1)) {
+                tracing::warn!(
+                    "not handing on a {} sample from bridge {:016x}: it has not answered this \
+                     bridge's probes in the last {} s",
+                    T::KIND.name(),
+                    h.sender,
+                    clock::ANSWERED_WITHIN_NS / 1_000_000_000
+                );
+                *last_warning = Some(Instant::now());
+            }
+            None
+        }
         Err(e) => {
             bump(&counters.rejected, T::KIND);
             if last_warning.is_none_or(|t| t.elapsed() >= Duration::from_secs(1)) {

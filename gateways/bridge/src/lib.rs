@@ -25,6 +25,8 @@
 //! callbacks straight into local services), `import` and `export` (the two threads that
 //! own the other iceoryx2 ports), `report` (counts).
 
+mod access;
+pub mod certs;
 pub mod clock;
 mod config;
 mod direct;
@@ -39,6 +41,7 @@ pub use config::{BridgeConfig, BridgeError, Side};
 pub use direct::GuidanceSender;
 pub use report::{BridgeReport, KindReport};
 pub use session::key;
+pub use zenoh_session::{Security, SecurityArgs, TlsFiles};
 
 use clock::PeerDelays;
 use report::Counters;

@@ -4,24 +4,41 @@
 //! or bad arguments.
 
 use anyhow::Context;
-use clap::{Parser, ValueEnum};
+use clap::{Parser, Subcommand, ValueEnum};
 use hrrtc_bridge::clock::HostClock;
 use hrrtc_bridge::{BridgeConfig, Side};
+use std::path::PathBuf;
 
-/// Bridge one namespace of the haptic loop and planner between hosts over Zenoh (TCP).
+/// Bridge one namespace of the haptic loop and planner between hosts over Zenoh, mutually
+/// authenticated with TLS.
 ///
-/// On the arm's host: `hrrtc-bridge --side loop --listen tcp/0.0.0.0:7447`.
-/// On the planner's host: `hrrtc-bridge --side planner --connect tcp/ARM-HOST:7447`, then
-/// `planner serve` there as usual (or, for one planner, only `planner serve
-/// --bridge-connect tcp/ARM-HOST:7447`, which runs this side in its own process). Stops on
-/// Ctrl-C / SIGTERM or after --duration-s.
+/// Once per lab: `hrrtc-bridge certs --out certs --name loop=ARM-HOST --name planner-1`,
+/// then copy certs/ca.pem and each host's NAME.pem and NAME.key to that host.
+///
+/// On the arm's host: `hrrtc-bridge --side loop --listen tls/0.0.0.0:7447 --tls-ca ca.pem
+/// --tls-cert loop.pem --tls-key loop.key --allow-peer planner-1`.
+/// On the planner's host: `hrrtc-bridge --side planner --connect tls/ARM-HOST:7447 --tls-ca
+/// ca.pem --tls-cert planner-1.pem --tls-key planner-1.key --allow-peer loop`, then `planner
+/// serve` there as usual (or, for one planner, only `planner serve --bridge-connect ...`
+/// with the same options named --bridge-*, which runs this side in its own process).
+/// Plain tcp/ endpoints are refused unless --insecure. Stops on Ctrl-C / SIGTERM or after
+/// --duration-s.
 #[derive(Debug, Parser)]
-#[command(name = "hrrtc-bridge", version, about, long_about)]
+#[command(
+    name = "hrrtc-bridge",
+    version,
+    about,
+    long_about,
+    args_conflicts_with_subcommands = true,
+    subcommand_negates_reqs = true
+)]
 struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
     /// This host's role: `loop` (the haptic loop runs here: its state goes out, guidance,
     /// paths and roadmaps come in) or `planner` (the reverse).
-    #[arg(long, value_enum)]
-    side: SideArg,
+    #[arg(long, value_enum, required = true)]
+    side: Option<SideArg>,
     /// iceoryx2 namespace of the loop and planner (their --namespace); the Zenoh keys are
     /// `hrrtc/<namespace>/...` and must match on both hosts.
     #[arg(long, default_value = ipc_types::services::DEFAULT_NAMESPACE)]
@@ -29,13 +46,21 @@ struct Cli {
     /// Zenoh key namespace, if not the iceoryx2 namespace (both bridges must use the same).
     #[arg(long)]
     key_namespace: Option<String>,
-    /// Zenoh endpoint to listen on, e.g. `tcp/0.0.0.0:7447` (repeatable). Open this TCP
+    /// Zenoh endpoint to listen on, e.g. `tls/0.0.0.0:7447` (repeatable). Open this TCP
     /// port in the host's firewall.
     #[arg(long)]
     listen: Vec<String>,
-    /// Zenoh endpoint of the other host's bridge, e.g. `tcp/192.168.1.20:7447` (repeatable).
+    /// Zenoh endpoint of the other host's bridge, e.g. `tls/192.168.1.20:7447` (repeatable):
+    /// the host as named in its certificate's subject alternative names.
     #[arg(long)]
     connect: Vec<String>,
+    /// Common name of a certificate allowed in (repeatable): on the loop's side the
+    /// planners' hosts, which may then receive the state and put guidance, paths and
+    /// roadmaps; on a planner's side the loop's host, the only one that may put the state.
+    #[arg(long, value_name = "CN")]
+    allow_peer: Vec<String>,
+    #[command(flatten)]
+    security: zenoh_session::SecurityArgs,
     /// Give up starting when no --connect endpoint answers within this, s. Once connected,
     /// a lost link is retried for ever (every 0.1–1 s).
     #[arg(long, default_value_t = 10.0)]
@@ -64,6 +89,27 @@ struct Cli {
     clock_drift_ppm: f64,
 }
 
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Make a lab's CA and a certificate and key per host, for labs without a PKI: writes
+    /// DIR/ca.pem and DIR/ca.key (the CA: keep ca.key on one trusted machine), and
+    /// DIR/NAME.pem with DIR/NAME.key per name (keys mode 0600). Run again on the same DIR
+    /// to add hosts: its CA signs them.
+    Certs {
+        /// The folder to write into (made if missing).
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
+        /// A host's certificate: NAME is its common name (what --allow-peer names), HOSTs
+        /// the DNS names or IP addresses others reach it by (subject alternative names,
+        /// which TLS checks when connecting), e.g. `loop=192.168.1.10,arm-pc`. Repeatable.
+        #[arg(long = "name", value_name = "NAME[=HOST,...]", required = true)]
+        names: Vec<hrrtc_bridge::certs::CertName>,
+        /// Replace a host's existing certificate and key.
+        #[arg(long)]
+        force: bool,
+    },
+}
+
 #[derive(Debug, Clone, Copy, ValueEnum)]
 enum SideArg {
     Loop,
@@ -83,9 +129,11 @@ fn main() -> std::process::ExitCode {
 
 fn run() -> anyhow::Result<()> {
     let cli = Cli::parse();
-    let side = match cli.side {
-        SideArg::Loop => Side::Loop,
-        SideArg::Planner => Side::Planner,
+    let side = match (cli.command, cli.side) {
+        (Some(Command::Certs { out, names, force }), _) => return certs(&out, &names, force),
+        (None, Some(SideArg::Loop)) => Side::Loop,
+        (None, Some(SideArg::Planner)) => Side::Planner,
+        (None, None) => anyhow::bail!("give --side loop or --side planner"),
     };
     if cli.listen.is_empty() && cli.connect.is_empty() {
         anyhow::bail!(
@@ -120,27 +168,57 @@ fn run() -> anyhow::Result<()> {
         clock: HostClock::simulated(cli.clock_offset_s, cli.clock_drift_ppm),
         duration_s: cli.duration_s,
         key_namespace: cli.key_namespace,
+        security: cli.security.security(""),
+        allow_peers: cli.allow_peer,
         ..BridgeConfig::new(side, &cli.namespace)
     };
     let stop = ipc_types::startup::stop_on_signal("hrrtc-bridge")
         .context("installing the Ctrl-C / SIGTERM handler")?;
     let report = hrrtc_bridge::run(&config, stop)?;
     println!(
-        "bridge ({} side) ran {:.1} s; {} peer(s){}",
+        "bridge ({} side) ran {:.1} s; {} peer(s){}; links: {}",
         side.name(),
         report.seconds,
         report.peers,
         report.min_rtt_us.map_or(String::new(), |r| format!(
             ", smallest round trip {r:.0} µs"
-        ))
+        )),
+        config.security.describe()
     );
     for (name, k) in &report.kinds {
         if k.sent + k.received > 0 {
             println!(
-                "  {name}: sent {}, received {}, delivered {}, rejected {}, dropped {}",
-                k.sent, k.received, k.delivered, k.rejected, k.dropped
+                "  {name}: sent {}, received {}, delivered {}, rejected {}, dropped {}, from \
+                 unanswered peers {}",
+                k.sent, k.received, k.delivered, k.rejected, k.dropped, k.unverified
             );
         }
     }
+    Ok(())
+}
+
+/// `hrrtc-bridge certs`: writes the lab's files and says what to copy where.
+fn certs(
+    out: &std::path::Path,
+    names: &[hrrtc_bridge::certs::CertName],
+    force: bool,
+) -> anyhow::Result<()> {
+    let written = hrrtc_bridge::certs::write_lab_certs(out, names, force)?;
+    println!(
+        "{} the lab's CA {}",
+        if written.new_ca {
+            "made"
+        } else {
+            "signed with"
+        },
+        written.ca_cert.display()
+    );
+    for f in &written.files {
+        println!("  wrote {}", f.display());
+    }
+    println!(
+        "copy ca.pem and a host's NAME.pem and NAME.key to that host only; keep ca.key off \
+         the hosts (it signs new certificates)"
+    );
     Ok(())
 }

@@ -66,7 +66,11 @@ impl Probes {
                         let rtt = now.wrapping_sub(h.sent_ns);
                         // A reply to a probe of a previous life of this id would be absurd.
                         if rtt < 10_000_000_000 {
-                            lock(&delays).record(u64::from_le_bytes(peer), rtt);
+                            lock(&delays).record(
+                                u64::from_le_bytes(peer),
+                                rtt,
+                                ipc_types::monotonic_ns(),
+                            );
                         }
                     }
                 })

@@ -15,6 +15,7 @@ pub(crate) struct Counters {
     pub(crate) delivered: [AtomicU64; 7],
     pub(crate) rejected: [AtomicU64; 7],
     pub(crate) dropped: [AtomicU64; 7],
+    pub(crate) unverified: [AtomicU64; 7],
 }
 
 /// Counts one sample of `kind`.
@@ -37,6 +38,9 @@ pub struct KindReport {
     pub rejected: u64,
     /// Lost to a full queue or a failed local send (never waited for).
     pub dropped: u64,
+    /// Well formed, but from a bridge that has not answered this bridge's probes lately:
+    /// never handed on.
+    pub unverified: u64,
 }
 
 /// What a bridge did, at its end.
@@ -81,6 +85,7 @@ pub(crate) fn report(
                     delivered: get(&counters.delivered),
                     rejected: get(&counters.rejected),
                     dropped: get(&counters.dropped),
+                    unverified: get(&counters.unverified),
                 },
             )
         })
@@ -103,8 +108,9 @@ pub(crate) fn log_progress(r: &BridgeReport) {
         .filter(|(_, k)| k.sent + k.received > 0)
         .map(|(name, k)| {
             format!(
-                "{name}: {} sent, {} received, {} delivered, {} rejected, {} dropped",
-                k.sent, k.received, k.delivered, k.rejected, k.dropped
+                "{name}: {} sent, {} received, {} delivered, {} rejected, {} dropped, {} \
+                 from unanswered peers",
+                k.sent, k.received, k.delivered, k.rejected, k.dropped, k.unverified
             )
         })
         .collect();

@@ -98,7 +98,7 @@ def gateway(tmp_path):
     lp = start_loop(ns, loop_summary)
     gw = subprocess.Popen(
         [exe("hrrtc-ros2"), "serve", "--namespace", ns, "--ros-namespace", ros_ns,
-         "--no-connect", "--listen", f"tcp/127.0.0.1:{port}", "--scene", "wall-hole",
+         "--no-connect", "--listen", f"tcp/127.0.0.1:{port}", "--insecure", "--scene", "wall-hole",
          "--parent-frame", "world", "--duration-s", "60", "--summary-json", str(gw_summary)],
         stdout=subprocess.DEVNULL, stderr=log,
     )
@@ -408,7 +408,7 @@ def test_a_ros2_driver_is_the_loops_device(tmp_path):
     # The loop starts hrrtc-ros2 beside itself; it listens, Python connects.
     lp = start_loop(ns, summary, "--device",
                     f"ros2:pose={pose_topic},wrench={wrench_topic},max_force=4,workspace=0.1,"
-                    f"stale_ms=100,listen=tcp/127.0.0.1:{port}")
+                    f"stale_ms=100,listen=tcp/127.0.0.1:{port},insecure=true")
     commands = []
     stop_driver = [False]
     try:

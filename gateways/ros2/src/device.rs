@@ -473,10 +473,10 @@ impl<'a> DeviceGateway<'a> {
             pose_topic,
             config.namespace,
             wrenches.topic(),
-            if config.session.listen.is_empty() {
+            if participant.links().listen.is_empty() {
                 "no listen endpoint".to_owned()
             } else {
-                format!("listening on {:?}", config.session.listen)
+                format!("listening on {:?}", participant.links().listen)
             },
             pose_key,
             participant.node().token()
@@ -797,11 +797,7 @@ mod tests {
     /// for velocities, drops back to the poses' own.
     #[test]
     fn buttons_and_velocities_arrive_and_bad_ones_are_rejected() {
-        let session = SessionConfig {
-            connect: Vec::new(),
-            listen: vec!["tcp/127.0.0.1:0".into()],
-            ..SessionConfig::default()
-        };
+        let session = SessionConfig::insecure(vec!["tcp/127.0.0.1:0".into()], Vec::new());
         let participant = Participant::open(&session, "/", "aux_test").expect("participant");
         let counters = Arc::new(Counters::default());
         let shared = Arc::new(Mutex::new(Shared {

@@ -18,6 +18,9 @@ use std::sync::atomic::AtomicBool;
 ///
 /// With rmw_zenoh's router running (`ros2 run rmw_zenoh_cpp rmw_zenohd`), ROS 2 nodes with
 /// `RMW_IMPLEMENTATION=rmw_zenoh_cpp` on this host see the node, its topics and its frames.
+/// rmw_zenoh's default router is plain TCP, which this program refuses unless --insecure;
+/// a graph secured with rmw_zenoh's configuration files is joined with --zenoh-config (or
+/// ZENOH_SESSION_CONFIG_URI, as rmw_zenoh reads it).
 #[derive(Debug, Parser)]
 #[command(name = "hrrtc-ros2", version, about, long_about)]
 struct Cli {
@@ -44,17 +47,19 @@ struct Common {
     /// ROS domain id [default: $ROS_DOMAIN_ID, else 0].
     #[arg(long)]
     domain_id: Option<u32>,
-    /// Zenoh endpoint to connect to (repeatable) [default: tcp/localhost:7447, rmw_zenoh's
-    /// router].
+    /// Zenoh endpoint to connect to (repeatable) [default: the --zenoh-config file's, else
+    /// tcp/localhost:7447, rmw_zenoh's router].
     #[arg(long)]
     connect: Vec<String>,
     /// Connect nowhere (others connect to --listen).
     #[arg(long, conflicts_with = "connect")]
     no_connect: bool,
-    /// Zenoh endpoint to listen on (repeatable) [default: tcp/localhost:0, as rmw_zenoh's
-    /// sessions].
+    /// Zenoh endpoint to listen on (repeatable) [default: the --zenoh-config file's, else
+    /// tcp/localhost:0, as rmw_zenoh's sessions].
     #[arg(long)]
     listen: Vec<String>,
+    #[command(flatten)]
+    security: zenoh_session::SecurityArgs,
     /// Which rmw_zenoh to meet: jazzy, kilted (the same wire here) or humble (no type
     /// hashes).
     #[arg(long, default_value = "jazzy", value_parser = ["jazzy", "kilted", "humble"])]
@@ -78,22 +83,24 @@ impl Common {
                 _ => 0,
             },
         };
-        let defaults = SessionConfig::default();
+        let mut security = self.security.security("");
+        // rmw_zenoh's own variable for a session's Zenoh file, when no flag names one.
+        if security.zenoh_config.is_none()
+            && let Some(uri) = std::env::var_os("ZENOH_SESSION_CONFIG_URI")
+            && !uri.is_empty()
+        {
+            security.zenoh_config = Some(uri.into());
+        }
         Ok(SessionConfig {
             domain,
             connect: if self.no_connect {
-                Vec::new()
-            } else if self.connect.is_empty() {
-                defaults.connect
+                Some(Vec::new())
             } else {
-                self.connect.clone()
+                (!self.connect.is_empty()).then(|| self.connect.clone())
             },
-            listen: if self.listen.is_empty() {
-                defaults.listen
-            } else {
-                self.listen.clone()
-            },
+            listen: (!self.listen.is_empty()).then(|| self.listen.clone()),
             distro: Distro::parse(&self.ros_distro).unwrap_or_default(),
+            security,
         })
     }
 
@@ -277,7 +284,7 @@ fn serve(a: ServeArgs, stop: Arc<AtomicBool>) -> anyhow::Result<()> {
     let rejected: u64 = report.guidance.rejected.values().sum();
     println!(
         "hrrtc-ros2 serve ran {:.1} s: {} ticks seen, {} published; {} paths; guidance: \
-         {} received, {} delivered, {} rejected {:?}",
+         {} received, {} delivered, {} rejected {:?}; links: {}",
         report.seconds,
         report.ticks_seen,
         report.ticks_published,
@@ -285,7 +292,8 @@ fn serve(a: ServeArgs, stop: Arc<AtomicBool>) -> anyhow::Result<()> {
         report.guidance.received,
         report.guidance.delivered,
         rejected,
-        report.guidance.rejected
+        report.guidance.rejected,
+        config.session.security.describe()
     );
     write_json(a.common.summary_json.as_ref(), &report)
 }
@@ -327,7 +335,7 @@ fn device(a: DeviceArgs, stop: Arc<AtomicBool>) -> anyhow::Result<()> {
     let rejected: u64 = report.poses_rejected.values().sum();
     println!(
         "hrrtc-ros2 device ran {:.1} s: poses {} received, {} accepted, {} rejected {:?} \
-         ({} faults sent); commands {}, wrenches {} ({} zero)",
+         ({} faults sent); commands {}, wrenches {} ({} zero); links: {}",
         report.seconds,
         report.poses_received,
         report.poses_accepted,
@@ -336,7 +344,8 @@ fn device(a: DeviceArgs, stop: Arc<AtomicBool>) -> anyhow::Result<()> {
         report.faults_sent,
         report.commands,
         report.wrenches,
-        report.zero_wrenches
+        report.zero_wrenches,
+        config.session.security.describe()
     );
     write_json(a.common.summary_json.as_ref(), &report)
 }

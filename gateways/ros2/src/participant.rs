@@ -30,22 +30,43 @@ use crate::rmw::{
 pub struct SessionConfig {
     /// `ROS_DOMAIN_ID`.
     pub domain: u32,
-    /// Endpoints to connect to (the rmw_zenoh router, or peers).
-    pub connect: Vec<String>,
-    /// Endpoints to listen on.
-    pub listen: Vec<String>,
+    /// Endpoints to connect to (the rmw_zenoh router, or peers), given explicitly; `None`:
+    /// the Zenoh file's, else rmw_zenoh's router on `tcp/localhost:7447`.
+    pub connect: Option<Vec<String>>,
+    /// Endpoints to listen on, given explicitly; `None`: the file's, else
+    /// `tcp/localhost:0`.
+    pub listen: Option<Vec<String>>,
     /// Whose rmw_zenoh to meet.
     pub distro: Distro,
+    /// The Zenoh file (rmw_zenoh's `ZENOH_SESSION_CONFIG_URI`), TLS, `--insecure`.
+    pub security: zenoh_session::Security,
 }
 
 impl Default for SessionConfig {
-    /// Domain 0, rmw_zenoh's router on this host, Jazzy.
+    /// Domain 0, rmw_zenoh's router on this host (plain TCP: refused unless
+    /// `security.insecure`), Jazzy.
     fn default() -> Self {
         SessionConfig {
             domain: 0,
-            connect: vec!["tcp/localhost:7447".into()],
-            listen: vec!["tcp/localhost:0".into()],
+            connect: None,
+            listen: None,
             distro: Distro::Jazzy,
+            security: zenoh_session::Security::default(),
+        }
+    }
+}
+
+impl SessionConfig {
+    /// Plain TCP on these endpoints, `--insecure` (tests on one machine).
+    pub fn insecure(listen: Vec<String>, connect: Vec<String>) -> Self {
+        SessionConfig {
+            listen: Some(listen),
+            connect: Some(connect),
+            security: zenoh_session::Security {
+                insecure: true,
+                ..zenoh_session::Security::default()
+            },
+            ..SessionConfig::default()
         }
     }
 }
@@ -67,12 +88,15 @@ pub(crate) fn declare_error(key: &str) -> impl FnOnce(zenoh::Error) -> RosError 
     move |e| zenoh_session::declare_error(key)(e).into()
 }
 
-/// Opens a Zenoh session with rmw_zenoh's session settings and these endpoints.
-pub fn open_session(config: &SessionConfig) -> Result<zenoh::Session, RosError> {
+/// Opens a Zenoh session with rmw_zenoh's session settings (below the user's Zenoh file),
+/// these endpoints and this security; the verdict says what it listens on and connects to.
+pub fn open_session(
+    config: &SessionConfig,
+) -> Result<(zenoh::Session, zenoh_session::Verdict), RosError> {
     let settings = zenoh_session::Settings {
-        listen: config.listen.clone(),
-        connect: config.connect.clone(),
-        extra: vec![
+        defaults: vec![
+            ("connect/endpoints", "[\"tcp/localhost:7447\"]".to_owned()),
+            ("listen/endpoints", "[\"tcp/localhost:0\"]".to_owned()),
             // Start without the router and keep trying to reach it in the background, as
             // an rmw_zenoh peer does (an infinite timeout without exit on failure: zenoh
             // then connects in the background; a zero timeout would try once).
@@ -91,6 +115,10 @@ pub fn open_session(config: &SessionConfig) -> Result<zenoh::Session, RosError> 
             ),
             ("queries_default_timeout", "60000".to_owned()),
         ],
+        listen: config.listen.clone(),
+        connect: config.connect.clone(),
+        overrides: Vec::new(),
+        security: config.security.clone(),
     };
     Ok(zenoh_session::open(&settings)?)
 }
@@ -108,6 +136,7 @@ pub struct Participant {
     node: NodeId,
     distro: Distro,
     next_entity: AtomicU32,
+    links: zenoh_session::Verdict,
     _token: zenoh::liveliness::LivelinessToken,
 }
 
@@ -126,7 +155,7 @@ impl Participant {
     pub fn open(config: &SessionConfig, namespace: &str, name: &str) -> Result<Self, RosError> {
         rmw::validate_absolute("namespace", namespace)?;
         rmw::validate_node_name(name)?;
-        let session = open_session(config)?;
+        let (session, links) = open_session(config)?;
         let node = NodeId {
             domain: config.domain,
             session: session.zid().to_string(),
@@ -145,6 +174,7 @@ impl Participant {
             node,
             distro: config.distro,
             next_entity: AtomicU32::new(1),
+            links,
             _token: token,
         })
     }
@@ -157,6 +187,11 @@ impl Participant {
     /// The Zenoh session.
     pub fn session(&self) -> &zenoh::Session {
         &self.session
+    }
+
+    /// What the session listens on and connects to, and whether every link is mutual TLS.
+    pub fn links(&self) -> &zenoh_session::Verdict {
+        &self.links
     }
 
     /// The distribution met.

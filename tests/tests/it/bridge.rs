@@ -2,8 +2,9 @@
 //! test process shares), a planner on "host B" (processes started in a folder whose
 //! `config/iceoryx2.toml` gives iceoryx2 another file prefix, so neither domain sees the
 //! other's services or shared memory), joined only by two `hrrtc-bridge` processes over
-//! Zenoh on loopback TCP with explicit endpoints. Host B's bridge presents a clock an hour
-//! off, as a host booted at another time would.
+//! Zenoh on loopback with explicit endpoints, mutually authenticated TLS with the lab's
+//! certificates (`tests::lab`) and each side allowing only the other's. Host B's bridge
+//! presents a clock an hour off, as a host booted at another time would.
 
 use ipc_types::services;
 use ipc_types::{Guidance, GuidanceFreshness, HapticState};
@@ -29,32 +30,36 @@ fn host_b(tag: &str) -> PathBuf {
     dir
 }
 
+/// Host A's bridge: listens on mutual TLS as the lab's `loop`, lets `planner` in.
 fn bridge_a(ns: &str, port: u16) -> Proc {
-    let listen = format!("tcp/127.0.0.1:{port}");
-    Proc::spawn(
-        &bin("hrrtc-bridge"),
-        &["--side", "loop", "--namespace", ns, "--listen", &listen],
-    )
+    let listen = format!("tls/127.0.0.1:{port}");
+    let mut args = vec!["--side", "loop", "--namespace", ns, "--listen", &listen];
+    let tls = tests::tls_args("", "loop");
+    args.extend(tls.iter().map(String::as_str));
+    args.extend(["--allow-peer", "planner"]);
+    Proc::spawn(&bin("hrrtc-bridge"), &args)
 }
 
+/// Host B's bridge: connects as the lab's `planner`, lets only `loop` put the state.
 fn bridge_b(dir: &Path, ns: &str, port: u16, offset_s: &str) -> Proc {
-    let connect = format!("tcp/127.0.0.1:{port}");
-    Proc::spawn_in(
-        dir,
-        &bin("hrrtc-bridge"),
-        &[
-            "--side",
-            "planner",
-            "--namespace",
-            ns,
-            "--connect",
-            &connect,
-            "--clock-offset-s",
-            offset_s,
-            "--clock-drift-ppm",
-            "50",
-        ],
-    )
+    let connect = format!("tls/127.0.0.1:{port}");
+    let mut args = vec![
+        "--side",
+        "planner",
+        "--namespace",
+        ns,
+        "--connect",
+        &connect,
+        "--clock-offset-s",
+        offset_s,
+        "--clock-drift-ppm",
+        "50",
+        "--allow-peer",
+        "loop",
+    ];
+    let tls = tests::tls_args("", "planner");
+    args.extend(tls.iter().map(String::as_str));
+    Proc::spawn_in(dir, &bin("hrrtc-bridge"), &args)
 }
 
 fn loop_host(ns: &str, summary: &Path) -> Proc {
@@ -308,28 +313,29 @@ fn a_planner_with_the_bridge_in_its_process_is_served_across_hosts() {
     } = TwoHosts::start("bridgein", "hi");
     let planner_json = std::env::temp_dir().join(format!("{ns}-planner.json"));
     let mut a = bridge_a(&ns, port);
-    let connect = format!("tcp/127.0.0.1:{port}");
+    let connect = format!("tls/127.0.0.1:{port}");
     let planner_arg = planner_json.to_str().unwrap().to_string();
     let (seq0, t0) = (state.get().header.sequence, Instant::now());
-    let mut planner = Proc::spawn_in(
-        &dir,
-        &bin("planner"),
-        &[
-            "serve",
-            "--namespace",
-            &ns,
-            "--scene",
-            SCENE,
-            "--duration-s",
-            "8",
-            "--bridge-connect",
-            &connect,
-            "--bridge-clock-offset-s",
-            "3600",
-            "--json",
-            &planner_arg,
-        ],
-    );
+    let mut args = vec![
+        "serve",
+        "--namespace",
+        &ns,
+        "--scene",
+        SCENE,
+        "--duration-s",
+        "8",
+        "--bridge-connect",
+        &connect,
+        "--bridge-allow-peer",
+        "loop",
+        "--bridge-clock-offset-s",
+        "3600",
+        "--json",
+        &planner_arg,
+    ];
+    let tls = tests::tls_args("bridge-", "planner");
+    args.extend(tls.iter().map(String::as_str));
+    let mut planner = Proc::spawn_in(&dir, &bin("planner"), &args);
     let s = wait_fresh(&state, "fresh guidance on host A");
     eprintln!("fresh guidance, sequence {}", s.guidance_sequence);
     let st = planner
@@ -438,18 +444,24 @@ fn a_cut_link_fades_guidance_and_reconnecting_or_restarting_restores_it() {
 #[test]
 fn an_unreachable_endpoint_is_a_clear_error() {
     let port = free_port();
-    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let endpoint = format!("tls/127.0.0.1:{port}");
+    let ns = unique_namespace("unreach");
+    let mut args = vec![
+        "--side",
+        "planner",
+        "--namespace",
+        &ns,
+        "--connect",
+        &endpoint,
+        "--connect-timeout-s",
+        "0.5",
+        "--allow-peer",
+        "loop",
+    ];
+    let tls = tests::tls_args("", "planner");
+    args.extend(tls.iter().map(String::as_str));
     let out = Command::new(bin("hrrtc-bridge"))
-        .args([
-            "--side",
-            "planner",
-            "--namespace",
-            &unique_namespace("unreach"),
-            "--connect",
-            &endpoint,
-            "--connect-timeout-s",
-            "0.5",
-        ])
+        .args(&args)
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -463,20 +475,23 @@ fn an_unreachable_endpoint_is_a_clear_error() {
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("tcp/not-an-endpoint"), "{stderr}");
     // The same from a planner with the bridge in its process.
-    let out = Command::new(bin("planner"))
-        .args([
-            "serve",
-            "--namespace",
-            &unique_namespace("unreachp"),
-            "--scene",
-            SCENE,
-            "--bridge-connect",
-            &endpoint,
-            "--bridge-connect-timeout-s",
-            "0.5",
-        ])
-        .output()
-        .unwrap();
+    let ns = unique_namespace("unreachp");
+    let mut args = vec![
+        "serve",
+        "--namespace",
+        &ns,
+        "--scene",
+        SCENE,
+        "--bridge-connect",
+        &endpoint,
+        "--bridge-connect-timeout-s",
+        "0.5",
+        "--bridge-allow-peer",
+        "loop",
+    ];
+    let tls = tests::tls_args("bridge-", "planner");
+    args.extend(tls.iter().map(String::as_str));
+    let out = Command::new(bin("planner")).args(&args).output().unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains(&endpoint), "names the endpoint: {stderr}");

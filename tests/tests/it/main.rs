@@ -16,6 +16,7 @@ mod issue_16;
 mod live;
 mod ros2;
 mod rt_deps;
+mod security;
 mod startup;
 mod two_process;
 mod view;

@@ -28,7 +28,7 @@ fn a_ros2_driver_is_the_loops_device_and_a_bad_or_silent_one_fails_safe() {
     let (pose_topic, wrench_topic) = (format!("/{ns}/pose"), format!("/{ns}/wrench"));
     let spec = format!(
         "ros2:pose={pose_topic},wrench={wrench_topic},max_force=4,workspace=0.1,stale_ms=50,\
-         listen=tcp/127.0.0.1:{port}"
+         listen=tcp/127.0.0.1:{port},insecure=true"
     );
     let (node, _) = services::create_node("it_ros2_watch").unwrap();
     let state = services::state_reader(&node, &ns).unwrap();
@@ -46,10 +46,8 @@ fn a_ros2_driver_is_the_loops_device_and_a_bad_or_silent_one_fails_safe() {
     );
     let driver = Participant::open(
         &SessionConfig {
-            domain: 0,
-            connect: vec![format!("tcp/127.0.0.1:{port}")],
-            listen: Vec::new(),
             distro: Distro::Jazzy,
+            ..SessionConfig::insecure(Vec::new(), vec![format!("tcp/127.0.0.1:{port}")])
         },
         "/",
         "it_arm_driver",

@@ -367,7 +367,7 @@ impl ServeGateway {
         let n = participant.node();
         tracing::info!(
             "ROS 2 node {}{}{} (domain {}, {:?}, session {}) serving namespace '{}': \
-             connect {:?}, listen {:?}",
+             connect {:?}, listen {:?}; links: {}",
             n.namespace,
             if n.namespace == "/" { "" } else { "/" },
             n.name,
@@ -375,8 +375,9 @@ impl ServeGateway {
             participant.distro(),
             n.session,
             config.namespace,
-            config.session.connect,
-            config.session.listen
+            participant.links().connect,
+            participant.links().listen,
+            config.session.security.describe()
         );
         Ok(ServeGateway {
             participant,

@@ -53,6 +53,10 @@ fn flag(key: &str) -> Option<&'static str> {
         "listen" => "--listen",
         "distro" => "--ros-distro",
         "name" => "--name",
+        "zenoh_config" => "--zenoh-config",
+        "tls_ca" => "--tls-ca",
+        "tls_cert" => "--tls-cert",
+        "tls_key" => "--tls-key",
         _ => return None,
     })
 }
@@ -74,7 +78,11 @@ impl Gateway {
         let mut command = Command::new(&exe);
         command.args(["device", "--namespace", namespace]);
         for (k, v) in &device.options {
-            if let Some(f) = flag(k) {
+            if k == "insecure" {
+                if v == "true" {
+                    command.arg("--insecure");
+                }
+            } else if let Some(f) = flag(k) {
                 command.args([f, v.as_str()]);
             }
         }
