@@ -135,9 +135,10 @@ fn run() -> anyhow::Result<()> {
         (None, Some(SideArg::Planner)) => Side::Planner,
         (None, None) => anyhow::bail!("give --side loop or --side planner"),
     };
-    if cli.listen.is_empty() && cli.connect.is_empty() {
+    if cli.listen.is_empty() && cli.connect.is_empty() && cli.security.zenoh_config.is_none() {
         anyhow::bail!(
-            "give --listen, --connect or both: the other host's bridge must be reachable"
+            "give --listen, --connect or both (or a --zenoh-config that names endpoints): the \
+             other host's bridge must be reachable"
         );
     }
     for (name, v) in [

@@ -152,3 +152,74 @@ fn tls_needs_the_peers_named_and_every_file_readable() {
     assert_eq!(code, Some(2), "{stderr}");
     assert!(stderr.contains("--tls-cert"), "{stderr}");
 }
+
+/// What a local user of another account could write: iceoryx2 creates every segment of the
+/// loop's services (state, guidance, paths, events) readable and writable by the loop's
+/// user only, and its folders writable by no one else. The one exception, by iceoryx2's
+/// design, is the domain's node counter (`*.global_mgmt`, 4 bytes that number new nodes),
+/// which carries no data of the loop's.
+#[test]
+fn the_loops_shared_memory_is_its_users_alone() {
+    use std::os::unix::fs::MetadataExt;
+    let ns = unique_namespace("shm");
+    let started = std::time::SystemTime::now() - std::time::Duration::from_secs(2);
+    let (node, _) = ipc_types::services::create_node("it_shm_watch").unwrap();
+    let state = ipc_types::services::state_reader(&node, &ns).unwrap();
+    let mut lp = tests::start_loop(
+        &ns,
+        &["--priority", "0", "--no-contact", "--duration-s", "30"],
+    );
+    tests::wait_for(
+        "the loop publishes",
+        std::time::Duration::from_secs(30),
+        || (state.get().header.sequence > 100).then_some(()),
+    );
+    let mut checked = 0;
+    let mut walk = vec![std::path::PathBuf::from("/dev/shm"), "/tmp/iceoryx2".into()];
+    while let Some(path) = walk.pop() {
+        let Ok(meta) = std::fs::symlink_metadata(&path) else {
+            continue;
+        };
+        let name = path
+            .file_name()
+            .unwrap_or_default()
+            .to_string_lossy()
+            .into_owned();
+        if meta.is_dir() {
+            if path.starts_with("/tmp/iceoryx2") {
+                assert_eq!(
+                    meta.mode() & 0o022,
+                    0,
+                    "{}: others may write",
+                    path.display()
+                );
+            }
+            for entry in std::fs::read_dir(&path).unwrap().flatten() {
+                walk.push(entry.path());
+            }
+            continue;
+        }
+        let ours = meta.modified().is_ok_and(|m| m >= started) && meta.uid() == unsafe_uid();
+        if !name.starts_with("iox2_") || !ours || name.ends_with(".global_mgmt") {
+            continue;
+        }
+        assert_eq!(
+            meta.mode() & 0o077,
+            0,
+            "{}: not owner-only ({:o})",
+            path.display(),
+            meta.mode()
+        );
+        checked += 1;
+    }
+    assert!(checked >= 5, "found {checked} of the loop's iceoryx2 files");
+    lp.signal(libc::SIGTERM);
+    lp.wait_timeout(std::time::Duration::from_secs(20))
+        .expect("loop stops");
+}
+
+/// This process's user id.
+fn unsafe_uid() -> u32 {
+    // SAFETY: getuid has no preconditions and cannot fail.
+    unsafe { libc::getuid() }
+}
