@@ -55,12 +55,27 @@ pub fn stop_on_signal(program: &'static str) -> Result<Arc<AtomicBool>, ctrlc::E
 /// Logs to stderr with `default_filter` (e.g. `info,zenoh=warn`) unless `RUST_LOG` says
 /// otherwise, in colour only on a terminal. A second call does nothing.
 pub fn init_logging(default_filter: &str) {
+    init_logging_with(default_filter, tracing_subscriber::layer::Identity::new());
+}
+
+/// [`init_logging`], with `layer` beside the log's writer: it sees the events its own filter
+/// enables, whatever `RUST_LOG` lets the log print (the gateways count Zenoh's refusals so).
+pub fn init_logging_with<L>(default_filter: &str, layer: L)
+where
+    L: tracing_subscriber::Layer<tracing_subscriber::Registry> + Send + Sync + 'static,
+{
+    use tracing_subscriber::Layer;
+    use tracing_subscriber::layer::SubscriberExt;
+    use tracing_subscriber::util::SubscriberInitExt;
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default_filter));
-    let _ = tracing_subscriber::fmt()
-        .with_env_filter(filter)
+    let log = tracing_subscriber::fmt::layer()
         .with_ansi(std::io::stderr().is_terminal())
         .with_writer(std::io::stderr)
+        .with_filter(filter);
+    let _ = tracing_subscriber::registry()
+        .with(layer)
+        .with(log)
         .try_init();
 }
 

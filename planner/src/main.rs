@@ -86,7 +86,7 @@ where
             return Ok(code);
         }
     };
-    ipc_types::startup::init_logging("info");
+    ipc_types::startup::init_logging_with("info", hrrtc_bridge::refusal_counter());
     match cli.command {
         Command::Serve(a) => serve::run(&a),
         Command::Solve(a) => solve::run(&a),

@@ -174,9 +174,14 @@ def run_against_loop(tmp_path, lab, peer_tls, answer_probes=True):
          "--tls-cert", str(lab / "loop.pem"), "--tls-key", str(lab / "loop.key"),
          "--allow-peer", "planner"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # The bridge's log, read as it comes: it says when it listens (a connection made to
+    # find out would be a refused handshake of its own).
+    err_lines = []
+    reader = threading.Thread(target=lambda: err_lines.extend(bridge.stderr), daemon=True)
+    reader.start()
     peer = None
     try:
-        wait_for("the bridge to listen", 30, lambda: _listening(port))
+        wait_for("the bridge to listen", 30, lambda: any("keys hrrtc/" in l for l in err_lines))
         peer = Peer(ns, port, peer_tls, answer_probes)
         offered = peer.try_for(TRY_S)
         with peer.lock:
@@ -185,16 +190,14 @@ def run_against_loop(tmp_path, lab, peer_tls, answer_probes=True):
         if peer is not None:
             peer.close()
         bridge.terminate()
-        out, err = bridge.communicate(timeout=20)
+        out = bridge.stdout.read()
+        bridge.wait(timeout=20)
+        reader.join(timeout=20)
+        err = "".join(err_lines)
         loop.terminate()
         assert loop.wait(timeout=20) == 0
     assert bridge.returncode == 0, err
     return json.loads(summary.read_text()), out, received
-
-
-def _listening(port):
-    with socket.socket() as s:
-        return s.connect_ex(("127.0.0.1", port)) == 0
 
 
 def rendered(summary):
@@ -209,6 +212,7 @@ def test_the_allowed_planner_receives_the_state_and_its_guidance_is_rendered(tmp
     assert rendered(summary) > 100, (summary["loop_report"], out)
     assert summary["planner_id"] == 666, summary
     assert "mutual TLS" in out, out
+    assert "kept out: 0 TLS handshake(s) refused" in out and "), 0 peer(s)" in out, out
 
 
 @pytest.mark.parametrize("who", ["no-certificate", "plain-tcp", "other-ca", "not-allowed"])
@@ -227,6 +231,14 @@ def test_a_peer_that_is_not_let_in_gets_nothing_and_moves_nothing(tmp_path, labs
     assert summary["planner_id"] == 0, (who, summary)
     # Nothing of the peer was handed to the loop, not even as an unanswered sender's.
     assert "guidance:" not in out or "delivered 0" in out, out
+    # And the bridge counted what Zenoh kept out.
+    kept = next(l for l in out.splitlines() if "kept out:" in l)
+    handshakes = int(kept.split("kept out:")[1].split()[0])
+    not_allowed = int(kept.split("), ")[1].split()[0])
+    if who == "not-allowed":
+        assert not_allowed >= 1 and handshakes == 0, kept
+    else:
+        assert handshakes >= 1 and not_allowed == 0, kept
 
 
 def test_guidance_from_a_peer_that_does_not_answer_probes_is_not_handed_on(tmp_path, labs):

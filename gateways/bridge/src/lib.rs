@@ -41,7 +41,7 @@ pub use config::{BridgeConfig, BridgeError, Side};
 pub use direct::GuidanceSender;
 pub use report::{BridgeReport, KindReport};
 pub use session::key;
-pub use zenoh_session::{Security, SecurityArgs, TlsFiles};
+pub use zenoh_session::{Refusals, Security, SecurityArgs, TlsFiles, refusal_counter};
 
 use clock::PeerDelays;
 use report::Counters;
@@ -188,7 +188,15 @@ fn run_until_stopped(
     started: Instant,
 ) {
     let mut next_log = Instant::now() + Duration::from_secs(5);
+    // Refusals (peers Zenoh kept out) are warned of when they grow, at most once a second.
+    let (mut refused, mut refusal_warned) = (zenoh_session::Refusals::now(), None::<Instant>);
     while !stop.load(Ordering::Acquire) {
+        let now_refused = zenoh_session::Refusals::now();
+        if now_refused != refused && refusal_warned.is_none_or(|t| t.elapsed().as_secs_f64() >= 1.0)
+        {
+            tracing::warn!("kept out since start: {now_refused}");
+            (refused, refusal_warned) = (now_refused, Some(Instant::now()));
+        }
         if config
             .duration_s
             .is_some_and(|d| started.elapsed().as_secs_f64() >= d)

@@ -117,7 +117,7 @@ enum SideArg {
 }
 
 fn main() -> std::process::ExitCode {
-    ipc_types::startup::init_logging("info,zenoh=warn");
+    ipc_types::startup::init_logging_with("info,zenoh=warn", zenoh_session::refusal_counter());
     match run() {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
@@ -186,6 +186,7 @@ fn run() -> anyhow::Result<()> {
         )),
         config.security.describe()
     );
+    println!("  kept out: {}", report.refused);
     for (name, k) in &report.kinds {
         if k.sent + k.received > 0 {
             println!(

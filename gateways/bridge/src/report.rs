@@ -54,6 +54,8 @@ pub struct BridgeReport {
     pub min_rtt_us: Option<f64>,
     /// Seconds run.
     pub seconds: f64,
+    /// What Zenoh kept out (in this process) since it started.
+    pub refused: zenoh_session::Refusals,
 }
 
 impl BridgeReport {
@@ -97,6 +99,7 @@ pub(crate) fn report(
         peers: d.peers(),
         min_rtt_us,
         seconds: started.elapsed().as_secs_f64(),
+        refused: zenoh_session::Refusals::now(),
     }
 }
 
@@ -117,5 +120,10 @@ pub(crate) fn log_progress(r: &BridgeReport) {
     let rtt = r.min_rtt_us.map_or("no peer answered yet".to_owned(), |v| {
         format!("{} peer(s), round trip ≥ {v:.0} µs", r.peers)
     });
-    tracing::info!("{}; {rtt}", parts.join("; "));
+    let refused = if r.refused.is_none() {
+        String::new()
+    } else {
+        format!("; kept out: {}", r.refused)
+    };
+    tracing::info!("{}; {rtt}{refused}", parts.join("; "));
 }

@@ -221,7 +221,10 @@ struct DeviceArgs {
 }
 
 fn main() -> std::process::ExitCode {
-    ipc_types::startup::init_logging("info,zenoh=warn,zenoh_ext=warn");
+    ipc_types::startup::init_logging_with(
+        "info,zenoh=warn,zenoh_ext=warn",
+        zenoh_session::refusal_counter(),
+    );
     let cli = Cli::parse();
     let result = stop_on_signal().and_then(|stop| match cli.command {
         Command::Serve(a) => serve(a, stop),
@@ -295,6 +298,7 @@ fn serve(a: ServeArgs, stop: Arc<AtomicBool>) -> anyhow::Result<()> {
         report.guidance.rejected,
         config.session.security.describe()
     );
+    println!("  kept out: {}", zenoh_session::Refusals::now());
     write_json(a.common.summary_json.as_ref(), &report)
 }
 
@@ -347,5 +351,6 @@ fn device(a: DeviceArgs, stop: Arc<AtomicBool>) -> anyhow::Result<()> {
         report.zero_wrenches,
         config.session.security.describe()
     );
+    println!("  kept out: {}", zenoh_session::Refusals::now());
     write_json(a.common.summary_json.as_ref(), &report)
 }

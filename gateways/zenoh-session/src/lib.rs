@@ -13,10 +13,12 @@
 mod cli;
 mod judge;
 mod merge;
+mod refusals;
 
 pub use cli::SecurityArgs;
 pub use judge::{Verdict, judge};
 pub use merge::{Built, Origin, build};
+pub use refusals::{Refusals, layer as refusal_counter};
 
 use std::path::PathBuf;
 use zenoh::Wait;

@@ -352,3 +352,62 @@ fn mutual_tls_lets_the_lab_in_and_keeps_others_out() {
         Err(SessionError::Open { .. })
     ));
 }
+
+/// A session file of the shape rmw_zenoh's `zenoh_security_tools generate_configs` writes
+/// for a node (its defaults' endpoints turned to `tls/`, mutual TLS with the enclave's files,
+/// name verification off, TLS links only, access control with its rule names) is judged
+/// mutually authenticated and opens as it is.
+#[test]
+fn a_file_from_rmw_zenohs_security_tools_is_taken_as_it_is() {
+    let dir = folder("sros2");
+    let lab = Lab::new(&dir, "sros2");
+    let node = lab.host("hrrtc_gateway");
+    let q = |p: &Path| serde_json::to_string(p).unwrap();
+    let file = write(
+        &dir,
+        "hrrtc_gateway.json5",
+        &format!(
+            "{{ mode: 'peer',
+              connect: {{ endpoints: ['tls/localhost:7447'] }},
+              listen: {{ endpoints: ['tls/127.0.0.1:0'] }},
+              scouting: {{ multicast: {{ enabled: false }} }},
+              transport: {{ link: {{ protocols: ['tls'], tls: {{
+                enable_mtls: true, verify_name_on_connect: false,
+                root_ca_certificate: {ca}, listen_private_key: {key}, listen_certificate: {cert},
+                connect_private_key: {key}, connect_certificate: {cert} }} }} }},
+              access_control: {{ enabled: true, default_permission: 'deny',
+                rules: [
+                  {{ id: 'incoming_publications', messages: ['put'], flows: ['ingress'],
+                     permission: 'allow', key_exprs: ['0/hrrtc/guidance/**'] }},
+                  {{ id: 'liveliness_tokens', messages: ['liveliness_token', 'liveliness_query',
+                     'declare_liveliness_subscriber'], flows: ['ingress', 'egress'],
+                     permission: 'allow', key_exprs: ['@ros2_lv/0/**'] }} ],
+                policies: [ {{ rules: ['liveliness_tokens'], subjects: ['router'] }},
+                            {{ rules: ['incoming_publications'], subjects: ['hrrtc_gateway'] }} ],
+                subjects: [ {{ id: 'router' }}, {{ id: 'hrrtc_gateway' }} ] }} }}",
+            ca = q(&node.ca),
+            key = q(&node.key),
+            cert = q(&node.cert)
+        ),
+    );
+    let s = Settings {
+        defaults: vec![
+            ("connect/timeout_ms", "-1".into()),
+            ("connect/exit_on_failure", "false".into()),
+        ],
+        security: Security {
+            zenoh_config: Some(file),
+            ..Security::default()
+        },
+        ..Settings::default()
+    };
+    let (built, verdict) = prepare(&s).expect("judged mutual TLS");
+    assert!(verdict.mutual_tls);
+    assert_eq!(verdict.connect, ["tls/localhost:7447"]);
+    assert_eq!(
+        built.config.get_json("access_control/enabled").unwrap(),
+        "true"
+    );
+    let session = open_prepared(built, &verdict).expect("opens");
+    drop(session);
+}
