@@ -752,13 +752,7 @@ fn subscribe_buttons(
     subscribe::<Joy>(participant, topic, move |j| match j {
         Some(j) => {
             counters.joys.fetch_add(1, Ordering::Relaxed);
-            lock(&shared).buttons = j
-                .buttons
-                .iter()
-                .take(32)
-                .enumerate()
-                .filter(|(_, b)| **b != 0)
-                .fold(0u32, |m, (i, _)| m | (1 << i));
+            lock(&shared).buttons = j.button_mask();
         }
         None => {
             counters.aux_rejected.fetch_add(1, Ordering::Relaxed);

@@ -825,6 +825,18 @@ pub struct Joy {
     pub buttons: Vec<i32>,
 }
 
+impl Joy {
+    /// The buttons as the loop's bit mask: bit i set for `buttons[i] != 0`, of the first 32.
+    pub fn button_mask(&self) -> u32 {
+        self.buttons
+            .iter()
+            .take(32)
+            .enumerate()
+            .filter(|(_, b)| **b != 0)
+            .fold(0u32, |m, (i, _)| m | (1 << i))
+    }
+}
+
 impl Message for Joy {
     const TYPE: &'static MsgType = &JOY;
 

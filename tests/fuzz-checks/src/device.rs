@@ -191,13 +191,7 @@ impl<'a> Arm<'a> {
     fn joy(&mut self, sample: Sample<'_>) {
         let attached = ros2::attachment(sample.attachment);
         if let Some(j) = ros2::message::<Joy>(sample.payload).filter(|_| attached) {
-            self.buttons = j
-                .buttons
-                .iter()
-                .take(32)
-                .enumerate()
-                .filter(|(_, b)| **b != 0)
-                .fold(0u32, |m, (i, _)| m | (1 << i));
+            self.buttons = j.button_mask();
             let pressed = j.buttons.iter().take(32).filter(|b| **b != 0).count();
             assert_eq!(self.buttons.count_ones() as usize, pressed);
         }
