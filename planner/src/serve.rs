@@ -101,7 +101,7 @@ pub struct ServeArgs {
 #[derive(Debug, Args, Clone)]
 pub struct BridgeArgs {
     /// Zenoh endpoint of the loop host's `hrrtc-bridge --side loop`, e.g.
-    /// `tls/ARM-HOST:7447` (repeatable), with the --bridge-tls-* files and
+    /// `quic/ARM-HOST:7447` (repeatable), with the --bridge-tls-* files and
     /// --bridge-allow-peer naming the loop's certificate. Runs this host's side of the bridge inside this
     /// process instead of `hrrtc-bridge --side planner`: the haptic state arrives in this
     /// host's state blackboard as through that bridge, paths and roadmaps leave through

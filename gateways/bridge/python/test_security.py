@@ -35,6 +35,10 @@ STATE, GUIDANCE, PING, PONG = 1, 2, 5, 6
 PEER_ID = 0x666_0000_0000_0666
 # How long each peer tries, s: ~200 probes answered and ~1 000 guidance samples offered.
 TRY_S = 5.0
+# The link the bridge listens on: QUIC (TLS 1.3 over UDP). Zenoh 1.10's tls/ link shares one
+# rustls connection between a reading and a writing task (eclipse-zenoh/zenoh#2557), which
+# can crash a process when a link closes.
+LINK = os.environ.get("HRRTC_TEST_LINK", "quic")
 
 
 def exe(name):
@@ -103,7 +107,7 @@ class Peer:
         conf.insert_json5("mode", '"peer"')
         conf.insert_json5("scouting/multicast/enabled", "false")
         conf.insert_json5("listen/endpoints", "[]")
-        proto = "tls" if tls is not None else "tcp"
+        proto = LINK if tls is not None else "tcp"
         conf.insert_json5("connect/endpoints", json.dumps([f"{proto}/127.0.0.1:{port}"]))
         for key, value in (tls or {}).items():
             conf.insert_json5(f"transport/link/tls/{key}", json.dumps(value))
@@ -170,7 +174,7 @@ def run_against_loop(tmp_path, lab, peer_tls, answer_probes=True):
         stdout=subprocess.DEVNULL)
     bridge = subprocess.Popen(
         [exe("hrrtc-bridge"), "--side", "loop", "--namespace", ns,
-         "--listen", f"tls/127.0.0.1:{port}", "--tls-ca", str(lab / "ca.pem"),
+         "--listen", f"{LINK}/127.0.0.1:{port}", "--tls-ca", str(lab / "ca.pem"),
          "--tls-cert", str(lab / "loop.pem"), "--tls-key", str(lab / "loop.key"),
          "--allow-peer", "planner"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -237,6 +241,9 @@ def test_a_peer_that_is_not_let_in_gets_nothing_and_moves_nothing(tmp_path, labs
     not_allowed = int(kept.split("), ")[1].split()[0])
     if who == "not-allowed":
         assert not_allowed >= 1 and handshakes == 0, kept
+    elif who == "plain-tcp" and LINK == "quic":
+        # Nothing listens on TCP: the connection is refused before any handshake.
+        assert handshakes == 0 and not_allowed == 0, kept
     else:
         assert handshakes >= 1 and not_allowed == 0, kept
 

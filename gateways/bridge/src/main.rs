@@ -15,9 +15,9 @@ use std::path::PathBuf;
 /// Once per lab: `hrrtc-bridge certs --out certs --name loop=ARM-HOST --name planner-1`,
 /// then copy certs/ca.pem and each host's NAME.pem and NAME.key to that host.
 ///
-/// On the arm's host: `hrrtc-bridge --side loop --listen tls/0.0.0.0:7447 --tls-ca ca.pem
+/// On the arm's host: `hrrtc-bridge --side loop --listen quic/0.0.0.0:7447 --tls-ca ca.pem
 /// --tls-cert loop.pem --tls-key loop.key --allow-peer planner-1`.
-/// On the planner's host: `hrrtc-bridge --side planner --connect tls/ARM-HOST:7447 --tls-ca
+/// On the planner's host: `hrrtc-bridge --side planner --connect quic/ARM-HOST:7447 --tls-ca
 /// ca.pem --tls-cert planner-1.pem --tls-key planner-1.key --allow-peer loop`, then `planner
 /// serve` there as usual (or, for one planner, only `planner serve --bridge-connect ...`
 /// with the same options named --bridge-*, which runs this side in its own process).
@@ -46,11 +46,11 @@ struct Cli {
     /// Zenoh key namespace, if not the iceoryx2 namespace (both bridges must use the same).
     #[arg(long)]
     key_namespace: Option<String>,
-    /// Zenoh endpoint to listen on, e.g. `tls/0.0.0.0:7447` (repeatable). Open this TCP
-    /// port in the host's firewall.
+    /// Zenoh endpoint to listen on, e.g. `quic/0.0.0.0:7447` (repeatable). Open this
+    /// port in the host's firewall (UDP for quic/, TCP for tls/).
     #[arg(long)]
     listen: Vec<String>,
-    /// Zenoh endpoint of the other host's bridge, e.g. `tls/192.168.1.20:7447` (repeatable):
+    /// Zenoh endpoint of the other host's bridge, e.g. `quic/192.168.1.20:7447` (repeatable):
     /// the host as named in its certificate's subject alternative names.
     #[arg(long)]
     connect: Vec<String>,

@@ -12,7 +12,8 @@ pub struct SecurityArgs {
     #[arg(long, value_name = "FILE")]
     pub zenoh_config: Option<PathBuf>,
     /// The lab's CA certificate (PEM): mutual TLS, the other side's certificate must be
-    /// signed by it. With --tls-cert and --tls-key; endpoints are then tls/HOST:PORT.
+    /// signed by it. With --tls-cert and --tls-key; endpoints are then quic/HOST:PORT (or
+    /// tls/HOST:PORT, see the guide).
     #[arg(long, value_name = "FILE", requires_all = ["tls_cert", "tls_key"])]
     pub tls_ca: Option<PathBuf>,
     /// This host's certificate (PEM), signed by the CA, presented when listening and when

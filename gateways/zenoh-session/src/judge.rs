@@ -1,8 +1,9 @@
 //! Secure by default: the merged configuration, not the flags, is judged. Every listen and
-//! connect endpoint must be TLS with client certificates required and a CA to check the
-//! other side against, and only TLS links may be opened at all (`transport/link/protocols`,
-//! which also binds peers found by scouting); otherwise the session is refused unless
-//! `--insecure` was given.
+//! connect endpoint must be TLS (`tls/`, or QUIC, `quic/`, which is TLS 1.3 over UDP and
+//! takes the same `transport/link/tls` settings) with client certificates required and a CA
+//! to check the other side against, and only those links may be opened at all
+//! (`transport/link/protocols`, which also binds peers found by scouting); otherwise the
+//! session is refused unless `--insecure` was given.
 
 use crate::merge::Built;
 use crate::{Security, SessionError};
@@ -31,7 +32,10 @@ pub fn judge(built: &mut Built, security: &Security) -> Result<Verdict, SessionE
     };
     let listen = endpoints(z, "listen/endpoints", &mode);
     let connect = endpoints(z, "connect/endpoints", &mode);
-    let tls_only = listen.iter().chain(&connect).all(|e| protocol(e) == "tls");
+    let tls_only = listen
+        .iter()
+        .chain(&connect)
+        .all(|e| authenticated(protocol(e)));
     let mtls = get(z, "transport/link/tls/enable_mtls") == Value::Bool(true);
     let mut verdict = Verdict {
         mode,
@@ -44,7 +48,7 @@ pub fn judge(built: &mut Built, security: &Security) -> Result<Verdict, SessionE
     }
     let p = security.flag_prefix;
     let remedy = format!(
-        "use tls/HOST:PORT endpoints with --{p}tls-ca, --{p}tls-cert and --{p}tls-key (a lab CA \
+        "use tls/HOST:PORT or quic/HOST:PORT endpoints with --{p}tls-ca, --{p}tls-cert and --{p}tls-key (a lab CA \
          and certificates: `hrrtc-bridge certs`) or a --{p}zenoh-config that sets them, or give \
          --{p}insecure to allow unauthenticated links"
     );
@@ -52,7 +56,7 @@ pub fn judge(built: &mut Built, security: &Security) -> Result<Verdict, SessionE
         ("listen on", &verdict.listen, built.listen),
         ("connect to", &verdict.connect, built.connect),
     ] {
-        if let Some(e) = list.iter().find(|e| protocol(e) != "tls") {
+        if let Some(e) = list.iter().find(|e| !authenticated(protocol(e))) {
             return Err(SessionError::Insecure(format!(
                 "refusing to {verb} '{e}' ({}): a `{}` link is not mutually authenticated, so \
                  anyone who can reach it could read the operator's state or push on the arm; \
@@ -89,20 +93,21 @@ pub fn judge(built: &mut Built, security: &Security) -> Result<Verdict, SessionE
     }
     match get(z, "transport/link/protocols") {
         Value::Null => {
+            let only = serde_json::to_string(&AUTHENTICATED).unwrap_or_default();
             built
                 .config
-                .insert_json5("transport/link/protocols", "[\"tls\"]")
+                .insert_json5("transport/link/protocols", &only)
                 .map_err(|e| SessionError::Setting {
                     key: "transport/link/protocols".into(),
-                    value: "[\"tls\"]".into(),
+                    value: only,
                     reason: e.to_string(),
                 })?;
         }
         Value::Array(list) => {
-            if let Some(other) = list.iter().find(|p| p.as_str() != Some("tls")) {
+            if let Some(other) = list.iter().find(|p| !p.as_str().is_some_and(authenticated)) {
                 return Err(SessionError::Insecure(format!(
-                    "transport/link/protocols allows {other}: only \"tls\" links are \
-                     mutually authenticated; {remedy}"
+                    "transport/link/protocols allows {other}: only \"tls\" and \"quic\" \
+                     links are mutually authenticated; {remedy}"
                 )));
             }
         }
@@ -114,6 +119,14 @@ pub fn judge(built: &mut Built, security: &Security) -> Result<Verdict, SessionE
     }
     verdict.mutual_tls = true;
     Ok(verdict)
+}
+
+/// The link protocols that carry TLS (with client certificates when `enable_mtls`).
+const AUTHENTICATED: [&str; 2] = ["tls", "quic"];
+
+/// Whether links of `protocol` carry TLS.
+fn authenticated(protocol: &str) -> bool {
+    AUTHENTICATED.contains(&protocol)
 }
 
 /// A key's value as JSON (`Null` when unset or unreadable).

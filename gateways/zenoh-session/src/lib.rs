@@ -171,6 +171,18 @@ pub fn open(settings: &Settings) -> Result<(zenoh::Session, Verdict), SessionErr
 pub fn prepare(settings: &Settings) -> Result<(Built, Verdict), SessionError> {
     let mut built = build(settings)?;
     let verdict = judge(&mut built, &settings.security)?;
+    if let Some(e) = verdict
+        .listen
+        .iter()
+        .chain(&verdict.connect)
+        .find(|e| e.starts_with("tls/"))
+    {
+        tracing::warn!(
+            "'{e}': Zenoh 1.10's tls/ link shares one TLS connection between a reading and a \
+             writing task without a lock (eclipse-zenoh/zenoh#2557), which can crash this \
+             process when a link closes; quic/ (the same certificates, over UDP) does not"
+        );
+    }
     Ok((built, verdict))
 }
 

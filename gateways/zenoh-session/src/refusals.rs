@@ -1,7 +1,7 @@
 //! Counting what Zenoh refuses. Zenoh exposes no counters for it (only its `stats` feature
 //! would, through the admin space), but it logs each refusal once per connection attempt:
 //! a TLS handshake that fails (no client certificate, one from another CA, not TLS at all)
-//! as a warning of its TLS listener (which adds a hint about the open-file limit, meant for
+//! as a warning of its TLS or QUIC listener (which adds a hint about the open-file limit, meant for
 //! the listener's own errors: those name an OS error, and are not counted), and a peer whose certificate matches no subject of the
 //! access control (every message of it denied) at info level in its access control. The
 //! [`layer`] counts those events whatever the log prints, and [`Refusals`] reads the counts.
@@ -13,12 +13,14 @@ use tracing::field::{Field, Visit};
 use tracing_subscriber::filter::Targets;
 use tracing_subscriber::layer::Context;
 
-/// Zenoh's module that accepts TLS connections.
+/// Zenoh's modules that accept TLS and QUIC connections.
 const TLS_TARGET: &str = "zenoh_link_tls::unicast";
+const QUIC_TARGET: &str = "zenoh_link_commons::quic::unicast";
 /// What it adds to every failed accept, a refused handshake or an OS error.
 const TLS_ACCEPT_FAILED: &str = "Hint: increase the system open file limit";
-/// What an OS error says (a failed accept that is not a refusal).
-const OS_ERROR: &str = "(os error";
+/// What a failed accept that is not a refusal says: an OS error, or the QUIC endpoint
+/// closing at shutdown.
+const NOT_REFUSALS: [&str; 2] = ["(os error", "acceptor closed"];
 /// Zenoh's access control.
 const ACL_TARGET: &str = "zenoh::net::routing::interceptor::access_control";
 /// What it logs when a peer matches no subject.
@@ -73,6 +75,7 @@ where
     use tracing_subscriber::Layer;
     let targets = Targets::new()
         .with_target(TLS_TARGET, tracing::Level::WARN)
+        .with_target(QUIC_TARGET, tracing::Level::WARN)
         .with_target(ACL_TARGET, tracing::Level::INFO);
     Counter.with_filter(targets)
 }
@@ -90,7 +93,10 @@ impl<S: tracing::Subscriber> tracing_subscriber::Layer<S> for Counter {
 
 /// Counts one event of `target` saying `message`, if it is a refusal.
 fn count(target: &str, message: &str) {
-    if target == TLS_TARGET && message.contains(TLS_ACCEPT_FAILED) && !message.contains(OS_ERROR) {
+    let accept_failed = (target == TLS_TARGET || target == QUIC_TARGET)
+        && message.contains(TLS_ACCEPT_FAILED)
+        && !NOT_REFUSALS.iter().any(|n| message.contains(n));
+    if accept_failed {
         TLS_HANDSHAKES.fetch_add(1, Ordering::Relaxed);
     } else if target == ACL_TARGET && message.contains(ACL_NO_SUBJECT) {
         PEERS_WITHOUT_SUBJECT.fetch_add(1, Ordering::Relaxed);
@@ -125,13 +131,21 @@ mod tests {
             &format!("Too many open files (os error 24). {hint}"),
         );
         count(
+            QUIC_TARGET,
+            &format!("QUIC acceptor failed: ConnectionLost {hint}"),
+        );
+        count(
+            QUIC_TARGET,
+            &format!("Can not accept QUIC connections: acceptor closed {hint}"),
+        );
+        count(
             ACL_TARGET,
             "4a2f did not match any configured ACL subject. Default permission `Deny` will be applied on all messages",
         );
         count(TLS_TARGET, "Accepted TLS connection on 127.0.0.1:7447");
         count("elsewhere", &format!("peer sent no certificates. {hint}"));
         let after = Refusals::now();
-        assert_eq!(after.tls_handshakes - before.tls_handshakes, 1);
+        assert_eq!(after.tls_handshakes - before.tls_handshakes, 2);
         assert_eq!(after.peers_not_allowed - before.peers_not_allowed, 1);
         assert!(after.to_string().contains("TLS handshake"));
     }

@@ -268,7 +268,7 @@ fn tls_flags_are_checked_and_restrict_the_links_to_tls() {
     assert!(verdict.mutual_tls);
     assert_eq!(
         built.config.get_json("transport/link/protocols").unwrap(),
-        "[\"tls\"]"
+        "[\"tls\",\"quic\"]"
     );
     // A file that opens other protocols beside TLS is refused, naming the key.
     let file = write(

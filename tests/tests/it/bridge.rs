@@ -2,8 +2,8 @@
 //! test process shares), a planner on "host B" (processes started in a folder whose
 //! `config/iceoryx2.toml` gives iceoryx2 another file prefix, so neither domain sees the
 //! other's services or shared memory), joined only by two `hrrtc-bridge` processes over
-//! Zenoh on loopback with explicit endpoints, mutually authenticated TLS with the lab's
-//! certificates (`tests::lab`) and each side allowing only the other's. Host B's bridge
+//! Zenoh on loopback with explicit endpoints, mutually authenticated (QUIC, TLS 1.3, with
+//! the lab's certificates, `tests::lab`) and each side allowing only the other's. Host B's bridge
 //! presents a clock an hour off, as a host booted at another time would.
 
 use ipc_types::services;
@@ -30,9 +30,9 @@ fn host_b(tag: &str) -> PathBuf {
     dir
 }
 
-/// Host A's bridge: listens on mutual TLS as the lab's `loop`, lets `planner` in.
+/// Host A's bridge: listens on mutual TLS (QUIC) as the lab's `loop`, lets `planner` in.
 fn bridge_a(ns: &str, port: u16) -> Proc {
-    let listen = format!("tls/127.0.0.1:{port}");
+    let listen = format!("quic/127.0.0.1:{port}");
     let mut args = vec!["--side", "loop", "--namespace", ns, "--listen", &listen];
     let tls = tests::tls_args("", "loop");
     args.extend(tls.iter().map(String::as_str));
@@ -42,7 +42,7 @@ fn bridge_a(ns: &str, port: u16) -> Proc {
 
 /// Host B's bridge: connects as the lab's `planner`, lets only `loop` put the state.
 fn bridge_b(dir: &Path, ns: &str, port: u16, offset_s: &str) -> Proc {
-    let connect = format!("tls/127.0.0.1:{port}");
+    let connect = format!("quic/127.0.0.1:{port}");
     let mut args = vec![
         "--side",
         "planner",
@@ -313,7 +313,7 @@ fn a_planner_with_the_bridge_in_its_process_is_served_across_hosts() {
     } = TwoHosts::start("bridgein", "hi");
     let planner_json = std::env::temp_dir().join(format!("{ns}-planner.json"));
     let mut a = bridge_a(&ns, port);
-    let connect = format!("tls/127.0.0.1:{port}");
+    let connect = format!("quic/127.0.0.1:{port}");
     let planner_arg = planner_json.to_str().unwrap().to_string();
     let (seq0, t0) = (state.get().header.sequence, Instant::now());
     let mut args = vec![
@@ -444,7 +444,7 @@ fn a_cut_link_fades_guidance_and_reconnecting_or_restarting_restores_it() {
 #[test]
 fn an_unreachable_endpoint_is_a_clear_error() {
     let port = free_port();
-    let endpoint = format!("tls/127.0.0.1:{port}");
+    let endpoint = format!("quic/127.0.0.1:{port}");
     let ns = unique_namespace("unreach");
     let mut args = vec![
         "--side",
