@@ -17,7 +17,27 @@ pub fn zenoh_session(listen: Option<u16>, connect: Option<u16>) -> anyhow::Resul
     session(listen, connect, None)
 }
 
-/// As [`zenoh_session`], over mutual TLS (`tls/127.0.0.1:PORT`) with `tls`: the CA checks
+/// The protocol of the harnesses' mutually authenticated links: `quic` (default) or `tls`
+/// (`--secure-link`), set once at start.
+static SECURE_LINK: std::sync::OnceLock<&'static str> = std::sync::OnceLock::new();
+
+/// Sets the secure links' protocol (`quic` or `tls`) for this run.
+pub fn set_secure_link(protocol: &str) -> anyhow::Result<()> {
+    let p = match protocol {
+        "quic" => "quic",
+        "tls" => "tls",
+        other => bail!("--secure-link {other}: expected quic or tls"),
+    };
+    let _ = SECURE_LINK.set(p);
+    Ok(())
+}
+
+/// The secure links' protocol: `quic` unless [`set_secure_link`] said otherwise.
+pub fn secure_link() -> &'static str {
+    SECURE_LINK.get().copied().unwrap_or("quic")
+}
+
+/// As [`zenoh_session`], over mutual TLS (`quic/` or `tls/127.0.0.1:PORT`, [`secure_link`]) with `tls`: the CA checks
 /// the other side, this side presents its certificate both when listening and connecting,
 /// client certificates are required, and the name is checked on connecting (the product's
 /// settings, see `zenoh_session::build`). No access control: the bare baseline.
@@ -34,7 +54,7 @@ fn session(
     connect: Option<u16>,
     tls: Option<&TlsFiles>,
 ) -> anyhow::Result<zenoh::Session> {
-    let proto = if tls.is_some() { "tls" } else { "tcp" };
+    let proto = if tls.is_some() { secure_link() } else { "tcp" };
     let list =
         |p: Option<u16>| p.map_or("[]".to_owned(), |p| format!("[\"{proto}/127.0.0.1:{p}\"]"));
     let mut settings = vec![

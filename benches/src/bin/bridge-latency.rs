@@ -77,6 +77,10 @@ use zenoh::qos::CongestionControl;
 /// plain TCP, versus bare Zenoh.
 #[derive(Debug, Parser)]
 struct Args {
+    /// The mutually authenticated link measured against plain TCP: `quic` (Zenoh's QUIC,
+    /// TLS 1.3 over UDP) or `tls` (Zenoh's TLS over TCP).
+    #[arg(long, default_value = "quic")]
+    secure_link: String,
     /// Seconds of each state path, and of the interleaved guidance paths.
     #[arg(long, default_value_t = 5.0)]
     seconds: f64,
@@ -232,6 +236,11 @@ impl Link {
 
 fn main() -> anyhow::Result<()> {
     let args = Args::parse();
+    benches::across::set_secure_link(&args.secure_link)?;
+    println!(
+        "TLS below: mutual TLS over {}/ (--secure-link), against plain tcp/ with --insecure",
+        benches::across::secure_link()
+    );
     if let Some(port) = args.bare_rx {
         return bare_rx(port, &args.bare_rx_key, args.bare_rx_lab.as_deref());
     }
@@ -618,7 +627,7 @@ impl Pair {
         let (ns_a, ns_b, keys) = Pair::names(link, round);
         let endpoint = match link {
             Link::Tcp => format!("tcp/127.0.0.1:{port}"),
-            Link::Tls => format!("tls/127.0.0.1:{port}"),
+            Link::Tls => format!("{}/127.0.0.1:{port}", benches::across::secure_link()),
         };
         let poll = args.state_poll_us.to_string();
         let spawn = |side: &str, ns: &str, how: &str, cert: &str, peers: &[&str]| {

@@ -58,6 +58,10 @@ use zenoh::qos::CongestionControl;
 /// Zenoh.
 #[derive(Debug, Parser)]
 struct Args {
+    /// The mutually authenticated link measured against plain TCP: `quic` (Zenoh's QUIC,
+    /// TLS 1.3 over UDP) or `tls` (Zenoh's TLS over TCP).
+    #[arg(long, default_value = "quic")]
+    secure_link: String,
     /// Seconds measured per round (after a second of warm-up).
     #[arg(long, default_value_t = 5.0)]
     seconds: f64,
@@ -167,6 +171,11 @@ const PATHS: [PathOf<Round>; 5] = [
 
 fn main() -> anyhow::Result<()> {
     let args = Args::parse();
+    benches::across::set_secure_link(&args.secure_link)?;
+    println!(
+        "TLS below: mutual TLS over {}/ (--secure-link), against plain tcp/ with --insecure",
+        benches::across::secure_link()
+    );
     if let Some(port) = args.bare_pub {
         return bare_pub(&args, port);
     }
@@ -353,7 +362,7 @@ impl Gateway {
         cmd.args(["serve", "--namespace", ns, "--ros-namespace", ros_ns])
             .args(["--no-connect", "--listen"])
             .arg(if tls {
-                format!("tls/127.0.0.1:{port}")
+                format!("{}/127.0.0.1:{port}", benches::across::secure_link())
             } else {
                 format!("tcp/127.0.0.1:{port}")
             })
