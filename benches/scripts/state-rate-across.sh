@@ -46,8 +46,8 @@ for i in $(seq 1 "$runs"); do
     (cd "$work/b" && "$OLDPWD/$bin/planner" serve --namespace "$ns" --scene silencer \
       --duration-s "$seconds" --json "$work/planner.json" "${b[@]}" >/dev/null 2>"$work/planner.err") \
       || planner_rc=$?
-    kill -TERM "$bridge"; bridge_rc=0; wait "$bridge" || bridge_rc=$?
-    kill -TERM "$loop"; wait "$loop" || true
+    kill -TERM "$bridge" 2>/dev/null || true; bridge_rc=0; wait "$bridge" || bridge_rc=$?
+    kill -TERM "$loop" 2>/dev/null || true; wait "$loop" || true
     python3 - "$link" "$i" "$work/loop.json" "$work/planner.json" "$bridge_rc,$planner_rc" <<'PY'
 import json, sys
 link, i, lp, pp, rcs = sys.argv[1:]

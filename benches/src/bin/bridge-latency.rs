@@ -237,13 +237,13 @@ impl Link {
 fn main() -> anyhow::Result<()> {
     let args = Args::parse();
     benches::across::set_secure_link(&args.secure_link)?;
+    if let Some(port) = args.bare_rx {
+        return bare_rx(port, &args.bare_rx_key, args.bare_rx_lab.as_deref());
+    }
     println!(
         "TLS below: mutual TLS over {}/ (--secure-link), against plain tcp/ with --insecure",
         benches::across::secure_link()
     );
-    if let Some(port) = args.bare_rx {
-        return bare_rx(port, &args.bare_rx_key, args.bare_rx_lab.as_deref());
-    }
     anyhow::ensure!(
         args.seconds > 0.0 && args.rate_hz > 0.0 && args.guidance_rate_hz > 0.0,
         "--seconds, --rate-hz and --guidance-rate-hz must be positive"
@@ -490,7 +490,8 @@ struct ChildSubscriber {
 impl ChildSubscriber {
     fn start(port: u16, key: &str, lab: Option<&Lab>) -> anyhow::Result<Self> {
         let mut cmd = Command::new(std::env::current_exe()?);
-        cmd.args(["--bare-rx", &port.to_string(), "--bare-rx-key", key]);
+        cmd.args(["--bare-rx", &port.to_string(), "--bare-rx-key", key])
+            .args(["--secure-link", benches::across::secure_link()]);
         if let Some(lab) = lab {
             cmd.arg("--bare-rx-lab").arg(lab.dir());
         }

@@ -172,13 +172,13 @@ const PATHS: [PathOf<Round>; 5] = [
 fn main() -> anyhow::Result<()> {
     let args = Args::parse();
     benches::across::set_secure_link(&args.secure_link)?;
+    if let Some(port) = args.bare_pub {
+        return bare_pub(&args, port);
+    }
     println!(
         "TLS below: mutual TLS over {}/ (--secure-link), against plain tcp/ with --insecure",
         benches::across::secure_link()
     );
-    if let Some(port) = args.bare_pub {
-        return bare_pub(&args, port);
-    }
     anyhow::ensure!(
         args.seconds > 0.0 && args.rate_hz > 0.0 && args.rounds > 0,
         "--seconds, --rate-hz and --rounds must be positive"
