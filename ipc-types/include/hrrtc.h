@@ -39,6 +39,7 @@ typedef uint32_t hrrtc_GuidanceMode;
 #define HRRTC_GUIDANCE_MODE_NONE 0u
 #define HRRTC_GUIDANCE_MODE_ROADMAP 1u
 #define HRRTC_GUIDANCE_MODE_PATH 2u
+#define HRRTC_GUIDANCE_MODE_NO_WAY 3u
 
 typedef uint32_t hrrtc_GuidanceFreshness;
 #define HRRTC_GUIDANCE_FRESHNESS_NONE 0u

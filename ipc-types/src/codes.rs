@@ -82,6 +82,9 @@ impl GuidanceMode {
     pub const ROADMAP: Self = Self(1);
     /// A solution exists: F_a leads along the solution path.
     pub const PATH: Self = Self(2);
+    /// The planner proved there is no way from the start to the goal (a ball inside the
+    /// object cannot pass; `planner_core::no_way`): F_a is zero, and a session may end.
+    pub const NO_WAY: Self = Self(3);
 
     /// A short lower-case name; `"unknown"` for codes this build does not know.
     pub fn name(self) -> &'static str {
@@ -89,6 +92,7 @@ impl GuidanceMode {
             Self::NONE => "none",
             Self::ROADMAP => "roadmap",
             Self::PATH => "path",
+            Self::NO_WAY => "no-way",
             _ => "unknown",
         }
     }

@@ -114,7 +114,10 @@ impl Guidance {
             return Err(GuidanceError::OutOfRange);
         }
         match self.mode {
-            GuidanceMode::NONE | GuidanceMode::ROADMAP | GuidanceMode::PATH => Ok(()),
+            GuidanceMode::NONE
+            | GuidanceMode::ROADMAP
+            | GuidanceMode::PATH
+            | GuidanceMode::NO_WAY => Ok(()),
             _ => Err(GuidanceError::UnknownMode),
         }
     }

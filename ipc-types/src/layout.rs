@@ -288,7 +288,7 @@ pub fn codes() -> Vec<CodeValues> {
         code_values!(FaultCode: NONE, DEVICE_READ, DEVICE_WRITE, DEVICE_NON_FINITE, DEVICE_JUMP,
             DEVICE_STALE, DEVICE_DISCONNECTED, OVERRUN_STREAK, NON_FINITE_WRENCH, STARTUP),
         code_values!(ContactCode: DISABLED, FREE, PROXIMITY, CONTACT),
-        code_values!(GuidanceMode: NONE, ROADMAP, PATH),
+        code_values!(GuidanceMode: NONE, ROADMAP, PATH, NO_WAY),
         code_values!(GuidanceFreshness: NONE, FRESH, FADING, LOST),
         code_values!(TreeKind: START, GOAL, LOCAL),
         code_values!(DriverStatus: UNKNOWN, OK, NOT_READY, FAULT),

@@ -446,3 +446,49 @@ mod tests {
         assert_eq!(p.thinning_authority, None);
     }
 }
+
+/// The planner's memory bound (`planner solve`, `planner serve`).
+#[derive(Debug, Args, Clone)]
+pub struct MemoryArgs {
+    /// Keep the planner's heap under this many MiB: past three quarters of it, the planner
+    /// drops what is worth least (stale local trees, then tree leaves that sampling never
+    /// chose) and plans on. Default: a quarter of the machine's memory, at most 4096, at
+    /// least 256, and under four fifths of a cgroup limit (systemd's MemoryMax).
+    #[arg(long, value_name = "MB")]
+    pub max_memory_mb: Option<u64>,
+}
+
+impl MemoryArgs {
+    /// The bound, read by the planner's heap meter.
+    pub fn bound(&self) -> anyhow::Result<planner_core::memory::MemoryBound> {
+        let mb = self
+            .max_memory_mb
+            .unwrap_or_else(crate::heap::default_bound_mb);
+        if mb == 0 || mb > 1 << 30 {
+            bail!("--max-memory-mb must be within [1, 2^30], got {mb}");
+        }
+        Ok(planner_core::memory::MemoryBound {
+            bound_bytes: usize::try_from(mb << 20).context("--max-memory-mb: too large")?,
+            live_bytes: crate::heap::live_bytes,
+            peak_bytes: crate::heap::peak_bytes,
+        })
+    }
+}
+
+/// One line on what a bounded run's heap did.
+pub fn memory_line(m: &planner_core::memory::MemoryReport) -> String {
+    const MB: f64 = (1 << 20) as f64;
+    format!(
+        "memory: heap peak {:.1} MiB of the {:.0} MiB bound (baseline {:.1}, end {:.1}); {}{}",
+        m.peak_bytes as f64 / MB,
+        m.bound_bytes as f64 / MB,
+        m.baseline_bytes as f64 / MB,
+        m.live_bytes as f64 / MB,
+        m.dropped,
+        if m.full_stops > 0 {
+            "; planning stopped at the bound"
+        } else {
+            ""
+        }
+    )
+}

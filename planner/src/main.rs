@@ -2,10 +2,13 @@
 //! per command, `common` for the options the planning commands share), validates them
 //! into a library config (`ShellConfig`, `ViewConfig`, ...), and runs it; the work is in the
 //! `planner`, `view` and `lab` libraries. Exit codes: 0 done (for `solve`: solved), 1
-//! `solve` did not solve in time, 2 an error (printed on stderr) or bad arguments.
+//! `solve` did not solve in time, 2 an error (printed on stderr) or bad arguments, 3
+//! `solve` proved there is no way from the start to the goal (`planner_core::no_way`),
+//! 130 interrupted during start-up.
 
 mod common;
 mod experiment;
+mod heap;
 mod scenes;
 mod serve;
 mod solve;
@@ -21,6 +24,9 @@ use serve::ServeArgs;
 use solve::SolveArgs;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
+
+#[global_allocator]
+static HEAP: heap::HeapMeter = heap::HeapMeter;
 
 /// Interactive motion planner (I-RRT / H-RRT-C) paired with the 1 kHz haptic loop.
 #[derive(Debug, Parser)]
@@ -39,6 +45,8 @@ enum Command {
     /// Ctrl-C / SIGTERM or after --duration-s.
     Serve(Box<ServeArgs>),
     /// Plan automatically (no operator) with RRT-Connect or RRT (--algorithm) and report.
+    /// Exits 0 when solved, 1 when not in time, 3 when there is certainly no way through
+    /// (a ball inside the object cannot pass from start to goal: said before planning).
     Solve(SolveArgs),
     /// List the built-in scenes, write them as TOML files (with OBJ meshes), or check
     /// and repair the meshes of scene files (`scenes check [--fix]`).
@@ -64,6 +72,33 @@ fn stop_on_signal() -> anyhow::Result<Arc<AtomicBool>> {
         .context("cannot install the SIGINT/SIGTERM handler")
 }
 
+/// The planner's `oom_score_adj`: the kernel's OOM killer takes it first of the system's
+/// processes (the gateways are at 300, other processes at 0, the loop at -900). Its trees
+/// and collision structures are the largest heap on the host and grow while it plans, so
+/// it is the likeliest cause of memory pressure; and it is the cheapest to lose: the loop
+/// fades a dead planner's guidance out and follows a restarted one.
+const OOM_SCORE_ADJ: i32 = 500;
+
+/// Raises this process's `oom_score_adj` to [`OOM_SCORE_ADJ`] (needs no rights; a higher
+/// value in effect is kept), logs what is in effect and returns it for the command's
+/// summary ([`with_oom`]). `serve` and `solve` call it first.
+pub(crate) fn raise_oom_score_adj() -> ipc_types::startup::OomScoreAdj {
+    let oom = ipc_types::startup::raise_oom_score_adj(OOM_SCORE_ADJ);
+    tracing::info!("oom_score_adj {oom}");
+    oom
+}
+
+/// `report` with an `oom_score_adj` field beside its own, for a command's `--json`.
+pub(crate) fn with_oom<'a, R: Serialize>(
+    report: &'a R,
+    oom: &'a ipc_types::startup::OomScoreAdj,
+) -> ipc_types::startup::WithOomScoreAdj<'a, R> {
+    ipc_types::startup::WithOomScoreAdj {
+        report,
+        oom_score_adj: oom,
+    }
+}
+
 /// Writes `value` as pretty JSON (and a newline) to `path`.
 fn write_json(path: &std::path::Path, value: &impl Serialize) -> anyhow::Result<()> {
     let text = serde_json::to_string_pretty(value)?;
@@ -71,7 +106,8 @@ fn write_json(path: &std::path::Path, value: &impl Serialize) -> anyhow::Result<
 }
 
 /// Parses `args` (the first is the program name) and runs the command. Returns the process
-/// exit code: 0 on success (for `solve`: solved), 1 when `solve` did not solve in time.
+/// exit code: 0 on success (for `solve`: solved), 1 when `solve` did not solve in time, 3
+/// when it proved there is no way.
 fn main_with_args<I, T>(args: I) -> anyhow::Result<i32>
 where
     I: IntoIterator<Item = T>,
@@ -98,6 +134,7 @@ where
 }
 
 fn main() -> std::process::ExitCode {
+    heap::return_freed_memory();
     // Before anything that takes long (loading a big scene): see `stop_on_signal`.
     if let Err(e) = stop_on_signal() {
         eprintln!("planner: error: {e:#}");

@@ -58,6 +58,9 @@ pub struct ServeArgs {
     /// The narrow-passage methods taking turns with the operator's samples.
     #[command(flatten)]
     pub portfolio: PortfolioArgs,
+    /// Memory bound.
+    #[command(flatten)]
+    pub memory: crate::common::MemoryArgs,
     /// How often to poll the haptic state until the receiver has locked onto the loop's
     /// ticks (then it polls once per tick, just after each state is written) and while no
     /// new state comes, Hz.
@@ -215,6 +218,7 @@ impl ServeArgs {
             portfolio: self
                 .portfolio
                 .params(SERVE_PORTFOLIO, self.sampling.adaptive_authority()?)?,
+            memory: Some(self.memory.bound()?),
         })
     }
 }
@@ -228,6 +232,7 @@ pub const SERVE_PORTFOLIO: &str = "all";
 
 /// Runs the command until Ctrl-C / SIGTERM or --duration-s; the exit code is 0.
 pub fn run(args: &ServeArgs) -> anyhow::Result<i32> {
+    let oom = crate::raise_oom_score_adj();
     let config = args.to_config()?;
     let bridge = args
         .bridge
@@ -283,8 +288,11 @@ pub fn run(args: &ServeArgs) -> anyhow::Result<i32> {
             tracing::warn!("portfolio: thinning stopped: {e}");
         }
     }
+    if let Some(m) = &report.memory {
+        tracing::info!("planner {}", crate::common::memory_line(m));
+    }
     if let Some(p) = &args.json {
-        crate::write_json(p, &report)?;
+        crate::write_json(p, &crate::with_oom(&report, &oom))?;
     }
     Ok(0)
 }

@@ -18,6 +18,12 @@ pub struct SolveArgs {
     /// Give up after this many seconds (wall clock).
     #[arg(long, default_value_t = 60.0)]
     pub time_limit: f64,
+    /// Also give up after this many iterations (portfolio turns, thinning steps).
+    #[arg(long, value_name = "N")]
+    pub max_iterations: Option<u64>,
+    /// Memory bound.
+    #[command(flatten)]
+    pub memory: crate::common::MemoryArgs,
     /// Grow local trees at bridge samples the two main trees cannot reach (with
     /// `--machine-sampler bridge-test`: the narrow-passage samples seed trees of their own).
     #[arg(long)]
@@ -101,13 +107,27 @@ impl SolveArgs {
                 plane,
             }),
             thinning,
+            max_iterations: self.max_iterations,
+            memory: Some(self.memory.bound()?),
         })
     }
 }
 
-/// Runs the command; the exit code is 0 when solved, 1 when not within the time limit.
+/// Exit code of `planner solve` when there is certainly no way from the start to the goal.
+pub const NO_WAY_EXIT: i32 = 3;
+
+/// Runs the command; the exit code is 0 when solved, 1 when not within the time limit,
+/// [`NO_WAY_EXIT`] when proved unsolvable before the first iteration.
 pub fn run(args: &SolveArgs) -> anyhow::Result<i32> {
+    let oom = crate::raise_oom_score_adj();
     let report = lab::solve::solve(&args.to_config()?)?;
+    if let Some(why) = &report.no_way {
+        println!("{}: {why}", report.scene);
+        if let Some(p) = &args.json {
+            crate::write_json(p, &crate::with_oom(&report, &oom))?;
+        }
+        return Ok(NO_WAY_EXIT);
+    }
     println!(
         "{}: solved {} in {:.3} s, {} iterations, {} nodes, {} collision checks, {} clearance queries",
         report.scene,
@@ -132,8 +152,11 @@ pub fn run(args: &SolveArgs) -> anyhow::Result<i32> {
             println!("portfolio: solved on a {by} turn");
         }
     }
+    if let Some(m) = &report.memory {
+        println!("{}", crate::common::memory_line(m));
+    }
     if let Some(p) = &args.json {
-        crate::write_json(p, &report)?;
+        crate::write_json(p, &crate::with_oom(&report, &oom))?;
     }
     Ok(if report.solved { 0 } else { 1 })
 }

@@ -116,6 +116,12 @@ enum SideArg {
     Planner,
 }
 
+/// The bridge's `oom_score_adj`: the kernel's OOM killer takes it after the planner (500)
+/// and before the other processes of the host (0) and the loop (-900). A dead bridge costs
+/// what a cut link does (the loop fades the guidance out; restarted, it reconnects), but it
+/// may carry several planners' guidance, and it holds little memory to free.
+const OOM_SCORE_ADJ: i32 = 300;
+
 fn main() -> std::process::ExitCode {
     ipc_types::startup::init_logging_with("info,zenoh=warn", zenoh_session::refusal_counter());
     match run() {
@@ -135,6 +141,8 @@ fn run() -> anyhow::Result<()> {
         (None, Some(SideArg::Planner)) => Side::Planner,
         (None, None) => anyhow::bail!("give --side loop or --side planner"),
     };
+    let oom = ipc_types::startup::raise_oom_score_adj(OOM_SCORE_ADJ);
+    tracing::info!("oom_score_adj {oom}");
     if cli.listen.is_empty() && cli.connect.is_empty() && cli.security.zenoh_config.is_none() {
         anyhow::bail!(
             "give --listen, --connect or both (or a --zenoh-config that names endpoints): the \
@@ -187,6 +195,7 @@ fn run() -> anyhow::Result<()> {
         config.security.describe()
     );
     println!("  kept out: {}", report.refused);
+    println!("  oom_score_adj: {oom}");
     for (name, k) in &report.kinds {
         if k.sent + k.received > 0 {
             println!(

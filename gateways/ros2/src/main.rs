@@ -253,7 +253,16 @@ fn write_json(path: Option<&PathBuf>, value: &impl serde::Serialize) -> anyhow::
     Ok(())
 }
 
+/// `hrrtc-ros2 serve`'s `oom_score_adj`: as the bridge's (300), the kernel's OOM killer
+/// takes it after the planner (500) and before the other processes of the host (0) and the
+/// loop (-900): a dead gateway costs ROS 2 its view and its guidance, which fades out in
+/// the loop as a dead planner's does. `device` keeps the value it inherits (the loop's,
+/// when the loop starts it): killing it faults the loop.
+const SERVE_OOM_SCORE_ADJ: i32 = 300;
+
 fn serve(a: ServeArgs, stop: Arc<AtomicBool>) -> anyhow::Result<()> {
+    let oom = ipc_types::startup::raise_oom_score_adj(SERVE_OOM_SCORE_ADJ);
+    tracing::info!("oom_score_adj {oom}");
     anyhow::ensure!(
         a.guidance_ttl_ms.is_finite() && a.guidance_ttl_ms > 0.0,
         "--guidance-ttl-ms {}: must be positive",
@@ -299,9 +308,15 @@ fn serve(a: ServeArgs, stop: Arc<AtomicBool>) -> anyhow::Result<()> {
         config.session.security.describe()
     );
     println!("  kept out: {}", zenoh_session::Refusals::now());
-    write_json(a.common.summary_json.as_ref(), &report)
+    println!("  oom_score_adj: {oom}");
+    let summary = ipc_types::startup::WithOomScoreAdj {
+        report: &report,
+        oom_score_adj: &oom,
+    };
+    write_json(a.common.summary_json.as_ref(), &summary)
 }
 
+/// A driver process: its `oom_score_adj` stays as inherited (see [`SERVE_OOM_SCORE_ADJ`]).
 fn device(a: DeviceArgs, stop: Arc<AtomicBool>) -> anyhow::Result<()> {
     for (name, v) in [
         ("--command-timeout-ms", a.command_timeout_ms),

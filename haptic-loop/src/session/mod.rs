@@ -90,6 +90,8 @@ pub struct Watch {
     path_subscriber: Subscriber<ipc_types::Path>,
     path: Option<(u64, f64)>,
     solved_at: Option<Duration>,
+    /// When the followed planner first said there is no way through.
+    no_way_at: Option<Duration>,
     state: StateReader,
     goal: crate::tick::GoalZone,
     at_goal_at: Option<Duration>,
@@ -106,6 +108,12 @@ impl Watch {
         if self.solved_at.is_none() && self.relay.newest().solved == 1 {
             self.solved_at = Some(elapsed);
             tracing::info!("planner solved after {:.2} s", elapsed.as_secs_f64());
+        }
+        if self.no_way_at.is_none() && self.relay.newest().mode == ipc_types::GuidanceMode::NO_WAY {
+            self.no_way_at = Some(elapsed);
+            tracing::warn!(
+                "no way through: the planner proved that the object cannot pass from the start to the goal (its log names the ball and the obstacles)"
+            );
         }
         if self.at_goal_at.is_none() {
             let s = self.state.get();
@@ -141,6 +149,12 @@ impl Watch {
     /// `(waypoints, weighted length)` of the newest path received.
     pub fn path(&self) -> Option<(u64, f64)> {
         self.path
+    }
+
+    /// Session age at which the followed planner first said there is no way through
+    /// ([`ipc_types::GuidanceMode::NO_WAY`]).
+    pub fn no_way_at(&self) -> Option<Duration> {
+        self.no_way_at
     }
 
     /// Session age at which guidance first reported a solution.
@@ -255,6 +269,7 @@ pub fn run(
         path_subscriber: services::subscriber::<ipc_types::Path>(&node, &setup.namespace)?,
         path: None,
         solved_at: None,
+        no_way_at: None,
         state: services::state_reader(&node, &setup.namespace)?,
         goal: scenario::goal_zone(&setup.scene),
         at_goal_at: None,

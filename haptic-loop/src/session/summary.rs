@@ -17,6 +17,9 @@ use super::Watch;
 pub struct Summary {
     /// The planner published a solution while the loop ran.
     pub solved: bool,
+    /// The planner proved there is no way from the start to the goal
+    /// ([`ipc_types::GuidanceMode::NO_WAY`]); `demo` then ends with exit code 3.
+    pub no_way: bool,
     /// Seconds from the loop's start to the first guidance sample that reported a solution.
     pub time_to_solve_s: Option<f64>,
     /// Waypoints of the received solution path.
@@ -55,6 +58,9 @@ pub struct Summary {
     pub max_force_step_n: f64,
     /// What the simulated operator did; `null` for a scripted operator or a real device.
     pub operator: Option<OperatorSummary>,
+    /// The process's `oom_score_adj` in effect, and whether the binary's request to lower it
+    /// was applied or refused and why; `null` when nothing was asked.
+    pub oom_score_adj: Option<ipc_types::startup::OomScoreAdj>,
 }
 
 /// What a reacting simulated operator did in a session: the route step it was heading for
@@ -138,6 +144,7 @@ impl Summary {
         let path = watch.path();
         Self {
             solved: watch.solved_at().is_some(),
+            no_way: watch.no_way_at().is_some(),
             time_to_solve_s: watch.solved_at().map(|d| d.as_secs_f64()),
             path_waypoints: path.map_or(0, |p| p.0),
             path_length: path.map(|p| p.1),
@@ -156,6 +163,7 @@ impl Summary {
             time_to_goal_s: None,
             max_force_step_n: 0.0,
             operator: None,
+            oom_score_adj: None,
         }
     }
 }
@@ -178,6 +186,7 @@ impl fmt::Display for Summary {
                     None => writeln!(f, " (no path received)")?,
                 }
             }
+            _ if self.no_way => writeln!(f, "solved:            no way through (proved)")?,
             _ => writeln!(f, "solved:            no")?,
         }
         write!(
@@ -279,6 +288,9 @@ impl fmt::Display for Summary {
                 f,
                 "allocations/tick:  not measured (counting allocator not installed)"
             )?,
+        }
+        if let Some(oom) = &self.oom_score_adj {
+            writeln!(f, "oom_score_adj:     {oom}")?;
         }
         write!(
             f,

@@ -31,6 +31,8 @@ pub mod aligned;
 pub mod authority;
 pub mod collision;
 pub mod guidance;
+pub mod memory;
+pub mod no_way;
 pub mod params;
 pub mod path;
 pub mod portfolio;

@@ -471,6 +471,16 @@ impl Portfolio {
         self.operator_seeds_thinning
     }
 
+    /// Sheds about `fraction` of the nodes of the main planner and of thinning's current
+    /// plan ([`Planner::shed`], [`ThinnedPlanner::shed`]).
+    pub fn shed(&mut self, fraction: f64) -> crate::memory::Shed {
+        let mut out = self.main.shed(fraction);
+        if let Some(t) = &mut self.thinning {
+            out.add(&t.shed(fraction));
+        }
+        out
+    }
+
     /// True once solved (by the main planner or by thinning).
     pub fn solved(&self) -> bool {
         self.main.solved()

@@ -436,6 +436,20 @@ impl ThinnedPlanner {
         }
     }
 
+    /// Sheds about `fraction` of the current thinned plan's or join's nodes
+    /// ([`Planner::shed`]); the paths of finished stages are kept whole.
+    pub fn shed(&mut self, fraction: f64) -> crate::memory::Shed {
+        match &mut self.stage {
+            Stage::Plan(p) => p.shed(fraction),
+            Stage::Repair(r) => r
+                .join
+                .as_mut()
+                .map(|(p, _)| p.shed(fraction))
+                .unwrap_or_default(),
+            Stage::Done(_) => crate::memory::Shed::default(),
+        }
+    }
+
     /// Work counts, including the planners still running.
     pub fn stats(&self) -> ThinningStats {
         let mut s = self.stats;

@@ -35,6 +35,8 @@ use rand_chacha::ChaCha8Rng;
 use scene::Scene;
 use scene::pose::Se3;
 
+mod shed;
+
 /// Result of I-RRT's Extend method.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Extend {
@@ -148,15 +150,21 @@ pub struct Planner {
     /// `[start tree, goal tree, local trees…]`.
     trees: Vec<Tree>,
     /// Stable id of each tree in `trees` (0 start, 1 goal, local trees from 2, never
-    /// reused): lets a viewer follow trees while local trees come and go.
+    /// reused; a tree thinned by [`Planner::shed`] takes a new one): lets a viewer follow
+    /// trees while local trees come and go.
     tree_ids: Vec<u32>,
+    /// The iteration in which each tree in `trees` last grew (for [`Planner::shed`]).
+    grown: Vec<u64>,
     next_tree_id: u32,
     goal: Se3,
     a: usize,
     iterations: u64,
     merges: u64,
-    /// Operator samples pushed out of a shallow collision ([`Self::touch_retract`]).
+    /// Operator samples pushed out of a shallow collision ([`Self::touch_retract`]), the
+    /// newest ones ([`Planner::shed`] drops old ones).
     touched: Vec<Se3>,
+    /// All of them, counted.
+    touched_count: u64,
     /// Of those, the ones a tree reached.
     touched_nodes: u64,
     /// Raw solution waypoints among them, counted when solved.
@@ -228,6 +236,7 @@ impl Planner {
             aligned,
             trees: vec![Tree::new(scene.start, d), Tree::new(scene.goal, 0.0)],
             tree_ids: vec![0, 1],
+            grown: vec![0, 0],
             next_tree_id: 2,
             space,
             checker,
@@ -238,6 +247,7 @@ impl Planner {
             iterations: 0,
             merges: 0,
             touched: Vec::new(),
+            touched_count: 0,
             touched_nodes: 0,
             touched_on_path: 0,
             local_cursor: 0,
@@ -298,6 +308,7 @@ impl Planner {
             q_rand = q;
             report.touched = true;
             self.touched.push(q);
+            self.touched_count += 1;
         }
         report.sample = Some(q_rand);
         report.source = source;
@@ -581,14 +592,28 @@ impl Planner {
         if self.trees.len() - 2 >= self.params.max_local_trees {
             // Drop the oldest-made local tree: bounded work, and recent operator input
             // matters most.
-            self.trees.remove(2);
-            self.tree_ids.remove(2);
+            self.remove_tree(2);
         }
         let d = self.space.distance(q, &self.goal);
         self.trees.push(Tree::new(*q, d));
-        self.tree_ids.push(self.next_tree_id);
-        self.next_tree_id = self.next_tree_id.wrapping_add(1).max(2);
+        let id = self.new_tree_id();
+        self.tree_ids.push(id);
+        self.grown.push(self.iterations);
         1
+    }
+
+    /// A stable id no tree had before (≥ 2).
+    fn new_tree_id(&mut self) -> u32 {
+        let id = self.next_tree_id;
+        self.next_tree_id = self.next_tree_id.wrapping_add(1).max(2);
+        id
+    }
+
+    /// Removes tree `t` (a local tree) with its id and growth record.
+    fn remove_tree(&mut self, t: usize) -> Tree {
+        self.tree_ids.remove(t);
+        self.grown.remove(t);
+        self.trees.remove(t)
     }
 
     /// Offers `offer` (A's newest node) to every local tree, and one local tree's newest
@@ -636,8 +661,8 @@ impl Planner {
     /// Grafts local tree `t` (its node `at_local`) into main tree `main` at `at_main`,
     /// and removes it.
     fn merge(&mut self, t: usize, at_local: NodeId, main: usize, at_main: NodeId) {
-        let local = self.trees.remove(t);
-        self.tree_ids.remove(t);
+        let local = self.remove_tree(t);
+        self.grown[main] = self.iterations;
         let (space, goal) = (&self.space, self.goal);
         self.trees[main].graft(at_main, &local, at_local, |q| space.distance(q, &goal));
     }
@@ -695,6 +720,9 @@ impl Planner {
         labels.extension_attempts += 1;
         labels.collisions += u32::from(outcome == Extend::Collision);
         labels.covered_distance += covered;
+        if added > 0 {
+            self.grown[t] = self.iterations;
+        }
         (outcome, cur, added, gap)
     }
 
@@ -788,7 +816,7 @@ impl Planner {
             clearance_queries: self.checker.clearance_queries(),
             best_distance_to_goal: best,
             merges: self.merges,
-            touched: self.touched.len() as u64,
+            touched: self.touched_count,
             touched_nodes: self.touched_nodes,
             touched_on_path: self.touched_on_path,
         }

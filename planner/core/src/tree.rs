@@ -10,6 +10,16 @@
 
 pub mod kd;
 
+/// Pushes `x`, growing a full vector by a quarter (at least 64) rather than doubling it:
+/// the arenas and indexes of a planner under a memory bound ([`crate::memory`]) then
+/// never ask for twice what they hold at once.
+pub(crate) fn push_gently<T>(v: &mut Vec<T>, x: T) {
+    if v.len() == v.capacity() {
+        v.reserve_exact((v.len() / 4).max(64));
+    }
+    v.push(x);
+}
+
 /// Below this many nodes the linear scan is cheaper than the index.
 pub const INDEX_MIN_NODES: usize = 64;
 
@@ -130,11 +140,14 @@ impl Tree {
     /// Adds a child of `parent` at `config`; returns its id.
     pub fn add(&mut self, parent: NodeId, config: Se3, distance_to_goal: f64) -> NodeId {
         let id = NodeId(self.nodes.len() as u32);
-        self.nodes.push(Node {
-            config,
-            parent: Some(parent),
-            labels: Labels::new(distance_to_goal),
-        });
+        push_gently(
+            &mut self.nodes,
+            Node {
+                config,
+                parent: Some(parent),
+                labels: Labels::new(distance_to_goal),
+            },
+        );
         id
     }
 
@@ -280,6 +293,43 @@ impl Tree {
             }
         }
         map
+    }
+
+    /// Removes the nodes `drop` marks (indexed by id) and renumbers the rest in their
+    /// order; a dropped node's children must be dropped too, and the root never is.
+    /// Returns how many were dropped. The index is rebuilt by the next query, and the
+    /// arena gives back what it no longer needs ([`crate::memory`]).
+    pub fn prune(&mut self, drop: &[bool]) -> usize {
+        debug_assert_eq!(drop.len(), self.nodes.len());
+        debug_assert!(!drop.first().copied().unwrap_or(false), "the root stays");
+        // New id of each kept node; u32::MAX for a dropped one.
+        let mut new_id = Vec::with_capacity(self.nodes.len());
+        let mut kept = 0u32;
+        for &d in drop {
+            new_id.push(if d { u32::MAX } else { kept });
+            kept += u32::from(!d);
+        }
+        let mut next = 0;
+        for old in 0..self.nodes.len() {
+            if drop.get(old).copied().unwrap_or(false) {
+                continue;
+            }
+            let mut node = self.nodes[old].clone();
+            node.parent = node.parent.map(|p| NodeId(new_id[p.index()]));
+            debug_assert!(node.parent.is_none_or(|p| p.0 != u32::MAX));
+            self.nodes[next] = node;
+            next += 1;
+        }
+        let dropped = self.nodes.len() - next;
+        self.nodes.truncate(next);
+        self.nodes.shrink_to_fit();
+        *self.index.borrow_mut() = kd::KdTree::default();
+        dropped
+    }
+
+    /// Bytes this tree holds on the heap (its arena and index, by capacity).
+    pub fn heap_bytes(&self) -> usize {
+        self.nodes.capacity() * std::mem::size_of::<Node>() + self.index.borrow().heap_bytes()
     }
 
     /// The configurations from `id` up to the root, `id` first.

@@ -15,6 +15,9 @@ pub enum LabError {
     /// operator paths are built in too).
     #[error("`{0}` is not a built-in scene")]
     UnknownScene(String),
+    /// The memory bound leaves the trees no room.
+    #[error(transparent)]
+    Memory(#[from] planner_core::memory::BoundTooSmall),
     /// A directory could not be created.
     #[error("cannot create {}", path.display())]
     CreateDir {

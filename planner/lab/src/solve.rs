@@ -3,6 +3,8 @@
 
 use crate::LabError;
 use crate::picture::{self, ColorBy, Plane};
+use planner_core::memory::{MemoryBound, MemoryGuard, MemoryReport, Shed};
+use planner_core::no_way::{self, NoWay};
 use planner_core::portfolio::{Portfolio, PortfolioParams, PortfolioReport};
 use planner_core::retraction::{ThinnedPlanner, ThinningParams};
 use planner_core::{Planner, PlannerParams, Scene};
@@ -44,6 +46,12 @@ pub struct SolveConfig {
     /// Plan with the narrow-passage methods taking turns ([`planner_core::portfolio`])
     /// instead (its thinning stages are its own; `thinning` is then ignored).
     pub portfolio: Option<PortfolioParams>,
+    /// Also stop after this many iterations (portfolio turns, thinning steps): work
+    /// counted rather than timed.
+    pub max_iterations: Option<u64>,
+    /// Keep the process's heap under this bound, shedding what is worth least
+    /// ([`planner_core::memory`]).
+    pub memory: Option<MemoryBound>,
 }
 
 /// Result of a solve; `planner solve --json` writes it.
@@ -77,6 +85,42 @@ pub struct SolveReport {
     /// Portfolio only: what each method did, and which one solved.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub portfolio: Option<PortfolioReport>,
+    /// Under a memory bound: the heap's baseline, peak and end, and what was shed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub memory: Option<MemoryReport>,
+    /// Proved before the first iteration: there is no way from the start to the goal
+    /// ([`planner_core::no_way`]); nothing was planned.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub no_way: Option<String>,
+}
+
+/// Runs `step` until `done`, the time limit or the iteration limit, keeping the heap under
+/// the bound by `shed`. Returns the seconds spent and the guard's report.
+fn run_bounded<P>(
+    config: &SolveConfig,
+    planner: &mut P,
+    done: impl Fn(&P) -> bool,
+    mut step: impl FnMut(&mut P) -> Result<(), LabError>,
+    shed: impl Fn(&mut P, f64) -> Shed,
+) -> Result<(f64, Option<MemoryReport>), LabError> {
+    let mut guard = config.memory.map(MemoryGuard::new).transpose()?;
+    let limit = config.max_iterations.unwrap_or(u64::MAX);
+    let started = Instant::now();
+    let mut steps = 0u64;
+    while !done(planner) && steps < limit && started.elapsed().as_secs_f64() < config.time_limit_s {
+        if let Some(g) = &mut guard
+            && !g.keep(|f| shed(planner, f))
+        {
+            tracing::warn!(
+                "the heap is at the memory bound and nothing more can be shed: planning stops"
+            );
+            break;
+        }
+        step(planner)?;
+        steps += 1;
+    }
+    let time_s = started.elapsed().as_secs_f64();
+    Ok((time_s, guard.map(|g| g.report())))
 }
 
 /// The portfolio until solved or out of time; writes the path files.
@@ -90,11 +134,16 @@ fn solve_portfolio(
         params.clone(),
         config.seed,
     )?;
-    let started = Instant::now();
-    while !p.solved() && started.elapsed().as_secs_f64() < config.time_limit_s {
-        p.turn(None);
-    }
-    let time_s = started.elapsed().as_secs_f64();
+    let (time_s, memory) = run_bounded(
+        config,
+        &mut p,
+        Portfolio::solved,
+        |p| {
+            p.turn(None);
+            Ok(())
+        },
+        Portfolio::shed,
+    )?;
     let s = p.main().stats();
     let t = p.thinning().map(|t| t.stats()).unwrap_or_default();
     let work = Work {
@@ -112,6 +161,7 @@ fn solve_portfolio(
         None,
     )?;
     report.portfolio = Some(p.report());
+    report.memory = memory;
     Ok(report)
 }
 
@@ -139,11 +189,13 @@ fn solve_thinned(config: &SolveConfig, thinning: &ThinningParams) -> Result<Solv
         thinning.clone(),
         config.seed,
     )?;
-    let started = Instant::now();
-    while !planner.solved() && started.elapsed().as_secs_f64() < config.time_limit_s {
-        planner.step()?;
-    }
-    let time_s = started.elapsed().as_secs_f64();
+    let (time_s, memory) = run_bounded(
+        config,
+        &mut planner,
+        ThinnedPlanner::solved,
+        |p| Ok(p.step()?),
+        ThinnedPlanner::shed,
+    )?;
     let space = planner_core::Space::for_scene(&config.scene, config.params.weights);
     let s = planner.stats();
     let work = Work {
@@ -159,14 +211,16 @@ fn solve_thinned(config: &SolveConfig, thinning: &ThinningParams) -> Result<Solv
         restarts: s.restarts,
         replans: s.replans,
     };
-    finish(
+    let mut report = finish(
         config,
         time_s,
         &space,
         planner.solution(),
         work,
         Some(thinning),
-    )
+    )?;
+    report.memory = memory;
+    Ok(report)
 }
 
 /// What a solve counted.
@@ -202,6 +256,8 @@ fn finish(
         path_waypoints: solution.map(<[_]>::len),
         thinning,
         portfolio: None,
+        memory: None,
+        no_way: None,
     })
 }
 
@@ -223,6 +279,25 @@ fn write_paths(
 
 /// Iterates until solved or out of time, then writes the files asked for.
 pub fn solve(config: &SolveConfig) -> Result<SolveReport, LabError> {
+    let started = Instant::now();
+    if let NoWay::Certain(proof) = no_way::prove(&config.scene, &|| false) {
+        return Ok(SolveReport {
+            scene: config.scene.name.clone(),
+            seed: config.seed,
+            solved: false,
+            time_s: started.elapsed().as_secs_f64(),
+            iterations: 0,
+            nodes: 0,
+            collision_checks: 0,
+            clearance_queries: 0,
+            path_length: None,
+            path_waypoints: None,
+            thinning: None,
+            portfolio: None,
+            memory: None,
+            no_way: Some(proof.to_string()),
+        });
+    }
     if let Some(p) = &config.portfolio {
         return solve_portfolio(config, p);
     }
@@ -230,11 +305,16 @@ pub fn solve(config: &SolveConfig) -> Result<SolveReport, LabError> {
         return solve_thinned(config, t);
     }
     let mut planner = Planner::new(&config.scene, config.params.clone(), config.seed)?;
-    let started = Instant::now();
-    while !planner.solved() && started.elapsed().as_secs_f64() < config.time_limit_s {
-        planner.iterate(None);
-    }
-    let time_s = started.elapsed().as_secs_f64();
+    let (time_s, memory) = run_bounded(
+        config,
+        &mut planner,
+        Planner::solved,
+        |p| {
+            p.iterate(None);
+            Ok(())
+        },
+        Planner::shed,
+    )?;
     let s = planner.stats();
     let work = Work {
         iterations: s.iterations,
@@ -242,7 +322,7 @@ pub fn solve(config: &SolveConfig) -> Result<SolveReport, LabError> {
         collision_checks: s.collision_checks,
         clearance_queries: s.clearance_queries,
     };
-    let report = finish(
+    let mut report = finish(
         config,
         time_s,
         planner.space(),
@@ -250,6 +330,7 @@ pub fn solve(config: &SolveConfig) -> Result<SolveReport, LabError> {
         work,
         None,
     )?;
+    report.memory = memory;
     if let Some(png) = &config.png {
         if !crate::register_font() {
             tracing::warn!("no TrueType font found (DejaVuSans.ttf): the PNG has no text");

@@ -15,6 +15,9 @@ pub enum ShellError {
     /// or the goal in collision).
     #[error(transparent)]
     Planner(#[from] PlannerError),
+    /// The memory bound leaves the trees no room.
+    #[error(transparent)]
+    Memory(#[from] planner_core::memory::BoundTooSmall),
     /// A thread could not be started.
     #[error("cannot start the {thread} thread")]
     Thread {

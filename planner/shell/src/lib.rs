@@ -30,6 +30,8 @@ pub use ipc_types::pacing;
 mod receiver;
 
 pub use error::ShellError;
+use planner_core::memory::{MemoryBound, MemoryGuard, MemoryReport, Shed};
+use planner_core::no_way::{self, NoWay};
 use planner_core::portfolio::{Portfolio, PortfolioParams, PortfolioReport};
 use planner_core::{IterReport, Planner, PlannerParams, Scene, Se3, Source};
 
@@ -87,6 +89,9 @@ pub struct ShellConfig {
     /// The narrow-passage methods taking turns ([`planner_core::portfolio`]); `None`: one planner
     /// with `params`' machine sampler.
     pub portfolio: Option<PortfolioParams>,
+    /// Keep the process's heap under this bound ([`planner_core::memory`]); `None`: no
+    /// bound (the process installs no heap meter, e.g. a test).
+    pub memory: Option<MemoryBound>,
 }
 
 /// What a planner run did; written as JSON by `--json`.
@@ -160,6 +165,17 @@ pub struct ShellReport {
     /// Longest planner iteration or portfolio turn, ms: guidance and roadmap publishing
     /// wait for it.
     pub longest_turn_ms: f64,
+    /// Under a memory bound: the heap's baseline, peak and end, and what was shed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub memory: Option<MemoryReport>,
+    /// Longest shed, ms (guidance waits for it too).
+    pub longest_shed_ms: f64,
+    /// Proved at start: there is no way from the start to the goal
+    /// ([`planner_core::no_way`]); the message names the ball and the obstacles around
+    /// the region the start can reach. The planner then does not plan, and its guidance
+    /// says so ([`GuidanceMode::NO_WAY`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub no_way: Option<String>,
 }
 
 /// The planner the shell runs: one, or a portfolio whose main planner holds the roadmap
@@ -191,6 +207,14 @@ impl Engine {
         match self {
             Engine::Single(p) => Some(p.iterate_input(input)),
             Engine::Portfolio(p) => p.turn(input),
+        }
+    }
+
+    /// Sheds about `fraction` of the nodes ([`Planner::shed`], [`Portfolio::shed`]).
+    fn shed(&mut self, fraction: f64) -> Shed {
+        match self {
+            Engine::Single(p) => p.shed(fraction),
+            Engine::Portfolio(p) => p.shed(fraction),
         }
     }
 
@@ -315,6 +339,8 @@ struct Shell<'a> {
     roadmap_publish_total_us: f64,
     announced_operator: bool,
     authority_log: AuthorityLog,
+    /// The memory bound, armed once the services are open.
+    memory: Option<MemoryGuard>,
     report: ShellReport,
 }
 
@@ -330,6 +356,7 @@ impl<'a> Shell<'a> {
             tracing::info!("portfolio: {} taking turns", names.join(", "));
         }
         tracing::debug!("planner built in {:.2} s", started.elapsed().as_secs_f64());
+        let no_way = prove_no_way(config, &engine, &stop);
         let (node, cleaned) = services::create_node(&format!("planner_{}", std::process::id()))?;
         if cleaned > 0 {
             tracing::info!("removed resources of {cleaned} dead iceoryx2 node(s)");
@@ -351,8 +378,18 @@ impl<'a> Shell<'a> {
         let receiver = spawn_receiver(config, &ports, operator.clone(), stop.clone())?;
         let planner_id = new_planner_id();
         tracing::info!("planner id {planner_id:08x}");
+        // Armed last: the baseline holds the planner, the services and the receiver.
+        let memory = config.memory.map(MemoryGuard::new).transpose()?;
+        if let Some(g) = &memory {
+            tracing::info!(
+                "memory bound {} MiB, {:.1} MiB of heap at start",
+                g.bound_bytes() >> 20,
+                g.baseline_bytes() as f64 / (1 << 20) as f64
+            );
+        }
         let now = Instant::now();
         Ok(Shell {
+            memory,
             config,
             stop,
             engine,
@@ -376,6 +413,7 @@ impl<'a> Shell<'a> {
             authority_log: AuthorityLog::default(),
             report: ShellReport {
                 planner_id,
+                no_way,
                 authority: config.params.authority.name().to_owned(),
                 ..ShellReport::default()
             },
@@ -434,7 +472,11 @@ impl<'a> Shell<'a> {
             self.report.idle_s += t0.elapsed().as_secs_f64();
             return;
         }
-        if self.engine.main().solved() {
+        if self.engine.main().solved() || self.report.no_way.is_some() {
+            self.sleep_until_guidance_is_due();
+            return;
+        }
+        if !self.within_memory_bound() {
             self.sleep_until_guidance_is_due();
             return;
         }
@@ -452,6 +494,39 @@ impl<'a> Shell<'a> {
         if self.engine.main().solved() {
             self.publish_solution();
         }
+    }
+
+    /// Checks the heap against the bound and sheds when asked to; false when the heap is
+    /// at the bound with nothing left to shed (the planner then stops growing).
+    fn within_memory_bound(&mut self) -> bool {
+        let Some(guard) = &mut self.memory else {
+            return true;
+        };
+        let engine = &mut self.engine;
+        let mut took_ms = None;
+        let keep = guard.keep(|f| {
+            let t0 = Instant::now();
+            let s = engine.shed(f);
+            took_ms = Some(t0.elapsed().as_secs_f64() * 1e3);
+            s
+        });
+        if let Some(ms) = took_ms {
+            self.report.longest_shed_ms = self.report.longest_shed_ms.max(ms);
+            let d = guard.dropped();
+            tracing::info!(
+                "memory: heap past {:.0} % of the {} MiB bound: shed in {ms:.0} ms, {} nodes dropped so far ({} sheds)",
+                planner_core::memory::SHED_AT * 100.0,
+                guard.bound_bytes() >> 20,
+                d.nodes,
+                d.sheds
+            );
+        }
+        if !keep && guard.report().full_stops == 1 {
+            tracing::warn!(
+                "the heap is at the memory bound and nothing more can be shed: the trees stop growing"
+            );
+        }
+        keep
     }
 
     fn sleep_until_guidance_is_due(&self) {
@@ -514,7 +589,7 @@ impl<'a> Shell<'a> {
             sched.next_guidance = now + sched.guidance_period;
         }
         self.guidance_seq += 1;
-        let g = make_guidance(
+        let mut g = make_guidance(
             self.config,
             self.engine.main(),
             q_user.as_ref(),
@@ -523,6 +598,10 @@ impl<'a> Shell<'a> {
             self.pid,
             self.report.planner_id,
         );
+        if self.report.no_way.is_some() {
+            g.mode = GuidanceMode::NO_WAY;
+            g.attractive = [0.0; 6];
+        }
         out(&g);
         publish_guidance(&self.ports.guidance, &self.ports.guidance_event, g);
         self.report.guidance_published += 1;
@@ -570,6 +649,7 @@ impl<'a> Shell<'a> {
         let planner = self.engine.main();
         let s = planner.stats();
         report.portfolio = self.engine.report();
+        report.memory = self.memory.as_ref().map(MemoryGuard::report);
         report.run_s = self.schedule.started.elapsed().as_secs_f64();
         let attempts = report.roadmap_published + report.roadmap_skipped;
         if attempts > 0 {
@@ -593,6 +673,26 @@ impl<'a> Shell<'a> {
             _ => 0.0,
         };
         report
+    }
+}
+
+/// The sound check for "no way through" ([`planner_core::no_way`]), before the first
+/// iteration: the proof's message when there is certainly none.
+fn prove_no_way(config: &ShellConfig, engine: &Engine, stop: &AtomicBool) -> Option<String> {
+    let started = Instant::now();
+    let verdict = no_way::prove_with(&config.scene, engine.main().checker(), &|| {
+        stop.load(Ordering::Acquire)
+    });
+    let took_s = started.elapsed().as_secs_f64();
+    match verdict {
+        NoWay::Certain(proof) => {
+            tracing::warn!("{proof} (checked in {took_s:.2} s)");
+            Some(proof.to_string())
+        }
+        other => {
+            tracing::info!("{other} (checked in {took_s:.2} s)");
+            None
+        }
     }
 }
 
@@ -799,6 +899,7 @@ mod tests {
             duration_s: None,
             roadmap_rate_hz: 0.0,
             portfolio: None,
+            memory: None,
         }
     }
 

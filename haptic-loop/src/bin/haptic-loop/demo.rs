@@ -2,8 +2,9 @@
 //! operator following the scene's route (or, on a scene without one, the newcomer on its
 //! own coarse way), the planner as a child process (the `planner`
 //! executable, H-RRT-C by default), progress each second and a summary. Exit code 0 when
-//! solved within the time limit, 1 when not, 130 when interrupted unsolved. With
-//! `--no-planner` the operator is alone: 0 when the object reached the goal, 1 when not.
+//! solved within the time limit, 1 when not, 3 when the planner proved there is no way
+//! through (the session ends then), 130 when interrupted unsolved. With `--no-planner` the
+//! operator is alone: 0 when the object reached the goal, 1 when not.
 
 use crate::args::{self, DemoArgs};
 use anyhow::Context;
@@ -55,8 +56,13 @@ fn stop_planner(child: &mut Child) {
     let _ = child.wait();
 }
 
+/// Exit code when the planner proved there is no way from the start to the goal (as
+/// `planner solve`'s).
+pub const NO_WAY_EXIT: i32 = 3;
+
 /// Runs the command; see the module docs for the exit code.
 pub fn run(args: &DemoArgs, stop: &Arc<AtomicBool>) -> anyhow::Result<i32> {
+    let oom = crate::lower_oom_score_adj();
     let setup = args.common.to_setup("expert", args.seed)?;
     let limit = args::seconds("time-limit-s", args.time_limit_s)?;
     let after = args::seconds_or_zero("after-solve-s", args.after_solve_s)?;
@@ -117,6 +123,9 @@ pub fn run(args: &DemoArgs, stop: &Arc<AtomicBool>) -> anyhow::Result<i32> {
                 (true, Some(t)) => watch.at_goal_at().map(|g| g.max(t)),
                 (_, None) => None,
             };
+            if watch.no_way_at().is_some() {
+                return true;
+            }
             match reached {
                 Some(t) => elapsed >= (t + after).max(min_run),
                 None => elapsed >= limit,
@@ -128,11 +137,15 @@ pub fn run(args: &DemoArgs, stop: &Arc<AtomicBool>) -> anyhow::Result<i32> {
     }
     let mut summary = end?.summary();
     summary.operator = operator.as_deref().map(session::OperatorSummary::of);
+    summary.oom_score_adj = Some(oom);
     crate::finish(&summary, args.common.summary_json.as_deref())?;
     let done = match args.no_planner {
         true => summary.time_to_goal_s.is_some(),
         false => summary.solved,
     };
+    if summary.no_way {
+        return Ok(NO_WAY_EXIT);
+    }
     if stop.load(Ordering::Acquire) && !done {
         return Ok(130);
     }

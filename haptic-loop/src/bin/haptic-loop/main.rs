@@ -71,6 +71,29 @@ fn build_contact(
     }
 }
 
+/// The loop's `oom_score_adj`: the kernel's OOM killer takes every other process of the
+/// host first (default 0; the planner raises its own to 500, the gateways to 300), since
+/// with the loop gone the arm is no longer driven. Not -1000, which would exempt it: a loop
+/// that leaks is still ended before the host locks up.
+const OOM_SCORE_ADJ: i32 = -900;
+
+/// Lowers this process's `oom_score_adj` to [`OOM_SCORE_ADJ`] where `CAP_SYS_RESOURCE`
+/// allows it; without it the value is kept, with a warning (not an error). Processes the
+/// loop starts afterwards inherit it (a ROS 2 driver's gateway keeps it; the demo's planner
+/// raises its own). What is in effect goes into the summary.
+fn lower_oom_score_adj() -> ipc_types::startup::OomScoreAdj {
+    use ipc_types::startup::OomOutcome;
+    let oom = ipc_types::startup::lower_oom_score_adj(OOM_SCORE_ADJ);
+    match oom.outcome {
+        OomOutcome::Applied | OomOutcome::Kept => tracing::info!("oom_score_adj {oom}"),
+        OomOutcome::Refused | OomOutcome::Unavailable => tracing::warn!(
+            "oom_score_adj {oom}; under memory pressure the OOM killer may take the loop \
+             before other processes (docs/guide/running-as-a-service.md)"
+        ),
+    }
+    oom
+}
+
 /// Prints the summary and writes it as JSON when asked.
 fn finish(summary: &Summary, json: Option<&std::path::Path>) -> anyhow::Result<()> {
     println!("{summary}");

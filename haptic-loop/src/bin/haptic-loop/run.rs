@@ -10,6 +10,8 @@ use std::sync::atomic::AtomicBool;
 
 /// Runs the command; the exit code is 0.
 pub fn run(args: &RunArgs, stop: &Arc<AtomicBool>) -> anyhow::Result<i32> {
+    // Before any child: a ROS 2 driver's gateway inherits it.
+    let oom = crate::lower_oom_score_adj();
     let setup = args.common.to_setup("scripted", 1)?;
     let duration = args
         .duration_s
@@ -62,6 +64,7 @@ pub fn run(args: &RunArgs, stop: &Arc<AtomicBool>) -> anyhow::Result<i32> {
     drop(gateway);
     let mut summary = end.summary();
     summary.operator = operator.as_deref().map(session::OperatorSummary::of);
+    summary.oom_score_adj = Some(oom);
     crate::finish(&summary, args.common.summary_json.as_deref())?;
     Ok(0)
 }

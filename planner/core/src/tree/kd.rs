@@ -143,6 +143,21 @@ impl KdTree {
         self.points.is_empty()
     }
 
+    /// Bytes held on the heap, by capacity (points, nodes and their leaves' id lists).
+    pub fn heap_bytes(&self) -> usize {
+        let leaves: usize = self
+            .nodes
+            .iter()
+            .map(|n| match &n.kind {
+                Kind::Leaf(ids) => ids.capacity() * std::mem::size_of::<u32>(),
+                Kind::Split { .. } => 0,
+            })
+            .sum();
+        self.points.capacity() * std::mem::size_of::<Embedded>()
+            + self.nodes.capacity() * std::mem::size_of::<KdNode>()
+            + leaves
+    }
+
     /// True when queries can be answered (every inserted point had a finite embedding).
     pub fn usable(&self) -> bool {
         !self.unusable
@@ -154,19 +169,22 @@ impl KdTree {
         let id = self.points.len() as u32;
         let Some(p) = point.filter(|p| p.iter().all(|v| v.is_finite())) else {
             self.unusable = true;
-            self.points.push([0.0; EMBED_DIM]);
+            super::push_gently(&mut self.points, [0.0; EMBED_DIM]);
             return;
         };
-        self.points.push(p);
+        super::push_gently(&mut self.points, p);
         if let Some(last) = p.iter().rposition(|&v| v != 0.0) {
             self.dims = self.dims.max(last + 1);
         }
         if self.nodes.is_empty() {
-            self.nodes.push(KdNode {
-                lo: p,
-                hi: p,
-                kind: Kind::Leaf(Vec::with_capacity(LEAF_MAX + 1)),
-            });
+            super::push_gently(
+                &mut self.nodes,
+                KdNode {
+                    lo: p,
+                    hi: p,
+                    kind: Kind::Leaf(Vec::with_capacity(LEAF_MAX + 1)),
+                },
+            );
         }
         let mut at = 0;
         loop {
@@ -227,11 +245,14 @@ impl KdTree {
             for &id in &side {
                 grow(&mut lo, &mut hi, &self.points[id as usize]);
             }
-            self.nodes.push(KdNode {
-                lo,
-                hi,
-                kind: Kind::Leaf(side),
-            });
+            super::push_gently(
+                &mut self.nodes,
+                KdNode {
+                    lo,
+                    hi,
+                    kind: Kind::Leaf(side),
+                },
+            );
         }
         self.nodes[at].kind = Kind::Split {
             axis,
