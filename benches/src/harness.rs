@@ -1,5 +1,8 @@
 //! What the harness binaries share: the real haptic loop on the simulated arm in the
-//! hardest steady contact case, and a planner child process.
+//! hardest steady contact case, and a planner child process; and the soak of the product's
+//! processes ([`soak`]).
+
+pub mod soak;
 
 use crate::BenchError;
 use devices::DeviceSpec;

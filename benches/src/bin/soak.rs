@@ -1,197 +1,212 @@
-//! Soak: the real haptic loop (contact on, the S sliding on the wall) for minutes while its
-//! planner is killed (`kill -9`) or hung (`SIGSTOP`, then killed) and restarted every
-//! `--restart-s`. Reports the loop's faults, deadline misses and compute percentiles, the
-//! largest commanded force, and what a planner sees: the longest gap between two new
-//! `HapticState` samples on the blackboard, read by an observer thread polling at 2 kHz.
+//! Soak: the product's processes as deployed, for an hour (docs/benchmarks.md, "Soak"). The
+//! loop (`haptic-loop run`, the simulated arm held by the newcomer, on a scene with no way
+//! through so that the planners plan all the while) with a local planner that is killed
+//! (`kill -9`) or hung (`SIGSTOP`, then killed) and restarted every `--restart-s`, and a
+//! second planner across the bridge (`hrrtc-bridge --side loop` here, `planner serve
+//! --bridge-connect quic/...` in another iceoryx2 domain as host B, mutual TLS) for the
+//! whole run, held to `--remote-max-memory-mb`. Every process's `RssAnon` and `RssShmem`
+//! once a minute; at the end a table (and `--json`) of the loop's faults, deadline misses,
+//! allocations, guidance lost and back, the restarts and whether each was followed, memory
+//! at minutes 1, 10, 30 and 60, and the goals, PASS or FAIL (`--check`: exit code 1 when one
+//! fails). Ctrl-C / SIGTERM stops every process and reports what ran (exit code 130).
 //!
-//! `cargo build --release -p planner -p benches && target/release/soak --minutes 10 --restart-s 30`
+//! `cargo build --release -p benches -p planner -p haptic-loop -p hrrtc-bridge &&
+//! target/release/soak --minutes 60 --check --json soak.json`
 
 use anyhow::{Context, bail};
-use benches::harness::{PlannerChild, WallLoop, wall_loop};
+use benches::across::sibling_exe;
+use benches::harness::soak::{self, SoakConfig, SoakError};
 use clap::Parser;
-use haptic_loop::rt::RtOptions;
-use haptic_loop::stats::Percentiles;
-use ipc_types::{FaultCode, GuidanceFreshness, services};
-use serde::Serialize;
 use std::path::PathBuf;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::{Duration, Instant};
+use std::process::ExitCode;
 
-#[global_allocator]
-static ALLOC: haptic_loop::alloc_count::CountingAllocator =
-    haptic_loop::alloc_count::CountingAllocator;
+/// The scene of the soak: the wall's hole cut to 22 x 22 mm, too small for the S, and no
+/// route (the newcomer looks for its own way).
+const SCENE: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../tests/scenes/wall-hole-22mm.toml"
+);
 
-/// Soak the haptic loop while its planner is killed and restarted.
+/// Soak the loop, a planner killed and restarted beside it and a planner across the
+/// bridge; report faults, deadline misses, restarts followed and every process's memory.
 #[derive(Debug, Parser)]
 struct Args {
-    /// How long, minutes.
-    #[arg(long, default_value_t = 10.0)]
+    /// How long, minutes (from the moment every process serves).
+    #[arg(long, default_value_t = 60.0)]
     minutes: f64,
-    /// Kill or hang the planner, then restart it, every this many seconds.
-    #[arg(long, default_value_t = 30.0)]
+    /// Kill or hang the local planner, then restart it, every this many seconds
+    /// (alternately `kill -9` and `SIGSTOP` followed by `kill -9` after --hang-s).
+    #[arg(long, default_value_t = 60.0)]
     restart_s: f64,
-    /// SCHED_FIFO priority of the RT thread (0 = normal scheduler).
+    /// How long a hung planner stays stopped before it is killed, s.
+    #[arg(long, default_value_t = 2.0)]
+    hang_s: f64,
+    /// A restarted planner counts as followed when, within this many seconds of its start,
+    /// its guidance reached the loop fresh and the loop rendered fresh guidance.
+    #[arg(long, default_value_t = 10.0)]
+    follow_s: f64,
+    /// Scene file [default: tests/scenes/wall-hole-22mm.toml of this checkout].
+    #[arg(long)]
+    scene: Option<PathBuf>,
+    /// The simulated operator (`haptic-loop run --operator`).
+    #[arg(long, default_value = "newcomer", value_parser = ["expert", "novice", "newcomer", "scripted"])]
+    operator: String,
+    /// SCHED_FIFO priority of the loop's RT thread (0 = normal scheduler).
     #[arg(long, default_value_t = 80)]
     priority: u8,
-    /// Voxel size, mm.
+    /// Voxel size of the loop's contact, mm.
     #[arg(long, default_value_t = 1.0)]
     voxel_mm: f64,
-    /// Write the figures as JSON here.
+    /// The remote planner's memory bound (`planner serve --max-memory-mb`, passed when
+    /// that planner has the flag), MiB.
+    #[arg(long, default_value_t = 256)]
+    remote_max_memory_mb: u64,
+    /// What the remote planner's RssAnon may exceed its bound by (thread stacks, the
+    /// allocator's slack, the Zenoh session and what lies outside its trees), MiB.
+    #[arg(long, default_value_t = 64)]
+    remote_allowance_mb: u64,
+    /// Exit with code 1 when a goal is not met.
+    #[arg(long)]
+    check: bool,
+    /// Write the report as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
+    /// The run's folder: logs and reports of every process, certificates, host B
+    /// [default: hrrtc-soak-PID in the temporary directory, removed when every goal is
+    /// met].
+    #[arg(long)]
+    dir: Option<PathBuf>,
+    /// Keep the run's folder when every goal is met.
+    #[arg(long)]
+    keep: bool,
+    /// `haptic-loop` [default: beside this executable].
+    #[arg(long)]
+    loop_exe: Option<PathBuf>,
+    /// `planner` [default: beside this executable].
+    #[arg(long)]
+    planner_exe: Option<PathBuf>,
+    /// `hrrtc-bridge` [default: beside this executable].
+    #[arg(long)]
+    bridge_exe: Option<PathBuf>,
+    /// How long start-up may take (the loop's voxmap, the planners), s.
+    #[arg(long, default_value_t = 300.0)]
+    start_timeout_s: f64,
 }
 
-#[derive(Debug, Default, Serialize)]
-struct Observed {
-    /// Longest time between two new states, ms.
-    longest_state_gap_ms: f64,
-    /// Largest commanded force seen, N.
-    max_commanded_force_n: f64,
-    /// Times guidance went from fresh to lost.
-    guidance_losses: u64,
-    /// Times guidance came back (lost to fresh).
-    guidance_returns: u64,
-    /// Distinct faults seen (code and name), start-up excluded.
-    faults: Vec<String>,
-}
-
-#[derive(Debug, Serialize)]
-struct Report {
-    minutes: f64,
-    planner_faults_injected: u64,
-    ticks: u64,
-    deadline_misses: u64,
-    loop_faults_latched: u64,
-    compute_us: Percentiles,
-    wake_latency_us: Percentiles,
-    allocations_per_tick: Option<f64>,
-    observed: Observed,
-}
-
-fn main() -> anyhow::Result<()> {
-    let args = Args::parse();
-    if !(args.minutes.is_finite() && args.minutes > 0.0 && args.minutes <= 24.0 * 60.0) {
-        bail!("--minutes must be within (0, 1440], got {}", args.minutes);
+fn positive(name: &str, v: f64) -> anyhow::Result<f64> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        bail!("--{name} must be a finite number > 0, got {v}")
     }
-    if !(args.restart_s.is_finite() && args.restart_s >= 2.0) {
-        bail!("--restart-s must be at least 2, got {}", args.restart_s);
+}
+
+/// Validates the flags into the soak's configuration.
+fn config(args: &Args) -> anyhow::Result<(SoakConfig, bool)> {
+    let minutes = positive("minutes", args.minutes)?;
+    if minutes > 24.0 * 60.0 {
+        bail!("--minutes must be at most 1440, got {minutes}");
     }
+    if !(args.restart_s.is_finite() && args.restart_s >= 5.0) {
+        bail!("--restart-s must be at least 5, got {}", args.restart_s);
+    }
+    positive("hang-s", args.hang_s)?;
+    positive("follow-s", args.follow_s)?;
+    positive("voxel-mm", args.voxel_mm)?;
+    positive("start-timeout-s", args.start_timeout_s)?;
     if args.priority > 99 {
         bail!("--priority must be 0–99, got {}", args.priority);
     }
-    let ns = format!("soak_{}", std::process::id());
-    let duration = Duration::from_secs_f64(args.minutes * 60.0);
-    let running = wall_loop(
-        &ns,
-        &WallLoop {
-            rate_hz: 1000.0,
-            rt: RtOptions {
-                fifo_priority: (args.priority > 0).then_some(args.priority),
-                cpu: None,
-                lock_memory: true,
-                cpu_latency_us: Some(0),
-            },
-            ticks: (duration.as_secs_f64() * 1000.0) as u64,
-            voxel_m: Some(args.voxel_mm / 1000.0),
+    let scene = args.scene.clone().unwrap_or_else(|| SCENE.into());
+    let scene = std::fs::canonicalize(&scene)
+        .with_context(|| format!("scene {} (give --scene)", scene.display()))?;
+    let (dir, default_dir) = match &args.dir {
+        Some(d) => (d.clone(), false),
+        None => (
+            std::env::temp_dir().join(format!("hrrtc-soak-{}", std::process::id())),
+            true,
+        ),
+    };
+    std::fs::create_dir_all(&dir).with_context(|| format!("making {}", dir.display()))?;
+    let dir = std::fs::canonicalize(&dir)?;
+    let exe = |given: &Option<PathBuf>, name, package, option| {
+        sibling_exe(given.as_deref(), name, package, option)
+            .and_then(|p| Ok(std::fs::canonicalize(p)?))
+    };
+    Ok((
+        SoakConfig {
+            minutes,
+            restart_s: args.restart_s,
+            hang_s: args.hang_s,
+            follow_s: args.follow_s,
+            scene,
+            operator: args.operator.clone(),
+            priority: args.priority,
+            voxel_mm: args.voxel_mm,
+            remote_max_memory_mb: args.remote_max_memory_mb,
+            remote_allowance_mb: args.remote_allowance_mb,
+            loop_exe: exe(&args.loop_exe, "haptic-loop", "haptic-loop", "--loop-exe")?,
+            planner_exe: exe(&args.planner_exe, "planner", "planner", "--planner-exe")?,
+            bridge_exe: exe(
+                &args.bridge_exe,
+                "hrrtc-bridge",
+                "hrrtc-bridge",
+                "--bridge-exe",
+            )?,
+            dir,
+            start_timeout_s: args.start_timeout_s,
         },
-    )?;
+        default_dir,
+    ))
+}
 
-    // The planner's view, from another thread of this process.
-    let stop = Arc::new(AtomicBool::new(false));
-    let observer = {
-        let ns = ns.clone();
-        let stop = stop.clone();
-        std::thread::spawn(move || -> anyhow::Result<Observed> {
-            let (node, _) = services::create_node("soak_observer")?;
-            let reader = services::state_reader(&node, &ns)?;
-            let mut o = Observed::default();
-            let (mut last_seq, mut last_new) = (0u64, Instant::now());
-            let mut fresh = false;
-            while !stop.load(Ordering::Acquire) {
-                let s = *reader.get();
-                let now = Instant::now();
-                if s.header.sequence != last_seq {
-                    if last_seq != 0 {
-                        let gap = now.duration_since(last_new).as_secs_f64() * 1e3;
-                        o.longest_state_gap_ms = o.longest_state_gap_ms.max(gap);
-                    }
-                    last_seq = s.header.sequence;
-                    last_new = now;
-                    let f = s.commanded_wrench.force_n;
-                    let force = (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt();
-                    o.max_commanded_force_n = o.max_commanded_force_n.max(force);
-                    if s.fault != FaultCode::NONE && s.fault != FaultCode::STARTUP {
-                        let name = format!("{} ({})", s.fault.0, s.fault.name());
-                        if !o.faults.contains(&name) {
-                            o.faults.push(name);
-                        }
-                    }
-                    match s.guidance_freshness {
-                        GuidanceFreshness::FRESH if !fresh => {
-                            fresh = true;
-                            o.guidance_returns += 1;
-                        }
-                        GuidanceFreshness::LOST if fresh => {
-                            fresh = false;
-                            o.guidance_losses += 1;
-                        }
-                        _ => {}
-                    }
-                }
-                std::thread::sleep(Duration::from_micros(500));
-            }
-            Ok(o)
-        })
-    };
-
-    let started = Instant::now();
-    let mut injected = 0u64;
-    let mut planner = Some(PlannerChild::spawn(&ns)?);
-    let mut next = started + Duration::from_secs_f64(args.restart_s);
-    while !running.handle.is_finished() {
-        if Instant::now() >= next {
-            if let Some(p) = planner.take() {
-                // Alternate a crash and a hang; the hung one is killed 2 s later.
-                if injected.is_multiple_of(2) {
-                    p.signal(libc::SIGKILL);
-                } else {
-                    p.signal(libc::SIGSTOP);
-                    std::thread::sleep(Duration::from_secs(2));
-                }
-                drop(p);
-                injected += 1;
-            }
-            planner = Some(PlannerChild::spawn(&ns)?);
-            next += Duration::from_secs_f64(args.restart_s);
-            eprintln!(
-                "[{:>6.0} s] planner faults injected: {injected}",
-                started.elapsed().as_secs_f64()
-            );
+fn main() -> ExitCode {
+    match run() {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("soak: error: {e:#}");
+            ExitCode::from(2)
         }
-        std::thread::sleep(Duration::from_millis(100));
     }
-    drop(planner);
-    let (tick, report) = running.handle.join();
-    stop.store(true, Ordering::Release);
-    let observed = observer
-        .join()
-        .map_err(|_| anyhow::anyhow!("observer thread panicked"))??;
-    let out = Report {
-        minutes: args.minutes,
-        planner_faults_injected: injected,
-        ticks: report.ticks,
-        deadline_misses: report.deadline_misses,
-        loop_faults_latched: tick.faults_total(),
-        compute_us: report.compute_us,
-        wake_latency_us: report.wake_latency_us,
-        allocations_per_tick: report.allocations_per_tick,
-        observed,
+}
+
+fn run() -> anyhow::Result<ExitCode> {
+    let args = Args::parse();
+    let (config, default_dir) = config(&args)?;
+    let stop = ipc_types::startup::stop_on_signal("soak")
+        .context("cannot install the SIGINT/SIGTERM handler")?;
+    // From here a signal stops the children in order and reports what ran.
+    ipc_types::startup::hold_resources();
+    let report = match soak::run(&config, &stop) {
+        Ok(r) => r,
+        Err(SoakError::Stopped) => {
+            eprintln!(
+                "soak: stopped during start-up; logs in {}",
+                config.dir.display()
+            );
+            return Ok(ExitCode::from(130));
+        }
+        Err(e) => {
+            return Err(anyhow::Error::new(e).context(format!("logs in {}", config.dir.display())));
+        }
     };
-    println!("{}", serde_json::to_string_pretty(&out)?);
+    println!("{report}");
     if let Some(p) = &args.json {
-        std::fs::write(p, serde_json::to_string_pretty(&out)? + "\n")
-            .with_context(|| format!("cannot write {}", p.display()))?;
+        let text = serde_json::to_string_pretty(&report)?;
+        std::fs::write(p, text + "\n").with_context(|| format!("cannot write {}", p.display()))?;
     }
-    Ok(())
+    if report.passed() && default_dir && !args.keep {
+        let _ = std::fs::remove_dir_all(&config.dir);
+        println!(
+            "removed {} (every goal met; --keep keeps it)",
+            config.dir.display()
+        );
+    }
+    Ok(if report.interrupted {
+        ExitCode::from(130)
+    } else if args.check && !report.passed() {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    })
 }
