@@ -263,6 +263,17 @@ pub struct WithOomScoreAdj<'a, R: serde::Serialize> {
     pub oom_score_adj: &'a OomScoreAdj,
 }
 
+/// Whether this process holds `CAP_SYS_RESOURCE` (bit 24 of `CapEff` in
+/// /proc/self/status), which lowering `oom_score_adj` needs; `None` without /proc.
+pub fn has_cap_sys_resource() -> Option<bool> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let hex = status
+        .lines()
+        .find_map(|l| l.strip_prefix("CapEff:"))?
+        .trim();
+    Some(u64::from_str_radix(hex, 16).ok()? & (1 << 24) != 0)
+}
+
 #[cfg(test)]
 mod tests {
     #[test]
@@ -277,16 +288,8 @@ mod tests {
     /// test process itself keeps its value.
     const OOM_CHILD: &str = "HRRTC_OOM_SCORE_ADJ_TEST_CHILD";
 
-    /// Whether this process holds `CAP_SYS_RESOURCE` (bit 24 of `CapEff` in
-    /// /proc/self/status).
     fn has_cap_sys_resource() -> bool {
-        let status = std::fs::read_to_string("/proc/self/status").unwrap();
-        let hex = status
-            .lines()
-            .find_map(|l| l.strip_prefix("CapEff:"))
-            .unwrap()
-            .trim();
-        u64::from_str_radix(hex, 16).unwrap() & (1 << 24) != 0
+        super::has_cap_sys_resource().expect("CapEff in /proc/self/status")
     }
 
     #[test]

@@ -57,6 +57,15 @@ pub fn bin_dir() -> &'static Path {
     })
 }
 
+/// Path of fixture scene `name` in `tests/scenes`.
+pub fn scene_file(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name)
+        .display()
+        .to_string()
+}
+
 /// Path of workspace binary `name`.
 pub fn bin(name: &str) -> PathBuf {
     let p = bin_dir().join(name);

@@ -8,14 +8,6 @@ use std::time::Duration;
 
 const MB: u64 = 1 << 20;
 
-fn scene(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(name)
-        .display()
-        .to_string()
-}
-
 fn run_json(args: &[&str], json: &Path) -> serde_json::Value {
     let mut p = tests::Proc::spawn(&tests::bin("planner"), args);
     let status = p
@@ -25,21 +17,24 @@ fn run_json(args: &[&str], json: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(json).expect("the JSON report")).expect("JSON")
 }
 
-#[test]
-fn a_bounded_planner_keeps_its_heap_under_the_bound_on_a_scene_with_no_way_through() {
-    let ns = tests::unique_namespace("memory");
-    let json = std::env::temp_dir().join(format!("{ns}-solve.json"));
-    let (closed, json_arg) = (scene("wall-hole-22mm.toml"), json.display().to_string());
+/// `planner solve` of every method on the 22 mm wall-hole for 400 000 iterations under a
+/// bound of `bound_mb`, its JSON report.
+fn solve_bounded(ns: &str, bound_mb: &str) -> serde_json::Value {
+    let json = std::env::temp_dir().join(format!("{ns}-{bound_mb}.json"));
+    let (scene, json_arg) = (
+        tests::scene_file("wall-hole-22mm.toml"),
+        json.display().to_string(),
+    );
     // Every method: the main planner's trees and the thinned plans both shed.
     let r = run_json(
         &[
             "solve",
             "--scene",
-            &closed,
+            &scene,
             "--portfolio",
             "all",
             "--max-memory-mb",
-            "8",
+            bound_mb,
             "--max-iterations",
             "400000",
             "--time-limit",
@@ -49,6 +44,14 @@ fn a_bounded_planner_keeps_its_heap_under_the_bound_on_a_scene_with_no_way_throu
         ],
         &json,
     );
+    let _ = std::fs::remove_file(&json);
+    r
+}
+
+#[test]
+fn a_bounded_planner_keeps_its_heap_under_the_bound_on_a_scene_with_no_way_through() {
+    let ns = tests::unique_namespace("memory");
+    let r = solve_bounded(&ns, "8");
     assert_eq!(r["solved"], false);
     let m = &r["memory"];
     let n = |v: &serde_json::Value| v.as_u64().unwrap_or_else(|| panic!("a count: {v}"));
@@ -65,28 +68,7 @@ fn a_bounded_planner_keeps_its_heap_under_the_bound_on_a_scene_with_no_way_throu
     assert!(n(&r["iterations"]) > 300_000, "{r}");
 
     // The same run unbounded would hold every node: the bound is what kept it small.
-    let free_json = std::env::temp_dir().join(format!("{ns}-free.json"));
-    let free_arg = free_json.display().to_string();
-    let f = run_json(
-        &[
-            "solve",
-            "--scene",
-            &closed,
-            "--portfolio",
-            "all",
-            "--max-memory-mb",
-            "4096",
-            "--max-iterations",
-            "400000",
-            "--time-limit",
-            "600",
-            "--json",
-            &free_arg,
-        ],
-        &free_json,
-    );
-    let _ = std::fs::remove_file(&json);
-    let _ = std::fs::remove_file(&free_json);
+    let f = solve_bounded(&ns, "4096");
     assert_eq!(n(&f["memory"]["dropped"]["sheds"]), 0, "{f}");
     assert!(n(&f["memory"]["peak_bytes"]) > 8 * MB, "{f}");
 }

@@ -5,14 +5,6 @@
 use std::path::Path;
 use std::time::Duration;
 
-fn scene(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(name)
-        .display()
-        .to_string()
-}
-
 fn json(path: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(path).expect("the JSON report")).expect("JSON")
 }
@@ -28,7 +20,7 @@ fn solve_proves_a_closed_wall_has_no_way_and_plans_on_where_only_the_ball_passes
     let ns = tests::unique_namespace("noway");
     let out = std::env::temp_dir().join(format!("{ns}-solve.json"));
     let out_arg = out.display().to_string();
-    let closed = scene("wall-hole-closed.toml");
+    let closed = tests::scene_file("wall-hole-closed.toml");
     let p = tests::Proc::spawn(
         &tests::bin("planner"),
         &["solve", "--scene", &closed, "--json", &out_arg],
@@ -44,7 +36,7 @@ fn solve_proves_a_closed_wall_has_no_way_and_plans_on_where_only_the_ball_passes
     );
 
     // The 22 mm hole: the ball passes, the S cannot; no claim, it plans until its limit.
-    let narrow = scene("wall-hole-22mm.toml");
+    let narrow = tests::scene_file("wall-hole-22mm.toml");
     let p = tests::Proc::spawn(
         &tests::bin("planner"),
         &[
@@ -72,7 +64,7 @@ fn the_demo_ends_with_no_way_through_when_its_planner_proves_it() {
     let ns = tests::unique_namespace("noway-demo");
     let summary = std::env::temp_dir().join(format!("{ns}-summary.json"));
     let summary_arg = summary.display().to_string();
-    let closed = scene("wall-hole-closed.toml");
+    let closed = tests::scene_file("wall-hole-closed.toml");
     let status = std::process::Command::new(tests::bin("haptic-loop"))
         .args([
             "demo",

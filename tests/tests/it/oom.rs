@@ -25,13 +25,7 @@ fn own() -> i32 {
 /// Whether this process holds `CAP_SYS_RESOURCE` (bit 24 of `CapEff`); children started
 /// without ambient capabilities hold what it holds when it runs as root, else nothing.
 fn has_cap_sys_resource() -> bool {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap();
-    let hex = status
-        .lines()
-        .find_map(|l| l.strip_prefix("CapEff:"))
-        .unwrap()
-        .trim();
-    u64::from_str_radix(hex, 16).unwrap() & (1 << 24) != 0
+    ipc_types::startup::has_cap_sys_resource().expect("CapEff in /proc/self/status")
 }
 
 /// Starts `program args` with stdout captured (stderr shown on failure).
